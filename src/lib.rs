@@ -1,5 +1,11 @@
 #![no_std]
 #![doc = include_str!("../README.md")]
 
+pub mod autocorr;
+pub mod filter;
+pub mod ident;
+pub mod model;
 pub mod real;
+pub mod replay;
+pub mod telemetry;
 pub use real::Real;

@@ -1,1 +1,13 @@
-//! hal-sim: the host test bed of imu-ident. It drives the same no_std core on x86.
+//! hal-sim: the host test bed of imu-ident. It drives the same no_std core on x86: a truth
+//! simulator, scenarios, log replay, and the file formats of the README.
+
+pub mod allan;
+pub mod commands;
+pub mod log;
+pub mod model_toml;
+pub mod output;
+pub mod runner;
+pub mod scenario;
+pub mod series;
+pub mod sim;
+pub mod summary;

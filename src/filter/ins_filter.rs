@@ -1,0 +1,178 @@
+//! The INS error filter: an [`InsModel`] discretised exactly and run by an [`Ekf`] in scaled
+//! states, with estimates reported back in SI units.
+//!
+//! ```
+//! use imu_ident::filter::InsFilter;
+//! use imu_ident::model::InsModel;
+//! let mut f = InsFilter::new(InsModel::<f32>::paper()).unwrap();
+//! for _ in 0..100 {
+//!     f.step(0.0);
+//! }
+//! let e = f.estimates();
+//! assert!(e.sigma_dv < 0.03 && e.sigma_delta > 0.0);
+//! ```
+
+use crate::filter::ekf::{Ekf, Innovation};
+use crate::model::ins::Continuous;
+use crate::model::{
+    idx, Discrete, InsModel, ModelError, Scaling, Sensor, StateMat, StateRow, StateVec,
+};
+use crate::Real;
+
+/// Estimates and their standard deviations, in SI units.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Estimates<T> {
+    /// Velocity error [m/s].
+    pub dv: T,
+    /// Tilt error [rad].
+    pub delta: T,
+    /// Total accelerometer error [m/s^2] (sum of its component states).
+    pub da: T,
+    /// Total gyro drift [rad/s] (sum of its component states).
+    pub dw: T,
+    /// `sqrt(P)` of each of the above.
+    pub sigma_dv: T,
+    /// Standard deviation of the tilt error [rad].
+    pub sigma_delta: T,
+    /// Standard deviation of the accelerometer error [m/s^2].
+    pub sigma_da: T,
+    /// Standard deviation of the gyro drift [rad/s].
+    pub sigma_dw: T,
+}
+
+/// A Kalman filter of the one-channel INS errors with its sensor-noise model.
+#[derive(Debug, Clone)]
+pub struct InsFilter<T: Real> {
+    model: InsModel<T>,
+    scale: Scaling<T>,
+    sys: Continuous<T>,
+    disc: Discrete<T>,
+    accel_row: StateRow<T>,
+    gyro_row: StateRow<T>,
+    ekf: Ekf<T>,
+    gate: Option<T>,
+}
+
+impl<T: Real> InsFilter<T> {
+    /// Builds the filter: validates the model, chooses the state scaling, discretises, and
+    /// starts from a zero estimate with the model's initial covariance.
+    pub fn new(model: InsModel<T>) -> Result<Self, ModelError> {
+        let scale = model.scaling()?;
+        let (sys, disc) = model.discretise(&scale)?;
+        let accel_row = model.output_row(Sensor::Accel, &scale)?;
+        let gyro_row = model.output_row(Sensor::Gyro, &scale)?;
+        let ekf = Ekf::new(StateVec::zeros(), sys.P0, sys.n);
+        Ok(Self {
+            model,
+            scale,
+            sys,
+            disc,
+            accel_row,
+            gyro_row,
+            ekf,
+            gate: None,
+        })
+    }
+
+    /// Replaces the model's parameters, keeping the estimate, covariance and scaling. The new
+    /// model must have the same state layout (same kinds in the same order); otherwise
+    /// [`ModelError::TooManyStates`] is returned and nothing changes.
+    pub fn set_model(&mut self, model: InsModel<T>) -> Result<(), ModelError> {
+        if model.layout()? != self.model.layout()? {
+            return Err(ModelError::TooManyStates);
+        }
+        let (sys, disc) = model.discretise(&self.scale)?;
+        self.accel_row = model.output_row(Sensor::Accel, &self.scale)?;
+        self.gyro_row = model.output_row(Sensor::Gyro, &self.scale)?;
+        self.sys = sys;
+        self.disc = disc;
+        self.model = model;
+        Ok(())
+    }
+
+    /// Sets the chi-square outlier gate on the NIS (`None`: no gating).
+    pub fn set_gate(&mut self, gate: Option<T>) {
+        self.gate = gate;
+    }
+
+    /// The model in use.
+    pub fn model(&self) -> &InsModel<T> {
+        &self.model
+    }
+
+    /// The state scaling `S` (physical = `S` x scaled).
+    pub fn scale(&self) -> &Scaling<T> {
+        &self.scale
+    }
+
+    /// The underlying filter, in scaled states.
+    pub fn ekf(&self) -> &Ekf<T> {
+        &self.ekf
+    }
+
+    /// The continuous system, in scaled states.
+    pub fn system(&self) -> &Continuous<T> {
+        &self.sys
+    }
+
+    /// The discrete system, in scaled states.
+    pub fn discrete(&self) -> &Discrete<T> {
+        &self.disc
+    }
+
+    /// Propagates one step `dt`.
+    pub fn predict(&mut self) {
+        self.ekf.predict(&self.disc.Phi, &self.disc.Qd);
+    }
+
+    /// Uses one velocity observation `z` [m/s] (NaN: missing).
+    pub fn update(&mut self, z: T) -> Innovation<T> {
+        let r = self.model.sigma_v * self.model.sigma_v;
+        self.ekf.update(z, &self.sys.H, r, self.gate)
+    }
+
+    /// One filter cycle: predict to the observation time, then update.
+    pub fn step(&mut self, z: T) -> Innovation<T> {
+        self.predict();
+        self.update(z)
+    }
+
+    /// Repairs `P` if it lost positive definiteness (reset to the initial covariance).
+    /// Returns true if a repair was made.
+    pub fn repair(&mut self) -> bool {
+        self.ekf.repair(&self.sys.P0)
+    }
+
+    /// Current estimates in SI units.
+    pub fn estimates(&self) -> Estimates<T> {
+        let (x, p, s) = (&self.ekf.x, &self.ekf.P, &self.scale);
+        let comb = |row: &StateRow<T>| {
+            let v = (row * p * row.transpose())[0];
+            ((row * x)[0], v.max(T::zero()).sqrt())
+        };
+        let (da, sigma_da) = comb(&self.accel_row);
+        let (dw, sigma_dw) = comb(&self.gyro_row);
+        let (dv, dl) = (idx::DV, idx::DELTA);
+        Estimates {
+            dv: x[dv] * s[dv],
+            delta: x[dl] * s[dl],
+            da,
+            dw,
+            sigma_dv: p[(dv, dv)].max(T::zero()).sqrt() * s[dv],
+            sigma_delta: p[(dl, dl)].max(T::zero()).sqrt() * s[dl],
+            sigma_da,
+            sigma_dw,
+        }
+    }
+
+    /// Physical covariance `S P S`.
+    pub fn covariance_si(&self) -> StateMat<T> {
+        let s = StateMat::from_diagonal(&self.scale);
+        s * self.ekf.P * s
+    }
+
+    /// Physical state estimate `S x`.
+    pub fn state_si(&self) -> StateVec<T> {
+        self.ekf.x.component_mul(&self.scale)
+    }
+}
