@@ -4,8 +4,10 @@
 pub mod allan;
 pub mod commands;
 pub mod log;
+pub mod mismatch;
 pub mod model_toml;
 pub mod output;
+pub mod qemu;
 pub mod runner;
 pub mod scenario;
 pub mod series;

@@ -1,0 +1,193 @@
+//! Exact discretisation checked against an independent reference: Van Loan's 2n x 2n block
+//! exponential (nalgebra's std `exp`, a different algorithm from the crate's series) evaluated
+//! at a 1 ms step and composed 1000 times to reach dt = 1 s.
+
+use imu_ident::model::discretise::discretise;
+use imu_ident::model::{
+    Component, ExpCosine, GaussMarkov, InsModel, RandomConstant, RandomWalk, StateMat, WhiteNoise,
+    NX,
+};
+use nalgebra::SMatrix;
+
+type M16 = SMatrix<f64, 16, 16>;
+
+/// Van Loan: exp([[-A, Qc], [0, A^T]] h) = [[., Phi^-1 Qd], [0, Phi^T]].
+fn van_loan(a: &StateMat<f64>, qc: &StateMat<f64>, h: f64) -> (StateMat<f64>, StateMat<f64>) {
+    let mut m = M16::zeros();
+    m.fixed_view_mut::<NX, NX>(0, 0).copy_from(&(-a * h));
+    m.fixed_view_mut::<NX, NX>(0, NX).copy_from(&(qc * h));
+    m.fixed_view_mut::<NX, NX>(NX, NX)
+        .copy_from(&(a.transpose() * h));
+    let e = m.exp();
+    let phi: StateMat<f64> = e.fixed_view::<NX, NX>(NX, NX).transpose();
+    let q = phi * e.fixed_view::<NX, NX>(0, NX);
+    (phi, (q + q.transpose()) * 0.5)
+}
+
+/// 1000 Van Loan steps of 1 ms: Phi = Phi_h^1000, Q_{k+1} = Phi_h Q_k Phi_h^T + Q_h.
+fn fine_step_reference(a: &StateMat<f64>, qc: &StateMat<f64>) -> (StateMat<f64>, StateMat<f64>) {
+    let (ph, qh) = van_loan(a, qc, 1e-3);
+    let (mut phi, mut q) = (StateMat::identity(), StateMat::zeros());
+    for _ in 0..1000 {
+        q = ph * q * ph.transpose() + qh;
+        phi = ph * phi;
+    }
+    (phi, q)
+}
+
+/// Every kind at once: accel GM + white + random constant, gyro exp-cosine + random walk,
+/// one coloured observation term: 2 + 1 + 1 + 2 + 1 + 1 = 8 = NX states.
+fn full_model() -> InsModel<f64> {
+    let mut m = InsModel::<f64>::paper();
+    m.accel
+        .push(Component::White(WhiteNoise::new(2e-4).unwrap()))
+        .unwrap();
+    m.accel
+        .push(Component::RandomConstant(
+            RandomConstant::new(5e-4).unwrap(),
+        ))
+        .unwrap();
+    m.gyro.clear();
+    m.gyro
+        .push(Component::ExpCosine(
+            ExpCosine::new(5e-7, 900.0, 2.0 * core::f64::consts::PI / 600.0).unwrap(),
+        ))
+        .unwrap();
+    m.gyro
+        .push(Component::RandomWalk(RandomWalk::new(1e-17, 1e-7).unwrap()))
+        .unwrap();
+    m.colored
+        .push(GaussMarkov::new(0.02, 30.0).unwrap())
+        .unwrap();
+    m
+}
+
+/// Largest |X - Y| relative to the scale of the reference: for Phi the element-wise bound
+/// `|dPhi_ij| <= tol * max(1, |Phi_ij|)`; for covariances `|dQ_ij| <= tol sqrt(Q_ii Q_jj)`.
+fn check(model: &InsModel<f64>, tol: f64) {
+    let scale = model.scaling().unwrap();
+    let (c, d) = model.discretise(&scale).unwrap();
+    let (phi_ref, q_ref) = fine_step_reference(&c.A, &c.Qc);
+    for i in 0..NX {
+        for j in 0..NX {
+            let e = (d.Phi[(i, j)] - phi_ref[(i, j)]).abs();
+            assert!(
+                e <= tol * phi_ref[(i, j)].abs().max(1.0),
+                "Phi[{i},{j}] off by {e:e}"
+            );
+            let s = (q_ref[(i, i)] * q_ref[(j, j)]).sqrt();
+            let e = (d.Qd[(i, j)] - q_ref[(i, j)]).abs();
+            assert!(
+                e <= tol * s + 1e-300,
+                "Qd[{i},{j}] = {:e} vs {:e}",
+                d.Qd[(i, j)],
+                q_ref[(i, j)]
+            );
+        }
+    }
+}
+
+/// Rounding in 1000 composed steps is ~1e3 * eps = 2e-13; 1e-10 leaves margin but would catch
+/// any truncation or Euler-like error (an Euler step errs by ~(A dt)^2/2 ~ 1e-3 here).
+#[test]
+fn paper_model_matches_fine_step_van_loan() {
+    check(&InsModel::paper(), 1e-10);
+}
+
+#[test]
+fn every_component_kind_matches_fine_step_van_loan() {
+    let m = full_model();
+    assert_eq!(m.states().unwrap(), NX);
+    check(&m, 1e-10);
+}
+
+/// A stiff case that needs scaling and squaring: ||A dt|| = 50 from a 0.02 s Gauss-Markov.
+#[test]
+fn stiff_component_needs_squaring_and_still_matches() {
+    let mut m = InsModel::<f64>::paper();
+    m.accel[0] = Component::GaussMarkov(GaussMarkov::new(1e-3, 0.02).unwrap());
+    check(&m, 1e-9);
+}
+
+/// The closed forms of each component agree with the general series.
+#[test]
+fn component_closed_forms_match_the_series() {
+    let dt = 1.0;
+    let gm = GaussMarkov::new(3.0f64, 40.0).unwrap();
+    let (mut a, mut q) = (StateMat::zeros(), StateMat::zeros());
+    a[(0, 0)] = -gm.alpha();
+    q[(0, 0)] = gm.qc();
+    let d = discretise(&a, &q, dt).unwrap();
+    let (phi, qd) = gm.discretise(dt);
+    assert!((d.Phi[(0, 0)] - phi).abs() < 1e-15);
+    assert!((d.Qd[(0, 0)] - qd).abs() < 1e-14 * qd);
+
+    let ec = ExpCosine::new(2.0f64, 30.0, 0.3).unwrap();
+    let b = Component::ExpCosine(ec).block();
+    let (mut a, mut q) = (StateMat::zeros(), StateMat::zeros());
+    a.fixed_view_mut::<2, 2>(0, 0).copy_from(&b.a);
+    q.fixed_view_mut::<2, 2>(0, 0).copy_from(&b.qc);
+    let d = discretise(&a, &q, dt).unwrap();
+    let (phi, qd) = (ec.phi(dt), ec.qd(dt));
+    for i in 0..2 {
+        for j in 0..2 {
+            assert!((d.Phi[(i, j)] - phi[(i, j)]).abs() < 1e-13, "Phi[{i},{j}]");
+            assert!(
+                (d.Qd[(i, j)] - qd[(i, j)]).abs() < 1e-12 * qd.norm(),
+                "Qd[{i},{j}]"
+            );
+        }
+    }
+}
+
+/// Single-precision discretisation against double: the series runs to 8 terms in f32; each
+/// entry should be within a few f32 ulps of its scale (1e-5 relative leaves ~100 ulps).
+#[test]
+fn f32_discretisation_matches_f64() {
+    let m = full_model();
+    let s = m.scaling().unwrap();
+    let (_, d64) = m.discretise(&s).unwrap();
+    let m32 = m.cast::<f32>();
+    let (_, d32) = m32.discretise(&s.map(|v| v as f32)).unwrap();
+    for i in 0..NX {
+        for j in 0..NX {
+            let e = (d32.Phi[(i, j)] as f64 - d64.Phi[(i, j)]).abs();
+            assert!(e <= 1e-5 * d64.Phi[(i, j)].abs().max(1.0), "Phi[{i},{j}]");
+            let sc = (d64.Qd[(i, i)] * d64.Qd[(j, j)]).sqrt();
+            let e = (d32.Qd[(i, j)] as f64 - d64.Qd[(i, j)]).abs();
+            assert!(
+                e <= 1e-5 * sc + 1e-30,
+                "Qd[{i},{j}] {} vs {}",
+                d32.Qd[(i, j)],
+                d64.Qd[(i, j)]
+            );
+        }
+    }
+}
+
+#[test]
+fn bad_models_are_errors_not_panics() {
+    let mut m = InsModel::<f64>::paper();
+    m.dt = f64::NAN;
+    assert!(m.scaling().is_err());
+    let mut m = InsModel::<f64>::paper();
+    m.accel[0] = Component::GaussMarkov(GaussMarkov {
+        sigma: 1e-3,
+        tau: -1.0,
+    });
+    assert!(m.layout().is_err());
+    let mut m = full_model();
+    m.accel.pop();
+    m.accel
+        .push(Component::ExpCosine(
+            ExpCosine::new(1e-3, 10.0, 0.1).unwrap(),
+        ))
+        .unwrap();
+    assert_eq!(
+        m.layout().unwrap_err(),
+        imu_ident::model::ModelError::TooManyStates
+    );
+    let mut a = StateMat::<f64>::zeros();
+    a[(0, 0)] = f64::INFINITY;
+    assert!(discretise(&a, &StateMat::zeros(), 1.0).is_err());
+}
