@@ -89,12 +89,44 @@ impl<T: Real> Ekf<T> {
         }
     }
 
-    /// Time update: `x = Phi x`, `P = Phi P Phi^T + Qd`, then symmetrised.
+    /// Time update: `x = Phi x`, `P = Phi P Phi^T + Qd`, symmetric by construction.
+    ///
+    /// Only the leading `n x n` active block is computed (inactive states are decoupled and
+    /// carry zero covariance), so the cost is `n^2 + 1.5 n^3` multiply-adds instead of
+    /// `2 NX^3`: 4 active states of 8 cost 112 instead of 1024.
     #[allow(non_snake_case)]
     pub fn predict(&mut self, Phi: &StateMat<T>, Qd: &StateMat<T>) {
-        self.x = Phi * self.x;
-        let p = Phi * self.P * Phi.transpose() + Qd;
-        self.P = (p + p.transpose()) * T::lit(0.5);
+        let n = self.n.min(NX);
+        let mut x = StateVec::<T>::zeros();
+        for i in 0..n {
+            let mut s = T::zero();
+            for k in 0..n {
+                s += Phi[(i, k)] * self.x[k];
+            }
+            x[i] = s;
+        }
+        self.x = x;
+        // M = Phi P (n x n), then P' = M Phi^T + Qd, computing the upper triangle and mirroring.
+        let mut m = StateMat::<T>::zeros();
+        for i in 0..n {
+            for j in 0..n {
+                let mut s = T::zero();
+                for k in 0..n {
+                    s += Phi[(i, k)] * self.P[(k, j)];
+                }
+                m[(i, j)] = s;
+            }
+        }
+        for i in 0..n {
+            for j in i..n {
+                let mut s = Qd[(i, j)];
+                for k in 0..n {
+                    s += m[(i, k)] * Phi[(j, k)];
+                }
+                self.P[(i, j)] = s;
+                self.P[(j, i)] = s;
+            }
+        }
     }
 
     /// Measurement update for `z = H x + v`, `v ~ N(0, R)`.
@@ -107,8 +139,22 @@ impl<T: Real> Ekf<T> {
     /// instead of O(NX^3), and still symmetric and positive semi-definite for any gain `K`.
     #[allow(non_snake_case)]
     pub fn update(&mut self, z: T, H: &StateRow<T>, R: T, gate: Option<T>) -> Innovation<T> {
-        let a = self.P * H.transpose();
-        let S = (H * a)[0] + R;
+        let n = self.n.min(NX);
+        let mut a = StateVec::<T>::zeros();
+        for i in 0..n {
+            let mut s = T::zero();
+            for k in 0..n {
+                s += self.P[(i, k)] * H[k];
+            }
+            a[i] = s;
+        }
+        let mut hx = T::zero();
+        let mut hph = T::zero();
+        for k in 0..n {
+            hx += H[k] * self.x[k];
+            hph += H[k] * a[k];
+        }
+        let S = hph + R;
         let nan = T::lit(f64::NAN);
         if !z.is_finite() {
             return Innovation {
@@ -118,7 +164,7 @@ impl<T: Real> Ekf<T> {
                 status: UpdateStatus::Missing,
             };
         }
-        let nu = z - (H * self.x)[0];
+        let nu = z - hx;
         if !(S.is_finite() && S > T::zero()) {
             let status = UpdateStatus::BadInnovationVariance;
             return Innovation {
@@ -140,10 +186,15 @@ impl<T: Real> Ekf<T> {
             }
         }
         let K = a / S;
-        self.x += K * nu;
-        let ka = K * a.transpose();
-        let p = self.P - ka - ka.transpose() + K * K.transpose() * S;
-        self.P = (p + p.transpose()) * T::lit(0.5);
+        for i in 0..n {
+            self.x[i] += K[i] * nu;
+            for j in i..n {
+                // Joseph, expanded: P - K a^T - a K^T + S K K^T (symmetric by construction).
+                let p = self.P[(i, j)] - K[i] * a[j] - a[i] * K[j] + S * K[i] * K[j];
+                self.P[(i, j)] = p;
+                self.P[(j, i)] = p;
+            }
+        }
         Innovation {
             innovation: nu,
             variance: S,
