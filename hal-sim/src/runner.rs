@@ -7,7 +7,7 @@
 
 use crate::log::LogRow;
 use anyhow::{anyhow, bail, Result};
-use imu_ident::filter::{InsFilter, UpdateStatus};
+use imu_ident::filter::{Innovation, InsFilter, UpdateStatus};
 use imu_ident::model::InsModel;
 use imu_ident::Real;
 use serde::Serialize;
@@ -51,18 +51,18 @@ pub struct RunCounts {
     pub repairs: usize,
 }
 
-/// Runs `model` (converted to precision `T`) over `log`.
-pub fn run<T: Real>(
+/// Replays `log` through a filter built from `model` (in precision `T`), calling `visit` after
+/// each processed row with the row, the filter and the innovation. Gaps are predicted through;
+/// rows whose time does not advance are skipped. Returns the counts.
+pub fn replay<T: Real>(
     model: &InsModel<f64>,
     log: &[LogRow],
-) -> Result<(Vec<EstimateRow>, RunCounts)> {
+    mut visit: impl FnMut(&LogRow, &InsFilter<T>, &Innovation<T>),
+) -> Result<RunCounts> {
     let mut filter = InsFilter::<T>::new(model.cast()).map_err(|e| anyhow!("model: {e}"))?;
     let dt = model.dt;
-    let mut out = Vec::with_capacity(log.len());
     let mut counts = RunCounts::default();
-    let Some(first) = log.first() else {
-        return Ok((out, counts));
-    };
+    let Some(first) = log.first() else { return Ok(counts) };
     let mut t_prev = first.t - dt;
     for row in log {
         let k = ((row.t - t_prev) / dt).round();
@@ -71,11 +71,7 @@ pub fn run<T: Real>(
             continue;
         }
         if k > MAX_GAP_STEPS as f64 {
-            bail!(
-                "time jumps by {} s at t = {} (more than {MAX_GAP_STEPS} steps)",
-                row.t - t_prev,
-                row.t
-            );
+            bail!("time jumps by {} s at t = {} (more than {MAX_GAP_STEPS} steps)", row.t - t_prev, row.t);
         }
         if k > 1.0 {
             counts.gaps += 1;
@@ -95,6 +91,15 @@ pub fn run<T: Real>(
             counts.repairs += 1;
         }
         counts.steps += 1;
+        visit(row, &filter, &inn);
+    }
+    Ok(counts)
+}
+
+/// Runs `model` (converted to precision `T`) over `log`, collecting every estimate.
+pub fn run<T: Real>(model: &InsModel<f64>, log: &[LogRow]) -> Result<(Vec<EstimateRow>, RunCounts)> {
+    let mut out = Vec::with_capacity(log.len());
+    let counts = replay::<T>(model, log, |row, filter, inn| {
         let e = filter.estimates();
         out.push(EstimateRow {
             t: row.t,
@@ -110,6 +115,20 @@ pub fn run<T: Real>(
             innovation_var: inn.variance.as_f64(),
             nis: inn.nis.as_f64(),
         });
-    }
+    })?;
     Ok((out, counts))
+}
+
+/// Gaussian log-likelihood of the innovations, `-0.5 sum (ln(2 pi S) + nu^2 / S)` over the
+/// used observations, with the number of terms.
+pub fn log_likelihood(model: &InsModel<f64>, log: &[LogRow]) -> Result<(f64, usize)> {
+    let mut ll = 0.0;
+    let mut n = 0;
+    replay::<f64>(model, log, |_, _, inn| {
+        if inn.status == UpdateStatus::Updated {
+            ll -= 0.5 * ((2.0 * std::f64::consts::PI * inn.variance).ln() + inn.nis);
+            n += 1;
+        }
+    })?;
+    Ok((ll, n))
 }
