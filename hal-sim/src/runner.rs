@@ -62,16 +62,24 @@ pub fn replay<T: Real>(
     let mut filter = InsFilter::<T>::new(model.cast()).map_err(|e| anyhow!("model: {e}"))?;
     let dt = model.dt;
     let mut counts = RunCounts::default();
-    let Some(first) = log.first() else { return Ok(counts) };
+    let Some(first) = log.first() else {
+        return Ok(counts);
+    };
     let mut t_prev = first.t - dt;
     for row in log {
         let k = ((row.t - t_prev) / dt).round();
-        if !(k >= 1.0) {
+        // NaN (from a non-finite t) and non-advancing times are both skipped.
+        let advances = k >= 1.0;
+        if !advances {
             counts.skipped_time += 1;
             continue;
         }
         if k > MAX_GAP_STEPS as f64 {
-            bail!("time jumps by {} s at t = {} (more than {MAX_GAP_STEPS} steps)", row.t - t_prev, row.t);
+            bail!(
+                "time jumps by {} s at t = {} (more than {MAX_GAP_STEPS} steps)",
+                row.t - t_prev,
+                row.t
+            );
         }
         if k > 1.0 {
             counts.gaps += 1;
@@ -97,7 +105,10 @@ pub fn replay<T: Real>(
 }
 
 /// Runs `model` (converted to precision `T`) over `log`, collecting every estimate.
-pub fn run<T: Real>(model: &InsModel<f64>, log: &[LogRow]) -> Result<(Vec<EstimateRow>, RunCounts)> {
+pub fn run<T: Real>(
+    model: &InsModel<f64>,
+    log: &[LogRow],
+) -> Result<(Vec<EstimateRow>, RunCounts)> {
     let mut out = Vec::with_capacity(log.len());
     let counts = replay::<T>(model, log, |row, filter, inn| {
         let e = filter.estimates();

@@ -176,7 +176,9 @@ impl<T: Real> Ekf<T> {
         }
         let nis = nu * nu / S;
         if let Some(g) = gate {
-            if !(nis <= g) {
+            // A NaN NIS or gate fails the test too: only a NIS within the gate passes.
+            let within = nis <= g;
+            if !within {
                 return Innovation {
                     innovation: nu,
                     variance: S,
