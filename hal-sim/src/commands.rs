@@ -49,3 +49,146 @@ pub fn run(log_path: &Path, model_path: &Path, out: &Path) -> Result<Summary> {
     write_string(&out.join("summary.json"), &json)?;
     Ok(summary)
 }
+
+/// `diagnose`: compares the model with the log, names the missing effect (if any), and writes
+/// `diagnosis.json`, `suggested-model.toml` and `report.html` into `out`.
+pub fn diagnose(
+    log_path: &Path,
+    model_path: &Path,
+    out: &Path,
+) -> Result<crate::diagnose::Diagnosis> {
+    let model = model_toml::load(model_path)?;
+    let rows = log::read(log_path)?;
+    let d = crate::diagnose::diagnose(&model, &rows)?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    write_string(
+        &out.join("diagnosis.json"),
+        &serde_json::to_string_pretty(&d)?,
+    )?;
+    write_string(
+        &out.join("suggested-model.toml"),
+        &model_toml::to_string(&d.suggested)?,
+    )?;
+    let runs = vec![
+        crate::compare::evaluate("model", &model, &rows)?,
+        crate::compare::evaluate("suggested model", &d.suggested, &rows)?,
+    ];
+    let html = crate::report::html(
+        &format!("Diagnosis of {}", log_path.display()),
+        &runs,
+        &rows,
+        Some(&d),
+        "",
+    )?;
+    write_string(&out.join("report.html"), &html)?;
+    Ok(d)
+}
+
+/// `compare`: runs every model on the log; writes `comparison.json` and `report.html`; returns
+/// the table.
+pub fn compare(log_path: &Path, models: &[std::path::PathBuf], out: &Path) -> Result<String> {
+    let rows = log::read(log_path)?;
+    let mut runs = Vec::new();
+    for m in models {
+        let model = model_toml::load(m)?;
+        let name = m.file_name().map_or_else(
+            || m.display().to_string(),
+            |f| f.to_string_lossy().into_owned(),
+        );
+        runs.push(crate::compare::evaluate(&name, &model, &rows)?);
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    write_string(
+        &out.join("comparison.json"),
+        &serde_json::to_string_pretty(&runs)?,
+    )?;
+    let html = crate::report::html(
+        &format!("Comparison on {}", log_path.display()),
+        &runs,
+        &rows,
+        None,
+        "",
+    )?;
+    write_string(&out.join("report.html"), &html)?;
+    Ok(crate::compare::table(&runs))
+}
+
+/// `demo`: hides an effect in `paper` data, diagnoses the nominal model, adds the named effect,
+/// reruns, prints the before/after table and writes the report (and the log, models and
+/// diagnosis) into `out`.
+pub fn demo(effect: Option<&str>, seed: Option<u64>, hours: f64, out: &Path) -> Result<()> {
+    use rand::{Rng, SeedableRng};
+    let seed = seed.unwrap_or_else(|| rand::thread_rng().gen_range(0..1_000_000));
+    println!("demo seed: {seed} (rerun with --seed {seed})");
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let candidate = match effect {
+        Some(e) => crate::hidden::by_label(e).ok_or_else(|| {
+            let names: Vec<String> = crate::candidates::LIBRARY
+                .iter()
+                .map(|c| c.label())
+                .collect();
+            anyhow!("--effect {e:?}: not in the library ({})", names.join(", "))
+        })?,
+        None => crate::candidates::LIBRARY[rng.gen_range(0..crate::candidates::LIBRARY.len())],
+    };
+    let nominal = scenario::load("paper")?.to_core()?;
+    let truth = crate::hidden::truth(&nominal, candidate, &mut rng)
+        .ok_or_else(|| anyhow!("hidden effect does not fit"))?;
+    let steps = (hours * 3600.0 / nominal.dt).round() as usize;
+    let rows = sim::simulate(&truth, steps, seed)?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    log::write(&out.join("log.csv"), &rows)?;
+    write_string(
+        &out.join("nominal-model.toml"),
+        &model_toml::to_string(&nominal)?,
+    )?;
+    write_string(
+        &out.join("hidden-truth.toml"),
+        &model_toml::to_string(&truth)?,
+    )?;
+    println!(
+        "hidden effect: {} (its parameters are in {}/hidden-truth.toml)",
+        candidate.label(),
+        out.display()
+    );
+    println!("diagnosing the nominal model on {hours} h of data (innovations only, no truth)...");
+    let d = crate::diagnose::diagnose(&nominal, &rows)?;
+    write_string(
+        &out.join("diagnosis.json"),
+        &serde_json::to_string_pretty(&d)?,
+    )?;
+    write_string(
+        &out.join("suggested-model.toml"),
+        &model_toml::to_string(&d.suggested)?,
+    )?;
+    match (d.sensor, d.effect) {
+        (Some(s), Some(e)) => println!("verdict: missing {s}/{e}: {}", d.explanation),
+        _ => println!("verdict: adequate"),
+    }
+    if !d.indistinguishable_from.is_empty() {
+        println!(
+            "  (indistinguishable on this data from: {})",
+            d.indistinguishable_from.join(", ")
+        );
+    }
+    let runs = vec![
+        crate::compare::evaluate("nominal", &nominal, &rows)?,
+        crate::compare::evaluate("nominal + named effect", &d.suggested, &rows)?,
+        crate::compare::evaluate("oracle (hidden truth)", &truth, &rows)?,
+    ];
+    println!("\n{}", crate::compare::table(&runs));
+    let note = format!(
+        "Hidden effect {} in paper data, seed {seed}, {hours} h.",
+        candidate.label()
+    );
+    let html = crate::report::html(
+        "imu-ident demo: find the missing effect",
+        &runs,
+        &rows,
+        Some(&d),
+        &note,
+    )?;
+    write_string(&out.join("report.html"), &html)?;
+    println!("report: {}", out.join("report.html").display());
+    Ok(())
+}

@@ -41,6 +41,46 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+
+    /// Compare a model with a log, name the missing effect, and suggest the corrected model.
+    Diagnose {
+        /// Log CSV.
+        #[arg(long)]
+        log: PathBuf,
+        /// Model TOML.
+        #[arg(long)]
+        model: PathBuf,
+        /// Output folder (diagnosis.json, suggested-model.toml, report.html).
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Compare models on one log: before/after table and report.html.
+    Compare {
+        /// Log CSV.
+        #[arg(long)]
+        log: PathBuf,
+        /// Model TOML (repeat: --model A.toml --model B.toml).
+        #[arg(long, required = true)]
+        model: Vec<PathBuf>,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Hide an effect in `paper` data, diagnose the nominal model, add the effect, rerun.
+    Demo {
+        /// The hidden effect, e.g. gyro/exp-cosine (default: drawn at random).
+        #[arg(long)]
+        effect: Option<String>,
+        /// Seed (default: random, printed).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Duration [h].
+        #[arg(long, default_value_t = 12.0)]
+        hours: f64,
+        /// Output folder.
+        #[arg(long, default_value = "out/demo")]
+        out: PathBuf,
+    },
 }
 
 fn main() -> Result<()> {
@@ -59,6 +99,27 @@ fn main() -> Result<()> {
             let s = commands::run(&log, &model, &out)?;
             println!("{}", serde_json::to_string_pretty(&s)?);
         }
+        Command::Diagnose { log, model, out } => {
+            let d = commands::diagnose(&log, &model, &out)?;
+            match (d.sensor, d.effect) {
+                (Some(s), Some(e)) => println!("missing-effect: {s}/{e}: {}", d.explanation),
+                _ => println!("adequate: {}", d.explanation),
+            }
+            println!(
+                "wrote {}/diagnosis.json, suggested-model.toml, report.html",
+                out.display()
+            );
+        }
+        Command::Compare { log, model, out } => {
+            print!("{}", commands::compare(&log, &model, &out)?);
+            println!("report: {}", out.join("report.html").display());
+        }
+        Command::Demo {
+            effect,
+            seed,
+            hours,
+            out,
+        } => commands::demo(effect.as_deref(), seed, hours, &out)?,
     }
     Ok(())
 }

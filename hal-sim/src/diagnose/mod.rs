@@ -1,0 +1,214 @@
+//! Diagnosis: compare a model with the measurements, show where it fails, and name the missing
+//! physical effect.
+//!
+//! 1. Replay the log with the model; check innovation whiteness (ACF band and Ljung-Box) and
+//!    windowed NIS — checks that need no truth.
+//! 2. For every candidate of the library ([`crate::candidates::LIBRARY`]), add it to the model,
+//!    fit its parameters by maximum innovation likelihood, and score the gain in log-likelihood
+//!    against the BIC penalty `k/2 ln n` (k free parameters, n innovations).
+//! 3. The verdict is "adequate" when no candidate's gain exceeds its penalty, else the best
+//!    candidate, with its parameters and a physical explanation.
+//!
+//! Detection uses what the filter sees (innovations and likelihood), not the ACF of the
+//! filter's own sensor-error estimates, which hides an oscillating drift behind a Markov-1
+//! model (issue 4's caution).
+
+pub mod fit;
+pub mod whiteness;
+
+use crate::candidates::{Candidate, LIBRARY};
+use crate::log::LogRow;
+use crate::model_toml::ComponentToml;
+use crate::runner::{self, log_likelihood};
+use anyhow::Result;
+use fit::Fit;
+use imu_ident::model::InsModel;
+use serde::Serialize;
+use whiteness::{nis_windows, whiteness, NisWindow, Whiteness};
+
+/// Lags of the whiteness test: 1..=60 s covers the correlation times the filter's innovations
+/// show when a process model is wrong.
+pub const WHITENESS_LAGS: usize = 60;
+/// Score difference below which two candidates are reported as indistinguishable: a
+/// likelihood ratio of e^3 = 20.
+pub const TIE: f64 = 3.0;
+/// Candidates refined by a second, finer fit before the ranking.
+pub const REFINED: usize = 3;
+/// NIS window [steps]: 10 minutes at 1 Hz.
+pub const NIS_WINDOW: usize = 600;
+
+/// One candidate's score.
+#[derive(Debug, Clone, Serialize)]
+pub struct CandidateScore {
+    /// `sensor/kind`.
+    pub label: String,
+    /// Fitted component, in model-TOML form.
+    pub params: ComponentToml,
+    /// Log-likelihood gain over the model.
+    pub gain: f64,
+    /// BIC penalty.
+    pub penalty: f64,
+    /// `gain - penalty`.
+    pub score: f64,
+    /// Likelihood evaluations spent on the fit.
+    pub evaluations: u64,
+}
+
+/// Evidence behind the verdict.
+#[derive(Debug, Clone, Serialize)]
+pub struct Evidence {
+    /// Log-likelihood of the model as given.
+    pub log_likelihood: f64,
+    /// Innovations used.
+    pub n: usize,
+    /// Gain of the chosen candidate (best score's gain when adequate).
+    pub log_likelihood_gain: f64,
+    /// Its penalty.
+    pub penalty: f64,
+    /// The criterion.
+    pub criterion: &'static str,
+    /// Lags of the normalised-innovation ACF outside the 99 % band.
+    pub failed_lags: Vec<usize>,
+    /// Windows whose mean NIS is outside its 99 % band.
+    pub failed_windows: Vec<NisWindow>,
+    /// Whiteness statistics.
+    pub whiteness: Whiteness,
+    /// 99 % band of a window's mean NIS.
+    pub nis_window_band: [f64; 2],
+    /// All windows.
+    pub nis_windows: Vec<NisWindow>,
+    /// Every candidate, best first.
+    pub candidates: Vec<CandidateScore>,
+}
+
+/// The outcome written to `diagnosis.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct Diagnosis {
+    /// "adequate" or "missing-effect".
+    pub verdict: &'static str,
+    /// "accel", "gyro" or "observation" (missing-effect only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sensor: Option<&'static str>,
+    /// A model-TOML kind (missing-effect only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub effect: Option<&'static str>,
+    /// The fitted parameters of the effect.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub params: Option<ComponentToml>,
+    /// One line on the physics.
+    pub explanation: String,
+    /// Other candidates whose penalised score is within [`TIE`] of the chosen one: the data
+    /// cannot tell them apart (e.g. gyro white noise drives the tilt as a random walk, which the
+    /// velocity sees exactly as an accelerometer random walk).
+    pub indistinguishable_from: Vec<String>,
+    /// Why.
+    pub evidence: Evidence,
+    /// The input model plus the effect (the input model when adequate).
+    #[serde(skip)]
+    pub suggested: InsModel<f64>,
+}
+
+/// Diagnoses `model` against `log`. Candidates are fitted on two threads.
+pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
+    let (est, _) = runner::run::<f64>(model, log)?;
+    let wh = whiteness(&est, WHITENESS_LAGS);
+    let (windows, band, failed_windows) = nis_windows(&est, NIS_WINDOW);
+    let (ll0, n) = log_likelihood(model, log)?;
+    let penalty_per_param = 0.5 * (n.max(2) as f64).ln();
+
+    let fits: Vec<Option<Fit>> = std::thread::scope(|s| {
+        let (even, odd): (Vec<(usize, Candidate)>, Vec<(usize, Candidate)>) = LIBRARY
+            .iter()
+            .copied()
+            .enumerate()
+            .partition(|(i, _)| i % 2 == 0);
+        let work = |part: Vec<(usize, Candidate)>| {
+            part.into_iter()
+                .map(|(i, c)| (i, fit::fit(model, c, log)))
+                .collect::<Vec<_>>()
+        };
+        let h = s.spawn(move || work(odd));
+        let mut all = work(even);
+        all.extend(h.join().unwrap_or_default());
+        all.sort_by_key(|(i, _)| *i);
+        all.into_iter().map(|(_, f)| f).collect()
+    });
+    // Refine the three best (on two threads) before ranking: close candidates are decided by
+    // a few log-likelihood units.
+    let mut fits: Vec<Fit> = fits.into_iter().flatten().collect();
+    fits.sort_by(|a, b| {
+        let score = |f: &Fit| f.log_likelihood - penalty_per_param * f.candidate.n_params() as f64;
+        score(b).total_cmp(&score(a))
+    });
+    let top = fits.len().min(REFINED);
+    let refined: Vec<Fit> = std::thread::scope(|s| {
+        let handles: Vec<_> = fits[..top]
+            .iter()
+            .map(|f| s.spawn(move || fit::refine(model, f, log)))
+            .collect();
+        handles
+            .into_iter()
+            .zip(&fits[..top])
+            .map(|(h, f)| h.join().unwrap_or_else(|_| f.clone()))
+            .collect()
+    });
+    fits.splice(..top, refined);
+    let mut scores: Vec<(CandidateScore, Fit)> = fits
+        .into_iter()
+        .map(|f| {
+            let gain = f.log_likelihood - ll0;
+            let penalty = penalty_per_param * f.candidate.n_params() as f64;
+            let s = CandidateScore {
+                label: f.candidate.label(),
+                params: ComponentToml::from_core(&f.component),
+                gain,
+                penalty,
+                score: gain - penalty,
+                evaluations: f.evaluations,
+            };
+            (s, f)
+        })
+        .collect();
+    scores.sort_by(|a, b| b.0.score.total_cmp(&a.0.score));
+    let best = scores.first().cloned();
+    let mut evidence = Evidence {
+        log_likelihood: ll0,
+        n,
+        log_likelihood_gain: best.as_ref().map_or(0.0, |b| b.0.gain),
+        penalty: best.as_ref().map_or(0.0, |b| b.0.penalty),
+        criterion: "BIC: gain in innovation log-likelihood > (k/2) ln n",
+        failed_lags: wh.failed_lags.clone(),
+        failed_windows,
+        whiteness: wh,
+        nis_window_band: band,
+        nis_windows: windows,
+        candidates: scores.iter().map(|s| s.0.clone()).collect(),
+    };
+    match best {
+        Some((score, f)) if score.score > 0.0 => {
+            let suggested = f.candidate.add_to(model, &f.params).unwrap_or_else(|| model.clone());
+            evidence.log_likelihood_gain = score.gain;
+            let ties = scores.iter().skip(1).filter(|o| score.score - o.0.score < TIE).map(|o| o.0.label.clone()).collect();
+            Ok(Diagnosis {
+                indistinguishable_from: ties,
+                verdict: "missing-effect",
+                sensor: Some(f.candidate.sensor.name()),
+                effect: Some(f.candidate.kind.name()),
+                params: Some(score.params),
+                explanation: f.candidate.explain(&f.component),
+                evidence,
+                suggested,
+            })
+        }
+        _ => Ok(Diagnosis {
+            verdict: "adequate",
+            sensor: None,
+            effect: None,
+            params: None,
+            indistinguishable_from: Vec::new(),
+            explanation: "no candidate effect raises the innovation likelihood by more than its complexity penalty".into(),
+            evidence,
+            suggested: model.clone(),
+        }),
+    }
+}

@@ -1,0 +1,249 @@
+//! Self-contained HTML reports with embedded SVG plots (plotters).
+
+use crate::compare::ModelRun;
+use crate::diagnose::Diagnosis;
+use crate::log::LogRow;
+use anyhow::{anyhow, Result};
+use plotters::prelude::*;
+
+const COLORS: [RGBColor; 4] = [
+    RGBColor(200, 40, 40),
+    RGBColor(30, 100, 200),
+    RGBColor(20, 150, 60),
+    RGBColor(150, 60, 170),
+];
+
+fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow!("plot: {e:?}")
+}
+
+/// A line chart of several series `(name, points)` with optional horizontal band lines.
+pub fn line_chart(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[(String, Vec<(f64, f64)>)],
+    bands: &[f64],
+) -> Result<String> {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (860, 320)).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let pts = series
+            .iter()
+            .flat_map(|s| s.1.iter())
+            .filter(|p| p.0.is_finite() && p.1.is_finite());
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for p in pts.clone() {
+            (x0, x1, y0, y1) = (x0.min(p.0), x1.max(p.0), y0.min(p.1), y1.max(p.1));
+        }
+        for b in bands {
+            (y0, y1) = (y0.min(*b), y1.max(*b));
+        }
+        if x0 >= x1 {
+            x1 = x0 + 1.0;
+        }
+        if y0 >= y1 {
+            y1 = y0 + 1.0;
+        }
+        let pad = 0.05 * (y1 - y0);
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x0..x1, (y0 - pad)..(y1 + pad))
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(y_label)
+            .draw()
+            .map_err(err)?;
+        for b in bands {
+            chart
+                .draw_series(LineSeries::new([(x0, *b), (x1, *b)], BLACK.mix(0.5)))
+                .map_err(err)?;
+        }
+        for (i, (name, p)) in series.iter().enumerate() {
+            let c = COLORS[i % COLORS.len()];
+            chart
+                .draw_series(LineSeries::new(
+                    p.iter()
+                        .copied()
+                        .filter(|q| q.0.is_finite() && q.1.is_finite()),
+                    c,
+                ))
+                .map_err(err)?
+                .label(name.as_str())
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], c));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)?;
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
+/// Normalised-innovation ACF of each run with its 99 % band.
+pub fn acf_plot(runs: &[ModelRun]) -> Result<String> {
+    let series: Vec<_> = runs
+        .iter()
+        .map(|r| {
+            (
+                r.name.clone(),
+                r.whiteness
+                    .acf
+                    .iter()
+                    .enumerate()
+                    .skip(1)
+                    .map(|(k, v)| (k as f64, *v))
+                    .collect(),
+            )
+        })
+        .collect();
+    let band = runs.first().map_or(0.0, |r| r.whiteness.band);
+    line_chart(
+        "Innovation whiteness: ACF of nu/sqrt(S), 99 % band",
+        "lag [s]",
+        "r_k",
+        &series,
+        &[band, -band],
+    )
+}
+
+/// Windowed mean NIS of each run with its 99 % band.
+pub fn nis_plot(runs: &[ModelRun]) -> Result<String> {
+    let series: Vec<_> = runs
+        .iter()
+        .map(|r| {
+            (
+                r.name.clone(),
+                r.nis_windows
+                    .iter()
+                    .map(|w| (w.t_end / 3600.0, w.nis_mean))
+                    .collect(),
+            )
+        })
+        .collect();
+    let band = runs.first().map_or([0.0, 0.0], |r| r.nis_band);
+    line_chart(
+        "Windowed NIS (10-min mean), 99 % chi-square band",
+        "t [h]",
+        "mean NIS",
+        &series,
+        &band,
+    )
+}
+
+/// Tilt error `true_delta - delta_hat` and `3 sigma_delta` of one run (truth only), every 30 s.
+pub fn tilt_plot(run: &ModelRun, log: &[LogRow]) -> Result<Option<String>> {
+    let mut err_pts = vec![];
+    let (mut hi, mut lo) = (vec![], vec![]);
+    let mut j = 0;
+    for (i, e) in run.estimates.iter().enumerate() {
+        while j < log.len() && log[j].t < e.t {
+            j += 1;
+        }
+        let Some(tr) = log.get(j).and_then(|r| r.truth) else {
+            return Ok(None);
+        };
+        if i % 30 == 0 {
+            let h = e.t / 3600.0;
+            err_pts.push((h, (tr.delta - e.delta_hat) * 1e6));
+            hi.push((h, 3.0 * e.sigma_delta * 1e6));
+            lo.push((h, -3.0 * e.sigma_delta * 1e6));
+        }
+    }
+    let series = vec![
+        ("delta error".to_string(), err_pts),
+        ("+3 sigma".to_string(), hi),
+        ("-3 sigma".to_string(), lo),
+    ];
+    line_chart(
+        &format!("{}: tilt error against its 3 sigma bound", run.name),
+        "t [h]",
+        "µrad",
+        &series,
+        &[],
+    )
+    .map(Some)
+}
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// The HTML report: the before/after table, the diagnosis (if any) and the plots.
+pub fn html(
+    title: &str,
+    runs: &[ModelRun],
+    log: &[LogRow],
+    diagnosis: Option<&Diagnosis>,
+    notes: &str,
+) -> Result<String> {
+    let mut h = format!(
+        "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>{t}</title><style>body{{font-family:sans-serif;max-width:920px;margin:auto}}table{{border-collapse:collapse}}td,th{{border:1px solid #999;padding:3px 8px;text-align:right}}th{{background:#eee}}.ok{{color:#180}}.bad{{color:#b00}}</style></head><body><h1>{t}</h1>",
+        t = esc(title)
+    );
+    if !notes.is_empty() {
+        h += &format!("<p>{}</p>", esc(notes));
+    }
+    if let Some(d) = diagnosis {
+        let cls = if d.verdict == "adequate" { "ok" } else { "bad" };
+        h += &format!(
+            "<h2>Diagnosis: <span class=\"{cls}\">{}</span></h2>",
+            d.verdict
+        );
+        if let (Some(s), Some(e)) = (d.sensor, d.effect) {
+            h += &format!("<p><b>{s} / {e}</b>: {}</p>", esc(&d.explanation));
+            h += &format!(
+                "<pre>{}</pre>",
+                esc(&toml::to_string(&d.params).unwrap_or_default())
+            );
+        } else {
+            h += &format!("<p>{}</p>", esc(&d.explanation));
+        }
+        if !d.indistinguishable_from.is_empty() {
+            h += &format!(
+                "<p>Indistinguishable on this data from: {}</p>",
+                esc(&d.indistinguishable_from.join(", "))
+            );
+        }
+        let ev = &d.evidence;
+        h += &format!(
+            "<p>Where the model fails: {} of {} innovation-ACF lags outside the 99 % band (Ljung-Box p = {:.3}); {} of {} ten-minute NIS windows outside [{:.3}, {:.3}].</p>",
+            ev.failed_lags.len(), ev.whiteness.dof, ev.whiteness.p_value, ev.failed_windows.len(), ev.nis_windows.len(), ev.nis_window_band[0], ev.nis_window_band[1]
+        );
+        h += "<table><tr><th>candidate</th><th>log-lik gain</th><th>BIC penalty</th><th>score</th></tr>";
+        for c in &ev.candidates {
+            h += &format!("<tr><td style=\"text-align:left\">{}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1}</td></tr>", c.label, c.gain, c.penalty, c.score);
+        }
+        h += "</table>";
+    }
+    h += "<h2>Before and after</h2><table><tr><th>model</th><th>log-likelihood</th><th>Ljung-Box p</th><th>ACF lags out</th><th>mean NIS</th><th>NIS windows out</th><th>tilt RMS [µrad]</th><th>outside 3σ</th></tr>";
+    for r in runs {
+        h += &format!(
+            "<tr><td style=\"text-align:left\">{}</td><td>{:.1}</td><td>{:.3}</td><td>{}/{}</td><td>{:.3}</td><td>{}/{}</td><td>{}</td><td>{}</td></tr>",
+            esc(&r.name), r.log_likelihood, r.whiteness.p_value, r.whiteness.failed_lags.len(), r.whiteness.dof, r.summary.nis_mean, r.nis_failed, r.nis_windows.len(),
+            r.summary.tilt_rms.map_or("-".into(), |v| format!("{:.2}", v * 1e6)),
+            r.summary.tilt_outside_3sigma.map_or("-".into(), |v| format!("{:.2} %", v * 100.0))
+        );
+    }
+    h += "</table>";
+    h += &acf_plot(runs)?;
+    h += &nis_plot(runs)?;
+    for r in runs {
+        if let Some(svg) = tilt_plot(r, log)? {
+            h += &svg;
+        }
+    }
+    h += "</body></html>";
+    Ok(h)
+}
