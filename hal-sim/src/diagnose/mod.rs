@@ -108,45 +108,6 @@ pub struct Diagnosis {
     pub suggested: InsModel<f64>,
 }
 
-/// Among the candidates the data cannot separate (penalised score within [`TIE`] of the best),
-/// moves to the front the one under which the tilt is least certain (largest mean
-/// `sigma_delta`). Such explanations fit the velocity equally well but disagree on the
-/// navigation error: gyro white noise makes the tilt a random walk, while the equivalent
-/// accelerometer random walk leaves the tilt well known. Choosing the more cautious one keeps the
-/// filter's 3-sigma bound honest whichever is true (measured: choosing by score alone named the
-/// accelerometer in 11 of 20 gyro-white cases and left the tilt error 12x the oracle's).
-fn prefer_conservative(
-    model: &InsModel<f64>,
-    log: &[LogRow],
-    scores: &mut [(CandidateScore, Fit)],
-) -> Result<()> {
-    let Some(best) = scores.first().map(|s| s.0.score) else {
-        return Ok(());
-    };
-    if best <= 0.0 {
-        return Ok(());
-    }
-    let tied = scores
-        .iter()
-        .take_while(|s| best - s.0.score < TIE && s.0.score > 0.0)
-        .count();
-    let mut widest: Option<(usize, f64)> = None;
-    for (i, (_, f)) in scores.iter().enumerate().take(tied) {
-        let Some(m) = f.candidate.add_to(model, &f.params) else {
-            continue;
-        };
-        let (est, _) = runner::run::<f64>(&m, log)?;
-        let mean_sigma = est.iter().map(|e| e.sigma_delta).sum::<f64>() / est.len().max(1) as f64;
-        if widest.is_none_or(|(_, w)| mean_sigma > w) {
-            widest = Some((i, mean_sigma));
-        }
-    }
-    if let Some((i, _)) = widest {
-        scores[..=i].rotate_right(1);
-    }
-    Ok(())
-}
-
 /// Diagnoses `model` against `log`. Candidates are fitted on two threads.
 pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
     let (est, _) = runner::run::<f64>(model, log)?;
@@ -209,7 +170,6 @@ pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
         })
         .collect();
     scores.sort_by(|a, b| b.0.score.total_cmp(&a.0.score));
-    prefer_conservative(model, log, &mut scores)?;
     let best = scores.first().cloned();
     let mut evidence = Evidence {
         log_likelihood: ll0,
@@ -228,8 +188,7 @@ pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
         Some((score, f)) if score.score > 0.0 => {
             let suggested = f.candidate.add_to(model, &f.params).unwrap_or_else(|| model.clone());
             evidence.log_likelihood_gain = score.gain;
-            let top = scores.iter().map(|o| o.0.score).fold(f64::MIN, f64::max);
-            let ties = scores.iter().skip(1).filter(|o| top - o.0.score < TIE).map(|o| o.0.label.clone()).collect();
+            let ties = scores.iter().skip(1).filter(|o| score.score - o.0.score < TIE).map(|o| o.0.label.clone()).collect();
             Ok(Diagnosis {
                 indistinguishable_from: ties,
                 verdict: "missing-effect",
