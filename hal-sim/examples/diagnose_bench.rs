@@ -2,7 +2,8 @@
 //! scales drawn by `hal_sim::hidden`, seeds 5000.. never used in development), 12 h each; the
 //! nominal `paper` model is diagnosed from the innovations only.
 //!
-//! `cargo run --release -p hal-sim --example diagnose_bench [-- SEEDS]` (default 20 seeds)
+//! `cargo run --release -p hal-sim --example diagnose_bench [-- SEEDS [FIRST]]` (default 20 seeds,
+//! from the first library entry)
 
 use hal_sim::candidates::LIBRARY;
 use hal_sim::{compare, diagnose, hidden, scenario, sim};
@@ -23,10 +24,12 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 fn main() -> anyhow::Result<()> {
     let seeds: u64 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(20);
+    // Optional: first library index to run (to resume a long run); the adequate case runs last.
+    let first: usize = std::env::args().nth(2).and_then(|s| s.parse().ok()).unwrap_or(0);
     let nominal = scenario::load("paper")?.to_core()?;
     println!("| hidden effect | named correctly | named or tied | ignoring it (tilt RMS / oracle, median) | after adding the named effect (median) | worst after |");
     println!("|---|---|---|---|---|---|");
-    let cases: Vec<Option<usize>> = (0..LIBRARY.len()).map(Some).chain([None]).collect();
+    let cases: Vec<Option<usize>> = (first..LIBRARY.len()).map(Some).chain([None]).collect();
     for case in cases {
         let (mut correct, mut tied) = (0, 0);
         let (mut before, mut after) = (vec![], vec![]);
