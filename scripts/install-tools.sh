@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Installs what scripts/test.sh needs, and only what is missing (safe to run every time).
+#
+#   - the Cortex-M4F target for rustup's toolchain (thumbv7em-none-eabihf; rust-lld comes with
+#     the toolchain, so nothing else is needed to link)
+#   - clippy and rustfmt
+#   - QEMU for the emulated board (Debian's qemu-system-arm), through apt
+#
+# Needs rustup on PATH. apt runs as root here; elsewhere through sudo if it exists.
+set -euo pipefail
+
+TARGET=thumbv7em-none-eabihf
+
+if ! command -v rustup >/dev/null 2>&1; then
+    echo "install-tools: rustup is required (https://rustup.rs)" >&2
+    exit 1
+fi
+
+if rustup target list --installed | grep -qx "$TARGET"; then
+    echo "install-tools: target $TARGET present"
+else
+    rustup target add "$TARGET"
+fi
+
+for component in clippy rustfmt; do
+    if rustup component list --installed | grep -q "^${component}-"; then
+        echo "install-tools: $component present"
+    else
+        rustup component add "$component"
+    fi
+done
+
+if command -v qemu-system-arm >/dev/null 2>&1; then
+    echo "install-tools: $(qemu-system-arm --version | head -n 1)"
+else
+    sudo=""
+    if [ "$(id -u)" -ne 0 ]; then
+        sudo="sudo"
+    fi
+    $sudo apt-get update
+    $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends qemu-system-arm
+fi

@@ -1,0 +1,214 @@
+//! What the estimator reports each step, and where it sends it.
+//!
+//! A [`Record`] is one step's worth of telemetry: the observation, the innovation statistics
+//! and the tilt estimate, plus a [`u16`] bitset of [flags](MISSING) saying what was unusual about
+//! the step. The core hands records to a [`TelemetrySink`]; it never knows the transport. The
+//! firmware uses [`DefmtSink`] (feature `defmt`: one defmt frame per step, over semihosting or
+//! RTT); the host passes a closure that pushes into a `Vec`:
+//!
+//! ```
+//! use imu_ident::telemetry::{Record, TelemetrySink, MISSING};
+//! let mut got = Vec::new();
+//! let mut sink = |r: &Record| got.push(*r);
+//! sink.record(&Record { flags: MISSING, ..Record::default() });
+//! assert!(got[0].has(MISSING));
+//! ```
+//!
+//! Precision: time stays `f64` (an `f32` has a 1 s spacing at 1e7 s); everything else is `f32`,
+//! which is what the single-precision firmware computes and halves the bytes on the wire.
+
+use crate::filter::{Estimates, Innovation, UpdateStatus};
+use crate::Real;
+
+/// The observation was missing (NaN or infinite): the filter only predicted.
+pub const MISSING: u16 = 1 << 0;
+/// The innovation failed the chi-square gate and was not used.
+pub const GATED_OUTLIER: u16 = 1 << 1;
+/// The covariance lost positive definiteness and was reset to the initial one.
+pub const P_REPAIRED: u16 = 1 << 2;
+/// An identified parameter was clamped before it was fed back (set by the adaptation stage).
+pub const PARAM_CLAMPED: u16 = 1 << 3;
+/// The time since the previous row differs from the filter step by more than half a step.
+pub const TIME_JUMP: u16 = 1 << 4;
+/// The row itself is unusable in part: non-finite or non-increasing time, infinite observation.
+pub const BAD_INPUT: u16 = 1 << 5;
+
+/// Every flag with its name, in bit order (for reports and decoders).
+pub const FLAG_NAMES: [(u16, &str); 6] = [
+    (MISSING, "missing"),
+    (GATED_OUTLIER, "gated_outlier"),
+    (P_REPAIRED, "p_repaired"),
+    (PARAM_CLAMPED, "param_clamped"),
+    (TIME_JUMP, "time_jump"),
+    (BAD_INPUT, "bad_input"),
+];
+
+/// First word of the defmt telemetry frame written by [`Record::log`]; host decoders pick the
+/// telemetry frames out of the log stream by it.
+pub const WIRE_TAG: &str = "tlm";
+
+/// Field names of the defmt telemetry frame, in order. Each parameter of the frame is
+/// preceded by `name=`, so a decoder can check the layout instead of trusting positions.
+pub const WIRE_FIELDS: [&str; 9] = ["k", "t", "z", "nu", "s", "nis", "delta", "sd", "flags"];
+
+/// One filter step, as reported.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Record {
+    /// Step index since the start of the run (detects lost frames).
+    pub k: u32,
+    /// Time of the observation [s].
+    pub t: f64,
+    /// Observation [m/s] (NaN when missing).
+    pub z: f32,
+    /// Innovation `z - H x` [m/s] (NaN when missing).
+    pub innovation: f32,
+    /// Innovation variance `H P H^T + R` [m^2/s^2].
+    pub variance: f32,
+    /// Normalised innovation squared (NaN when missing).
+    pub nis: f32,
+    /// Tilt error estimate after the update [rad].
+    pub delta: f32,
+    /// Its standard deviation [rad].
+    pub sigma_delta: f32,
+    /// Bitset of [`MISSING`], [`GATED_OUTLIER`], [`P_REPAIRED`], [`PARAM_CLAMPED`],
+    /// [`TIME_JUMP`], [`BAD_INPUT`].
+    pub flags: u16,
+}
+
+impl Record {
+    /// Builds the record of step `k` at time `t` from the filter's outputs.
+    pub fn from_step<T: Real>(
+        k: u32,
+        t: f64,
+        z: T,
+        inn: &Innovation<T>,
+        est: &Estimates<T>,
+        flags: u16,
+    ) -> Self {
+        // Narrowing to f32 is the telemetry's precision, not the filter's.
+        let f = |x: T| x.as_f64() as f32;
+        Self {
+            k,
+            t,
+            z: f(z),
+            innovation: f(inn.innovation),
+            variance: f(inn.variance),
+            nis: f(inn.nis),
+            delta: f(est.delta),
+            sigma_delta: f(est.sigma_delta),
+            flags,
+        }
+    }
+
+    /// True when every bit of `flag` is set.
+    pub const fn has(&self, flag: u16) -> bool {
+        self.flags & flag == flag
+    }
+
+    /// Writes the record as one defmt frame, flat (one parameter per field, named as in
+    /// [`WIRE_FIELDS`]) so that a host decoder gets each value as its own fragment instead of
+    /// parsing the text of a nested struct.
+    #[cfg(feature = "defmt")]
+    pub fn log(&self) {
+        defmt::info!(
+            "tlm k={=u32} t={=f64} z={=f32} nu={=f32} s={=f32} nis={=f32} delta={=f32} sd={=f32} flags={=u16}",
+            self.k,
+            self.t,
+            self.z,
+            self.innovation,
+            self.variance,
+            self.nis,
+            self.delta,
+            self.sigma_delta,
+            self.flags
+        );
+    }
+}
+
+/// The flags implied by what the filter did with the observation. A
+/// [`BadInnovationVariance`](UpdateStatus::BadInnovationVariance) sets none here: it means `P`
+/// went non-finite, and the repair that follows it sets [`P_REPAIRED`].
+pub const fn status_flags(status: UpdateStatus) -> u16 {
+    match status {
+        UpdateStatus::Updated | UpdateStatus::BadInnovationVariance => 0,
+        UpdateStatus::Missing => MISSING,
+        UpdateStatus::Gated => GATED_OUTLIER,
+    }
+}
+
+/// The flags implied by a row's time `t`, given the previous finite time and the filter step.
+pub fn time_flags(prev_t: Option<f64>, t: f64, dt: f64) -> u16 {
+    if !t.is_finite() {
+        return BAD_INPUT;
+    }
+    let Some(prev) = prev_t else { return 0 };
+    let gap = t - prev;
+    if gap <= 0.0 {
+        // Time went backwards or stood still: the row is suspect and the clock jumped.
+        BAD_INPUT | TIME_JUMP
+    } else if (gap - dt).abs() > 0.5 * dt {
+        TIME_JUMP
+    } else {
+        0
+    }
+}
+
+/// Where records go. Implemented by the firmware's transport ([`DefmtSink`]) and, through the
+/// blanket implementation for closures, by anything on the host.
+pub trait TelemetrySink {
+    /// Takes one record. Transports that can lose data count the loss themselves; the step
+    /// index [`Record::k`] lets the receiver detect gaps.
+    fn record(&mut self, record: &Record);
+}
+
+impl<F: FnMut(&Record)> TelemetrySink for F {
+    fn record(&mut self, record: &Record) {
+        self(record)
+    }
+}
+
+/// Sends each record as one defmt frame (see [`Record::log`]) through whatever global defmt
+/// logger the binary links (defmt-semihosting under QEMU, defmt-rtt on a board).
+#[cfg(feature = "defmt")]
+#[derive(Debug, Clone, Copy, Default)]
+pub struct DefmtSink;
+
+#[cfg(feature = "defmt")]
+impl TelemetrySink for DefmtSink {
+    fn record(&mut self, record: &Record) {
+        record.log();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flags_are_distinct_bits() {
+        let mut all = 0u16;
+        for (bit, _) in FLAG_NAMES {
+            assert_eq!(bit.count_ones(), 1);
+            assert_eq!(all & bit, 0);
+            all |= bit;
+        }
+    }
+
+    #[test]
+    fn time_flags_cover_gaps_and_bad_clocks() {
+        assert_eq!(time_flags(None, 0.0, 1.0), 0);
+        assert_eq!(time_flags(Some(1.0e7), 1.0e7 + 1.0, 1.0), 0);
+        assert_eq!(time_flags(Some(1.0), 1.4, 1.0), TIME_JUMP);
+        assert_eq!(time_flags(Some(1.0), 4.0, 1.0), TIME_JUMP);
+        assert_eq!(time_flags(Some(2.0), 2.0, 1.0), BAD_INPUT | TIME_JUMP);
+        assert_eq!(time_flags(Some(2.0), f64::NAN, 1.0), BAD_INPUT);
+    }
+
+    #[test]
+    fn status_maps_to_flags() {
+        assert_eq!(status_flags(UpdateStatus::Updated), 0);
+        assert_eq!(status_flags(UpdateStatus::Missing), MISSING);
+        assert_eq!(status_flags(UpdateStatus::Gated), GATED_OUTLIER);
+    }
+}
