@@ -2,12 +2,17 @@
 //! simulator, scenarios, log replay, and the file formats of the README.
 
 pub mod allan;
+pub mod candidates;
 pub mod commands;
+pub mod compare;
+pub mod diagnose;
+pub mod hidden;
 pub mod log;
 pub mod mismatch;
 pub mod model_toml;
 pub mod output;
 pub mod qemu;
+pub mod report;
 pub mod runner;
 pub mod scenario;
 pub mod series;
