@@ -18,7 +18,7 @@ fn hostile() -> impl Strategy<Value = f32> {
         1 => Just(f32::MAX),
         1 => Just(f32::MIN_POSITIVE / 4.0),
         1 => Just(0.0f32),
-        1 => (-1e6f32..1e6),
+        1 => -1e6f32..1e6,
     ]
 }
 
@@ -84,5 +84,9 @@ fn recovers_after_a_six_hour_dropout() {
         assert!(!f.repair());
     }
     check_healthy(&f);
-    assert!(before > 0.03 && f.estimates().sigma_dv < 0.03, "sigma_dv {before} -> {}", f.estimates().sigma_dv);
+    assert!(
+        before > 0.03 && f.estimates().sigma_dv < 0.03,
+        "sigma_dv {before} -> {}",
+        f.estimates().sigma_dv
+    );
 }

@@ -23,9 +23,15 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() -> anyhow::Result<()> {
-    let seeds: u64 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(20);
+    let seeds: u64 = std::env::args()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(20);
     // Optional: first library index to run (to resume a long run); the adequate case runs last.
-    let first: usize = std::env::args().nth(2).and_then(|s| s.parse().ok()).unwrap_or(0);
+    let first: usize = std::env::args()
+        .nth(2)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
     let nominal = scenario::load("paper")?.to_core()?;
     println!("| hidden effect | named correctly | named or tied | ignoring it (tilt RMS / oracle, median) | after adding the named effect (median) | worst after |");
     println!("|---|---|---|---|---|---|");
@@ -46,13 +52,32 @@ fn main() -> anyhow::Result<()> {
             let want = case.map(|c| LIBRARY[c].label());
             let ok = named == want;
             correct += ok as usize;
-            tied += (ok || want.as_ref().is_some_and(|w| d.indistinguishable_from.contains(w))) as usize;
-            let oracle = compare::evaluate("oracle", &truth, &log)?.summary.tilt_rms.unwrap_or(f64::NAN);
-            let nom = compare::evaluate("nominal", &nominal, &log)?.summary.tilt_rms.unwrap_or(f64::NAN);
-            let fix = compare::evaluate("fixed", &d.suggested, &log)?.summary.tilt_rms.unwrap_or(f64::NAN);
+            tied += (ok
+                || want
+                    .as_ref()
+                    .is_some_and(|w| d.indistinguishable_from.contains(w)))
+                as usize;
+            let oracle = compare::evaluate("oracle", &truth, &log)?
+                .summary
+                .tilt_rms
+                .unwrap_or(f64::NAN);
+            let nom = compare::evaluate("nominal", &nominal, &log)?
+                .summary
+                .tilt_rms
+                .unwrap_or(f64::NAN);
+            let fix = compare::evaluate("fixed", &d.suggested, &log)?
+                .summary
+                .tilt_rms
+                .unwrap_or(f64::NAN);
             before.push(nom / oracle);
             after.push(fix / oracle);
-            eprintln!("{:?} seed {seed}: named {named:?} ties {:?} before {:.2} after {:.2}", want, d.indistinguishable_from, nom / oracle, fix / oracle);
+            eprintln!(
+                "{:?} seed {seed}: named {named:?} ties {:?} before {:.2} after {:.2}",
+                want,
+                d.indistinguishable_from,
+                nom / oracle,
+                fix / oracle
+            );
         }
         let label = case.map_or("none (adequate model)".into(), |c| LIBRARY[c].label());
         let worst = after.iter().copied().fold(f64::NAN, f64::max);

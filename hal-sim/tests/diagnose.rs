@@ -29,13 +29,37 @@ fn hidden_gyro_random_walk_is_named_and_fixed() {
     let truth = hidden::truth(&base, candidate, &mut rng).unwrap();
     let log = sim::simulate(&truth, 43_200, 41).unwrap();
     let d = diagnose::diagnose(&base, &without_truth(&log)).unwrap();
-    assert_eq!((d.verdict, d.sensor, d.effect), ("missing-effect", Some("gyro"), Some("random-walk")), "{}", d.explanation);
+    assert_eq!(
+        (d.verdict, d.sensor, d.effect),
+        ("missing-effect", Some("gyro"), Some("random-walk")),
+        "{}",
+        d.explanation
+    );
     assert!(d.evidence.log_likelihood_gain > d.evidence.penalty);
-    assert!(!d.evidence.failed_lags.is_empty(), "the nominal model's innovations are not white");
-    let oracle = compare::evaluate("oracle", &truth, &log).unwrap().summary.tilt_rms.unwrap();
-    let fixed = compare::evaluate("fixed", &d.suggested, &log).unwrap().summary.tilt_rms.unwrap();
-    let nominal_rms = compare::evaluate("nominal", &base, &log).unwrap().summary.tilt_rms.unwrap();
-    println!("tilt RMS: nominal {:.2}x, fixed {:.2}x the oracle", nominal_rms / oracle, fixed / oracle);
+    assert!(
+        !d.evidence.failed_lags.is_empty(),
+        "the nominal model's innovations are not white"
+    );
+    let oracle = compare::evaluate("oracle", &truth, &log)
+        .unwrap()
+        .summary
+        .tilt_rms
+        .unwrap();
+    let fixed = compare::evaluate("fixed", &d.suggested, &log)
+        .unwrap()
+        .summary
+        .tilt_rms
+        .unwrap();
+    let nominal_rms = compare::evaluate("nominal", &base, &log)
+        .unwrap()
+        .summary
+        .tilt_rms
+        .unwrap();
+    println!(
+        "tilt RMS: nominal {:.2}x, fixed {:.2}x the oracle",
+        nominal_rms / oracle,
+        fixed / oracle
+    );
     assert!(nominal_rms / oracle >= 1.2, "the hidden effect must matter");
     assert!(fixed / oracle <= 1.15);
 }
@@ -49,7 +73,12 @@ fn hidden_colored_observation_noise_is_named() {
     let truth = hidden::truth(&base, candidate, &mut rng).unwrap();
     let log = sim::simulate(&truth, 43_200, 42).unwrap();
     let d = diagnose::diagnose(&base, &without_truth(&log)).unwrap();
-    assert_eq!((d.sensor, d.effect), (Some("observation"), Some("gauss-markov")), "{}", d.explanation);
+    assert_eq!(
+        (d.sensor, d.effect),
+        (Some("observation"), Some("gauss-markov")),
+        "{}",
+        d.explanation
+    );
 }
 
 /// With no hidden effect the model is adequate (false-alarm bound in the module comment).
@@ -58,7 +87,11 @@ fn true_model_is_adequate() {
     let base = nominal();
     let log = sim::simulate(&base, 43_200, 43).unwrap();
     let d = diagnose::diagnose(&base, &log).unwrap();
-    let best = d.evidence.candidates.first().map(|c| (c.label.clone(), c.gain, c.penalty));
+    let best = d
+        .evidence
+        .candidates
+        .first()
+        .map(|c| (c.label.clone(), c.gain, c.penalty));
     assert_eq!(d.verdict, "adequate", "best candidate {best:?}");
     assert!(d.sensor.is_none() && d.suggested == base);
 }
@@ -85,11 +118,18 @@ fn diagnose_cli_writes_json_model_and_report() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("diagnosis.json")).unwrap()).unwrap();
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("diagnosis.json")).unwrap())
+            .unwrap();
     for field in ["verdict", "sensor", "effect", "params", "evidence"] {
         assert!(!j[field].is_null(), "diagnosis.json lacks {field}: {j}");
     }
-    for field in ["log_likelihood_gain", "penalty", "failed_lags", "failed_windows"] {
+    for field in [
+        "log_likelihood_gain",
+        "penalty",
+        "failed_lags",
+        "failed_windows",
+    ] {
         assert!(!j["evidence"][field].is_null(), "evidence lacks {field}");
     }
     let suggested = hal_sim::model_toml::load(&out.join("suggested-model.toml")).unwrap();
