@@ -7,6 +7,7 @@ pub mod commands;
 pub mod compare;
 pub mod diagnose;
 pub mod hidden;
+pub mod identify;
 pub mod log;
 pub mod mismatch;
 pub mod model_toml;

@@ -66,6 +66,33 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Identify a composite noise model of one axis of a static recording (ADEV + ACF).
+    Identify {
+        /// CSV or gzip CSV with a header row.
+        #[arg(long)]
+        series: PathBuf,
+        /// Column to analyse.
+        #[arg(long)]
+        column: String,
+        /// Sample rate [Hz].
+        #[arg(long)]
+        rate: f64,
+        /// Factor applied to every value (give the factor to SI for a usable model.toml).
+        #[arg(long, default_value_t = 1.0)]
+        scale: f64,
+        /// Block-average factor for the ACF.
+        #[arg(long, default_value_t = 1)]
+        decimate: usize,
+        /// gyro or accel (default: from the column name).
+        #[arg(long)]
+        sensor: Option<String>,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+    },
     /// Hide an effect in `paper` data, diagnose the nominal model, add the effect, rerun.
     Demo {
         /// The hidden effect, e.g. gyro/exp-cosine (default: drawn at random).
@@ -113,6 +140,44 @@ fn main() -> Result<()> {
         Command::Compare { log, model, out } => {
             print!("{}", commands::compare(&log, &model, &out)?);
             println!("report: {}", out.join("report.html").display());
+        }
+        Command::Identify {
+            series,
+            column,
+            rate,
+            scale,
+            decimate,
+            sensor,
+            out,
+            quiet,
+        } => {
+            use hal_sim::identify::{run, IdentifyArgs, SensorArg};
+            let sensor = match sensor.as_deref() {
+                None => None,
+                Some("gyro") => Some(SensorArg::Gyro),
+                Some("accel") => Some(SensorArg::Accel),
+                Some(o) => anyhow::bail!("--sensor: expected gyro or accel, found '{o}'"),
+            };
+            let args = IdentifyArgs {
+                series,
+                column,
+                rate,
+                scale,
+                decimate,
+                out,
+                quiet,
+                sensor,
+            };
+            let s = run(&args)?;
+            for c in &s.components {
+                println!("{}: {}", c.label, c.explanation);
+            }
+            println!(
+                "model inside the ADEV 95 % CI at {:.0} % of {} taus; wrote {}/adev.csv, acf.csv, model.toml, summary.json, adev.svg, acf.svg",
+                100.0 * s.inside_ci,
+                s.taus,
+                args.out.display()
+            );
         }
         Command::Demo {
             effect,
