@@ -36,7 +36,6 @@
 mod chi2;
 pub mod theory;
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 pub use chi2::chi2_quantile;
@@ -416,27 +415,18 @@ pub fn overlapping_avar(y: &[f64], m: usize) -> Result<f64, AllanError> {
 /// half-written table and a failed run leaves the previous one intact.
 pub fn write_adev_csv(path: impl AsRef<Path>, rows: &[AdevRow]) -> Result<(), AllanError> {
     let path = path.as_ref();
-    let err = |source| AllanError::Write {
-        path: path.to_path_buf(),
-        source,
-    };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(err)?;
-    {
-        let mut w = std::io::BufWriter::new(tmp.as_file_mut());
-        writeln!(w, "tau,adev,ci_lo,ci_hi").map_err(err)?;
+    crate::output::write_atomic(path, |w| {
+        writeln!(w, "tau,adev,ci_lo,ci_hi")?;
         for r in rows {
             // `{:e}` prints the shortest representation that round-trips exactly.
-            writeln!(w, "{:e},{:e},{:e},{:e}", r.tau, r.adev, r.ci_lo, r.ci_hi).map_err(err)?;
+            writeln!(w, "{:e},{:e},{:e},{:e}", r.tau, r.adev, r.ci_lo, r.ci_hi)?;
         }
-        w.flush().map_err(err)?;
-    }
-    tmp.as_file().sync_all().map_err(err)?;
-    tmp.persist(path).map_err(|e| err(e.error))?;
-    Ok(())
+        Ok(())
+    })
+    .map_err(|e| AllanError::Write {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(format!("{e:#}")),
+    })
 }
 
 #[cfg(test)]
@@ -568,7 +558,8 @@ mod tests {
             let v: Vec<f64> = line.split(',').map(|f| f.parse().unwrap()).collect();
             assert_eq!(v, vec![r.tau, r.adev, r.ci_lo, r.ci_hi]);
         }
-        let bad = dir.path().join("no/such/dir/adev.csv");
+        // Parent folders are created, but not under a regular file.
+        let bad = p.join("adev.csv");
         assert!(matches!(
             write_adev_csv(bad, &rows),
             Err(AllanError::Write { .. })

@@ -116,13 +116,14 @@ pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
     let (ll0, n) = log_likelihood(model, log)?;
     let penalty_per_param = 0.5 * (n.max(2) as f64).ln();
 
+    type Indexed = Vec<(usize, Candidate)>;
     let fits: Vec<Option<Fit>> = std::thread::scope(|s| {
-        let (even, odd): (Vec<(usize, Candidate)>, Vec<(usize, Candidate)>) = LIBRARY
+        let (even, odd): (Indexed, Indexed) = LIBRARY
             .iter()
             .copied()
             .enumerate()
             .partition(|(i, _)| i % 2 == 0);
-        let work = |part: Vec<(usize, Candidate)>| {
+        let work = |part: Indexed| {
             part.into_iter()
                 .map(|(i, c)| (i, fit::fit(model, c, log)))
                 .collect::<Vec<_>>()
