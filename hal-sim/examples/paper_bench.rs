@@ -21,11 +21,18 @@ fn main() -> anyhow::Result<()> {
     let truth = scenario::load("paper")?.to_core()?;
     let steps = 12 * 3600;
     let seeds: Vec<u64> = (1000..1020).collect();
-    let logs: Vec<_> = seeds.iter().map(|&s| sim::simulate(&truth, steps, s)).collect::<Result<_, _>>()?;
+    let logs: Vec<_> = seeds
+        .iter()
+        .map(|&s| sim::simulate(&truth, steps, s))
+        .collect::<Result<_, _>>()?;
     println!("| filter | tilt RMS [µrad] (median) | outside 3σ (median) | mean NIS (median) | ratio to oracle RMS |");
     println!("|---|---|---|---|---|");
     let mut oracle_rms = f64::NAN;
-    for (name, k) in [("oracle (true model)", 1.0), ("0.1x drift and diffusion", 0.1), ("10x drift and diffusion", 10.0)] {
+    for (name, k) in [
+        ("oracle (true model)", 1.0),
+        ("0.1x drift and diffusion", 0.1),
+        ("10x drift and diffusion", 10.0),
+    ] {
         let model = mismatch::scaled(&truth, k, k);
         let (mut rms, mut out, mut nis) = (vec![], vec![], vec![]);
         for log in &logs {
@@ -39,7 +46,13 @@ fn main() -> anyhow::Result<()> {
         if k == 1.0 {
             oracle_rms = r;
         }
-        println!("| {name} | {:.2} | {:.2} % | {:.3} | {:.2} |", r * 1e6, median(out) * 100.0, median(nis), r / oracle_rms);
+        println!(
+            "| {name} | {:.2} | {:.2} % | {:.3} | {:.2} |",
+            r * 1e6,
+            median(out) * 100.0,
+            median(nis),
+            r / oracle_rms
+        );
     }
 
     // f32 against f64 on the same observations, every step of every seed.
@@ -76,7 +89,10 @@ fn main() -> anyhow::Result<()> {
             std::hint::black_box(acc);
             rates.push(steps as f64 / t0.elapsed().as_secs_f64());
         }
-        println!("host steps per second ({label}, NX = 8): {:.3e} (median of 7)", median(rates));
+        println!(
+            "host steps per second ({label}, NX = 8): {:.3e} (median of 7)",
+            median(rates)
+        );
     }
     Ok(())
 }

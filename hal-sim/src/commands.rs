@@ -36,18 +36,43 @@ pub fn write_estimates(path: &Path, rows: &[EstimateRow]) -> Result<()> {
     })
 }
 
-/// `run`: replays a log through the filter with a fixed model; writes `estimates.csv` and
-/// `summary.json` into `out`.
-pub fn run(log_path: &Path, model_path: &Path, out: &Path) -> Result<Summary> {
+/// `run`: replays a log through the filter; writes `estimates.csv` and `summary.json` into
+/// `out`. With `adapt`, the adaptive loop identifies the noise model online, starting from the
+/// given model, and `params.csv` logs the parameters over time; the summary gains
+/// `identified_model` (model-TOML structure).
+pub fn run(
+    log_path: &Path,
+    model_path: &Path,
+    out: &Path,
+    adapt: bool,
+) -> Result<serde_json::Value> {
     let model = model_toml::load(model_path)?;
     let rows = log::read(log_path)?;
-    let (est, counts) = runner::run::<f64>(&model, &rows)?;
-    let summary = summarise(&rows, &est, counts);
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    write_estimates(&out.join("estimates.csv"), &est)?;
-    let json = serde_json::to_string_pretty(&summary)?;
-    write_string(&out.join("summary.json"), &json)?;
-    Ok(summary)
+    if !adapt {
+        let (est, counts) = runner::run::<f64>(&model, &rows)?;
+        let summary = summarise(&rows, &est, counts);
+        write_estimates(&out.join("estimates.csv"), &est)?;
+        let json = serde_json::to_value(&summary)?;
+        write_string(
+            &out.join("summary.json"),
+            &serde_json::to_string_pretty(&json)?,
+        )?;
+        return Ok(json);
+    }
+    let r = crate::adaptive::run::<f64>(&model, &rows, imu_ident::adapt::AdaptConfig::default())?;
+    let summary: Summary = summarise(&rows, &r.estimates, r.counts);
+    write_estimates(&out.join("estimates.csv"), &r.estimates)?;
+    crate::adaptive::write_params_csv(&out.join("params.csv"), &r.params)?;
+    let mut json = serde_json::to_value(&summary)?;
+    json["identified_model"] =
+        serde_json::to_value(model_toml::ModelToml::from_core(&r.final_model))?;
+    json["parameter_updates"] = r.updates.into();
+    write_string(
+        &out.join("summary.json"),
+        &serde_json::to_string_pretty(&json)?,
+    )?;
+    Ok(json)
 }
 
 /// `diagnose`: compares the model with the log, names the missing effect (if any), and writes

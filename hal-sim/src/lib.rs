@@ -1,11 +1,13 @@
 //! hal-sim: the host test bed of imu-ident. It drives the same no_std core on x86: a truth
 //! simulator, scenarios, log replay, and the file formats of the README.
 
+pub mod adaptive;
 pub mod allan;
 pub mod candidates;
 pub mod commands;
 pub mod compare;
 pub mod diagnose;
+pub mod figures;
 pub mod hidden;
 pub mod identify;
 pub mod log;

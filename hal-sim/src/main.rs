@@ -40,8 +40,19 @@ enum Command {
         /// Output folder.
         #[arg(long)]
         out: PathBuf,
+        /// Identify the noise model online (adaptive loop), starting from --model.
+        #[arg(long)]
+        adapt: bool,
     },
-
+    /// Reproduce the paper's Fig. 3-5 on the `paper` scenario as SVG files.
+    Figures {
+        /// Seed of the simulated log.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output folder.
+        #[arg(long, default_value = "out/figures")]
+        out: PathBuf,
+    },
     /// Compare a model with a log, name the missing effect, and suggest the corrected model.
     Diagnose {
         /// Log CSV.
@@ -122,9 +133,21 @@ fn main() -> Result<()> {
             let n = commands::simulate(&scenario, hours, seed, &out)?;
             eprintln!("wrote {n} rows to {}", out.display());
         }
-        Command::Run { log, model, out } => {
-            let s = commands::run(&log, &model, &out)?;
+        Command::Run {
+            log,
+            model,
+            out,
+            adapt,
+        } => {
+            let s = commands::run(&log, &model, &out, adapt)?;
             println!("{}", serde_json::to_string_pretty(&s)?);
+        }
+        Command::Figures { seed, out } => {
+            hal_sim::figures::write(&out, seed)?;
+            println!(
+                "wrote {}/fig3_acf.svg, fig4_mismatched.svg, fig5_adaptive.svg",
+                out.display()
+            );
         }
         Command::Diagnose { log, model, out } => {
             let d = commands::diagnose(&log, &model, &out)?;

@@ -1,0 +1,202 @@
+//! Issue 3 bars for the online identification (`imu_ident::adapt`) on the `paper` scenario,
+//! 12 h logs, 3 fixed seeds per start (the 20-seed medians are in
+//! `examples/adaptive_bench.rs` and bench/adaptive.md). Run in release for speed:
+//! `cargo test --release -p hal-sim --test adaptive` (about 20 s on one core).
+
+use hal_sim::adaptive::{self, gm_params, tilt_window, AdaptiveRun};
+use hal_sim::log::LogRow;
+use hal_sim::{mismatch, runner, scenario, sim};
+use imu_ident::adapt::AdaptConfig;
+use imu_ident::model::{InsModel, Sensor};
+
+const STEPS: usize = 12 * 3600;
+/// Hours 8-12 of the run, the window of the bars.
+const T0: f64 = 8.0 * 3600.0;
+const T1: f64 = 12.0 * 3600.0 + 1.0;
+/// The same seeds as the first three of the bench (bench seeds are 1000 + i).
+const SEEDS: [u64; 3] = [1000, 1001, 1002];
+/// The bar's starts: drift and diffusion scaled by (accel, gyro) factors; (1, 1) is the truth.
+const STARTS: [(f64, f64); 5] = [
+    (1.0, 1.0),
+    (0.1, 0.1),
+    (10.0, 10.0),
+    (0.1, 10.0),
+    (10.0, 0.1),
+];
+
+fn truth() -> InsModel<f64> {
+    scenario::load("paper").unwrap().to_core().unwrap()
+}
+
+fn median3(mut v: [f64; 3]) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[1]
+}
+
+/// (tilt RMS / oracle RMS, fraction outside 3 sigma) over hours 8-12, and the run.
+fn run(log: &[LogRow], start: &InsModel<f64>) -> (f64, f64, AdaptiveRun) {
+    let (oracle, _) = runner::run::<f64>(&truth(), log).unwrap();
+    let (orms, _) = tilt_window(log, &oracle, T0, T1).unwrap();
+    let r = adaptive::run::<f64>(start, log, AdaptConfig::default()).unwrap();
+    let (rms, out) = tilt_window(log, &r.estimates, T0, T1).unwrap();
+    (rms / orms, out, r)
+}
+
+/// The bar: from each start, the median over the seeds of the tilt RMS over hours 8-12 is at most
+/// 1.10x the oracle's (fixed true model on the same log), and the median fraction of steps outside
+/// 3 sigma at most 2 %. The bar is stated on medians over >= 20 seeds; with 3 seeds the median
+/// is noisier, but the 20-seed table has every start's median at <= 1.02 and its worst single
+/// seed at 1.18 (bench/adaptive.md), so a median of 3 above 1.10 would be a real regression.
+/// Started at the truth, the same bound checks that it does not drift away.
+#[test]
+fn wrong_starts_reach_the_oracle() {
+    let t = truth();
+    let logs: Vec<Vec<LogRow>> = SEEDS
+        .iter()
+        .map(|&s| sim::simulate(&t, STEPS, s).unwrap())
+        .collect();
+    for (ka, kg) in STARTS {
+        let start = mismatch::scaled(&t, ka, kg);
+        let mut ratio = [0.0; 3];
+        let mut out = [0.0; 3];
+        for (i, log) in logs.iter().enumerate() {
+            let (r, o, run) = run(log, &start);
+            println!(
+                "start ({ka}, {kg}) seed {}: ratio {r:.3}, outside {:.2} %, jumps {}, updates {}",
+                SEEDS[i],
+                o * 100.0,
+                run.jumps,
+                run.updates
+            );
+            ratio[i] = r;
+            out[i] = o;
+        }
+        let (mr, mo) = (median3(ratio), median3(out));
+        assert!(mr <= 1.10, "start ({ka}, {kg}): median tilt ratio {mr}");
+        assert!(
+            mo <= 0.02,
+            "start ({ka}, {kg}): median outside 3 sigma {mo}"
+        );
+    }
+}
+
+/// Identified parameters at 12 h from the farthest start (10x drift and diffusion on both
+/// sensors). Bound: |ln(estimate / truth)| <= 3 sqrt(3) CRB_12h, where CRB_12h is the Cramér-Rao
+/// standard deviation of ln(parameter) from 12 h of z (bench, mean information of 20 seeds: 0.058 sigma_a, 0.152 tau_a,
+/// 0.124 sigma_g, 0.377 tau_g); sqrt(3) because the exponential window (4 h) uses a third of the
+/// data, and 3 for a three-sigma bound on a median of three. Gyro tau is the weakest (the
+/// likelihood is flat along it: 3 sqrt(3) 0.36 = 1.9, a factor 6.5).
+#[test]
+fn identified_parameters_near_truth() {
+    let t = truth();
+    let start = mismatch::scaled(&t, 10.0, 10.0);
+    let crb = [0.058, 0.152, 0.124, 0.377];
+    let truth_v = [
+        gm_params(&t, Sensor::Accel).unwrap(),
+        gm_params(&t, Sensor::Gyro).unwrap(),
+    ];
+    let mut err = [[0.0; 3]; 4];
+    for (i, &seed) in SEEDS.iter().enumerate() {
+        let log = sim::simulate(&t, STEPS, seed).unwrap();
+        let r = adaptive::run::<f64>(&start, &log, AdaptConfig::default()).unwrap();
+        for (s, sensor) in [Sensor::Accel, Sensor::Gyro].into_iter().enumerate() {
+            let (tau, sigma) = gm_params(&r.final_model, sensor).unwrap();
+            err[2 * s][i] = (sigma / truth_v[s].1).ln();
+            err[2 * s + 1][i] = (tau / truth_v[s].0).ln();
+        }
+    }
+    for (k, e) in err.iter().enumerate() {
+        let m = median3(*e);
+        let bound = 3.0 * 3f64.sqrt() * crb[k];
+        println!("param {k}: ln errors {e:.3?}, median {m:.3}, bound {bound:.3}");
+        assert!(m.abs() <= bound, "param {k}: median ln error {m} > {bound}");
+    }
+}
+
+/// The Cramér-Rao bound from the bank's Fisher information: at the true model with adaptation
+/// off, `sqrt(diag(I^-1))` over 12 h must be finite and in the range the bench reports for 20
+/// seeds (0.058, 0.152, 0.124, 0.377 for ln sigma_a, ln tau_a, ln sigma_g, ln tau_g), within a
+/// factor 1.5 (the observed Fisher information of one log varies by about 1/sqrt(steps / tau)).
+#[test]
+fn crb_from_fisher_information() {
+    let t = truth();
+    let log = sim::simulate(&t, STEPS, SEEDS[0]).unwrap();
+    let cfg = AdaptConfig {
+        adapt: false,
+        ..AdaptConfig::default()
+    };
+    let r = adaptive::run::<f64>(&t, &log, cfg).unwrap();
+    let crb = r.crb.unwrap();
+    println!("CRB sqrt(diag(I^-1)) = {crb:.3?}");
+    for (c, e) in crb.iter().zip([0.058, 0.152, 0.124, 0.377]) {
+        assert!(*c > e / 1.5 && *c < e * 1.5, "{c} vs {e}");
+    }
+    assert_eq!(r.updates, 0);
+}
+
+/// Single precision (the Cortex-M4F) against double precision on 12-h runs from the (10, 10)
+/// start, seed 1001.
+/// 1. Numerics, parameters frozen (`adapt: false`, same bank and probes): the tilt estimates
+///    agree within 0.01 of their standard deviation at every step (measured 0.0013).
+/// 2. The adaptive loop: the same jumps, `ln` parameters within 0.05 (a small fraction of their
+///    Cramér-Rao bounds 0.06-0.38), tilt RMS over hours 8-12 within 2 %. Not step by step: the
+///    hysteresis turns rounding differences into slightly different move times, after which the
+///    two filters differ transiently (measured up to 0.23 sigma; ln tau_g 0.029 apart at 12 h).
+#[test]
+fn f32_tracks_f64() {
+    let t = truth();
+    let log = sim::simulate(&t, STEPS, SEEDS[1]).unwrap();
+    let start = mismatch::scaled(&t, 10.0, 10.0);
+    let frozen = AdaptConfig {
+        adapt: false,
+        ..AdaptConfig::default()
+    };
+    let f64_run = adaptive::run::<f64>(&start, &log, frozen).unwrap();
+    let f32_run = adaptive::run::<f32>(&start, &log, frozen).unwrap();
+    let worst = f64_run
+        .estimates
+        .iter()
+        .zip(&f32_run.estimates)
+        .map(|(a, b)| ((a.delta_hat - b.delta_hat) / a.sigma_delta).abs())
+        .fold(0.0, f64::max);
+    println!("frozen: max |delta_64 - delta_32| / sigma_delta = {worst:.4}");
+    assert!(worst < 0.01);
+
+    let r64 = adaptive::run::<f64>(&start, &log, AdaptConfig::default()).unwrap();
+    let r32 = adaptive::run::<f32>(&start, &log, AdaptConfig::default()).unwrap();
+    assert_eq!(r64.jumps, r32.jumps);
+    for (a, b) in r64.theta.iter().zip(r32.theta.iter()) {
+        assert!((a - b).abs() < 0.05, "theta {a} vs {b}");
+    }
+    let (rms64, _) = tilt_window(&log, &r64.estimates, T0, T1).unwrap();
+    let (rms32, _) = tilt_window(&log, &r32.estimates, T0, T1).unwrap();
+    println!("adaptive: tilt RMS h8-12 f64 {rms64:.4e}, f32 {rms32:.4e}");
+    assert!((rms32 / rms64 - 1.0).abs() < 0.02);
+}
+
+/// Missing observations (NaN) and a time gap: prediction only, no failure, and the identified
+/// model stays usable (every parameter finite, the tilt consistent: at most 2 % outside 3 sigma
+/// over hours 8-12).
+#[test]
+fn missing_observations_and_gaps() {
+    let t = truth();
+    let mut log = sim::simulate(&t, STEPS, SEEDS[2]).unwrap();
+    for (i, r) in log.iter_mut().enumerate() {
+        if i % 7 == 3 {
+            r.z = f64::NAN;
+        }
+    }
+    log.drain(20_000..20_300); // a 5-minute gap
+    let start = mismatch::scaled(&t, 0.1, 10.0);
+    let r = adaptive::run::<f64>(&start, &log, AdaptConfig::default()).unwrap();
+    assert!(r.counts.missing > 6000 && r.counts.gaps == 1);
+    assert!(r.theta.iter().all(|v| v.is_finite()));
+    let (_, out) = tilt_window(&log, &r.estimates, T0, T1).unwrap();
+    assert!(out <= 0.02, "outside 3 sigma {out}");
+    assert!(!r.params.is_empty());
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("params.csv");
+    adaptive::write_params_csv(&path, &r.params).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(text.starts_with("t,sensor,component,tau,sigma,beta"));
+}

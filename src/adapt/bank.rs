@@ -1,0 +1,442 @@
+//! The likelihood bank: the centre filter at `theta` and `2p` filters at `theta +- h e_i`, all
+//! run on the same observations, and the finite-difference score and Fisher information of the
+//! innovation log-likelihood they give.
+//!
+//! For a linear Gaussian model the log-likelihood of the observations is the sum over steps of
+//! (Schweppe 1965; Gupta & Mehra 1974)
+//!
+//! ```text
+//! l_k(theta) = -1/2 (ln S_k + nu_k^2 / S_k),   nu_k = z_k - H x_k|k-1,  S_k = H P_k|k-1 H^T + R
+//! ```
+//!
+//! and its expected Hessian per step (the Fisher information of one scalar innovation) is
+//!
+//! ```text
+//! I_ij = dS_i dS_j / (2 S^2) + dnu_i dnu_j / S.
+//! ```
+//!
+//! Each bank member is a Kalman filter that has run with its own parameters on all the data, so
+//! its innovations are the innovations of that model: the central differences
+//! `(l(theta + h e_i) - l(theta - h e_i)) / 2h`, `dnu_i = (nu_i+ - nu_i-) / 2h` and
+//! `dS_i = (S_i+ - S_i-) / 2h` include the sensitivity of the state estimate to `theta` (what
+//! the sensitivity equations of a Kalman filter would propagate), at the cost of one filter per
+//! perturbation instead of `n x p` sensitivity states.
+//!
+//! Members are small filters that loop over the `n` active states only (4 for the paper model,
+//! out of `NX = 8`): the full-size [`Ekf`](crate::filter::Ekf) would do 8 times the work in the
+//! covariance product. Their covariance update is the scalar-observation form `P - a a^T / S`,
+//! `a = P H^T`, symmetrised by construction.
+
+// Small fixed-size matrix code reads best with explicit indices (they mirror the equations).
+#![allow(clippy::needless_range_loop)]
+
+use crate::adapt::disc::discretise_model;
+use crate::adapt::mat::{self, Arr, Vec8};
+use crate::adapt::params::{apply, Specs, MAXP};
+use crate::adapt::AdaptError;
+use crate::model::{InsModel, Scaling, StateMat, StateVec, NX};
+use crate::Real;
+
+/// Number of bank members: the centre and two per parameter.
+pub const MEMBERS: usize = 2 * MAXP + 1;
+
+/// One filter of the bank (scaled states; only the leading `n` states are used). Row-major
+/// arrays and the slice kernels of [`mat`](crate::adapt::mat) keep the hot loop free of bounds
+/// checks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Member<T: Real> {
+    /// State estimate.
+    pub x: Vec8<T>,
+    /// Error covariance (row-major).
+    pub p: Arr<T>,
+    phi: Arr<T>,
+    qd: Arr<T>,
+}
+
+/// The innovation of one member at one step.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MemberInnovation<T> {
+    /// `nu = z - H x` (before the update).
+    pub nu: T,
+    /// `S = H P H^T + R`.
+    pub s: T,
+}
+
+impl<T: Real> Member<T> {
+    pub(crate) fn new(p0: &Arr<T>) -> Self {
+        let mut phi = mat::zeros();
+        for (i, row) in phi.iter_mut().enumerate() {
+            row[i] = T::one();
+        }
+        Self {
+            x: [T::zero(); NX],
+            p: *p0,
+            phi,
+            qd: mat::zeros(),
+        }
+    }
+
+    /// `x = Phi x`, `P = (Phi P) Phi^T + Qd` over the leading `n` states: `n^2` multiply-adds
+    /// for the state, `n^3 + n^2 (n+1)/2` for the covariance (16 + 64 + 40 at `n = 4`).
+    /// Dispatched to a kernel with `n` as a compile-time constant, so that the dot products are
+    /// unrolled (measured with callgrind: ~3x fewer instructions than a run-time `n` loop).
+    pub(crate) fn predict(&mut self, n: usize) {
+        let (x, p, phi, qd) = (&mut self.x, &mut self.p, &self.phi, &self.qd);
+        match n {
+            0 | 1 => mat::predict_c::<T, 1>(x, p, phi, qd),
+            2 => mat::predict_c::<T, 2>(x, p, phi, qd),
+            3 => mat::predict_c::<T, 3>(x, p, phi, qd),
+            4 => mat::predict_c::<T, 4>(x, p, phi, qd),
+            5 => mat::predict_c::<T, 5>(x, p, phi, qd),
+            6 => mat::predict_c::<T, 6>(x, p, phi, qd),
+            7 => mat::predict_c::<T, 7>(x, p, phi, qd),
+            _ => mat::predict_c::<T, NX>(x, p, phi, qd),
+        }
+    }
+
+    /// Scalar update with `z` (finite), row `h`, noise variance `r`; returns `(nu, S)` or `None`
+    /// (nothing changed) if `S` is not finite and positive. `P - a a^T / S` with `a = P H^T`
+    /// (Joseph's form reduces to this for the optimal gain of a scalar observation):
+    /// `n^2 + n (n+1)/2 + 3n` multiply-adds.
+    pub(crate) fn update(
+        &mut self,
+        n: usize,
+        z: T,
+        h: &Vec8<T>,
+        r: T,
+    ) -> Option<MemberInnovation<T>> {
+        let (x, p) = (&mut self.x, &mut self.p);
+        let out = match n {
+            0 | 1 => mat::update_c::<T, 1>(x, p, h, z, r),
+            2 => mat::update_c::<T, 2>(x, p, h, z, r),
+            3 => mat::update_c::<T, 3>(x, p, h, z, r),
+            4 => mat::update_c::<T, 4>(x, p, h, z, r),
+            5 => mat::update_c::<T, 5>(x, p, h, z, r),
+            6 => mat::update_c::<T, 6>(x, p, h, z, r),
+            7 => mat::update_c::<T, 7>(x, p, h, z, r),
+            _ => mat::update_c::<T, NX>(x, p, h, z, r),
+        };
+        out.map(|(nu, s)| MemberInnovation { nu, s })
+    }
+
+    /// Sets the transition and process noise.
+    pub(crate) fn set_system(&mut self, phi: &Arr<T>, qd: &Arr<T>) {
+        self.phi = *phi;
+        self.qd = *qd;
+    }
+
+    /// The state estimate as an nalgebra vector.
+    pub fn state(&self) -> StateVec<T> {
+        mat::to_vec(&self.x)
+    }
+
+    /// The covariance as an nalgebra matrix.
+    pub fn covariance(&self) -> StateMat<T> {
+        mat::to_mat(&self.p)
+    }
+
+    /// Log-likelihood of one innovation, `-1/2 (ln S + nu^2 / S)`.
+    pub fn loglik(i: &MemberInnovation<T>) -> T {
+        -T::lit(0.5) * (i.s.ln() + i.nu * i.nu / i.s)
+    }
+
+    /// Cheap health test: finite state, finite positive diagonal of `P`.
+    pub(crate) fn healthy(&self, n: usize) -> bool {
+        let mut ok = true;
+        for i in 0..n.min(NX) {
+            let d = self.p[i][i];
+            // `d > 0` is false for NaN; `is_finite` rejects +inf.
+            ok &= d > T::zero() && d.is_finite() && self.x[i].is_finite();
+        }
+        ok
+    }
+}
+
+/// Score and Fisher information accumulated over a number of steps.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Information<T> {
+    /// `g_i = sum_k d l_k / d theta_i`.
+    pub score: [T; MAXP],
+    /// `I_ij = sum_k (dS_i dS_j / 2S^2 + dnu_i dnu_j / S)`.
+    pub fisher: [[T; MAXP]; MAXP],
+    /// Number of steps summed.
+    pub steps: u32,
+}
+
+impl<T: Real> Default for Information<T> {
+    fn default() -> Self {
+        Self {
+            score: [T::zero(); MAXP],
+            fisher: [[T::zero(); MAXP]; MAXP],
+            steps: 0,
+        }
+    }
+}
+
+/// The `2p + 1` filters and their finite-difference likelihood derivatives.
+#[derive(Debug, Clone)]
+pub struct Bank<T: Real> {
+    members: [Member<T>; MEMBERS],
+    p0: Arr<T>,
+    h: Vec8<T>,
+    r: T,
+    n: usize,
+    np: usize,
+    step: T,
+    scale: Scaling<T>,
+    base: InsModel<T>,
+    specs: Specs,
+    /// Parameters every member has been discretised for.
+    applied: [T; MAXP],
+    /// Parameters being moved to; members `next..` still have the `applied` ones.
+    target: [T; MAXP],
+    next: usize,
+    /// Member repairs since the start (a member's `x, P` replaced by the centre's).
+    pub repairs: u32,
+}
+
+/// What the bank did with one observation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BankStep<T> {
+    /// The centre filter's innovation (`None`: missing observation or bad `S`).
+    pub centre: Option<MemberInnovation<T>>,
+    /// Whether the step's derivatives were added to the information.
+    pub accumulated: bool,
+    /// A staggered re-discretisation failed: the bank rolls back to the last parameters every
+    /// member had (see [`Bank::theta`]).
+    pub failed: bool,
+}
+
+impl<T: Real> Bank<T> {
+    /// A bank for `model` with `np` parameters perturbed by `+-step` (log scale). The state
+    /// scaling is chosen once from `model` and kept, so that `x, P` stay meaningful when the
+    /// parameters move.
+    pub fn new(model: &InsModel<T>, specs: &Specs, step: T) -> Result<Self, AdaptError> {
+        let scale = model.scaling().map_err(AdaptError::Model)?;
+        let sys = model.continuous(&scale).map_err(AdaptError::Model)?;
+        let p0 = mat::from_mat(&sys.P0);
+        let m = Member::new(&p0);
+        let mut h = [T::zero(); NX];
+        for (hi, v) in h.iter_mut().zip(sys.H.iter()) {
+            *hi = *v;
+        }
+        Ok(Self {
+            members: core::array::from_fn(|_| m.clone()),
+            p0,
+            h,
+            r: model.sigma_v * model.sigma_v,
+            n: sys.n,
+            np: specs.len().min(MAXP),
+            step,
+            scale,
+            base: model.clone(),
+            specs: specs.clone(),
+            applied: [T::zero(); MAXP],
+            target: [T::zero(); MAXP],
+            next: MEMBERS,
+            repairs: 0,
+        })
+    }
+
+    /// The parameters the bank is at (or moving to, while [`moving`](Self::moving)).
+    pub fn theta(&self) -> &[T; MAXP] {
+        &self.target
+    }
+
+    /// True while a staggered move is in progress (some members still have the old parameters).
+    pub fn moving(&self) -> bool {
+        self.next < 2 * self.np + 1
+    }
+
+    /// The state scaling (physical = scale x scaled).
+    pub fn scale(&self) -> &Scaling<T> {
+        &self.scale
+    }
+
+    /// Number of active states.
+    pub fn active(&self) -> usize {
+        self.n
+    }
+
+    /// The centre filter.
+    pub fn centre(&self) -> &Member<T> {
+        &self.members[0]
+    }
+
+    /// The initial covariance.
+    pub fn p0(&self) -> &Arr<T> {
+        &self.p0
+    }
+
+    /// The observation row and noise variance.
+    pub fn observation(&self) -> (&Vec8<T>, T) {
+        (&self.h, self.r)
+    }
+
+    /// Copies `x, P` into every member (after a jump to another parameter point).
+    pub fn reset_states(&mut self, x: &Vec8<T>, p: &Arr<T>) {
+        for m in self.members.iter_mut() {
+            m.x = *x;
+            m.p = *p;
+        }
+    }
+
+    /// `(Phi, Qd)` of member `m` for the centre `theta`: member `2i+1` at `+h e_i`, `2i+2` at
+    /// `-h e_i`.
+    fn member_system(&self, m: usize, theta: &[T; MAXP]) -> Result<(Arr<T>, Arr<T>), AdaptError> {
+        let mut th = *theta;
+        if m > 0 {
+            let i = (m - 1) / 2;
+            let sign = if m % 2 == 1 { self.step } else { -self.step };
+            if let Some(t) = th.get_mut(i) {
+                *t += sign;
+            }
+        }
+        let model = apply(&self.base, &self.specs, &th).ok_or(AdaptError::BadParameter)?;
+        discretise_model(&model, &self.scale).map_err(AdaptError::Model)
+    }
+
+    /// Re-discretises every member for the centre `theta` at once, keeping each member's `x`
+    /// and `P`. On error nothing is changed. (At start-up and on a jump to a probe; the
+    /// Gauss-Newton moves use [`request_theta`](Self::request_theta).)
+    pub fn set_theta(&mut self, theta: &[T; MAXP]) -> Result<(), AdaptError> {
+        let mut disc: [(Arr<T>, Arr<T>); MEMBERS] =
+            core::array::from_fn(|_| (mat::zeros(), mat::zeros()));
+        for (m, d) in disc.iter_mut().enumerate().take(2 * self.np + 1) {
+            *d = self.member_system(m, theta)?;
+        }
+        for (mem, (phi, qd)) in self.members.iter_mut().zip(disc.iter()) {
+            mem.set_system(phi, qd);
+        }
+        self.applied = *theta;
+        self.target = *theta;
+        self.next = MEMBERS;
+        Ok(())
+    }
+
+    /// Moves to `theta` one member per step (centre first), so that no step pays for more than
+    /// one re-discretisation; the derivatives are not accumulated until every member has moved
+    /// (`2p + 1` steps), since until then they would mix two parameter points.
+    pub fn request_theta(&mut self, theta: &[T; MAXP]) {
+        self.target = *theta;
+        self.next = 0;
+    }
+
+    /// One staggered re-discretisation; false if it failed (then the bank rolls back to the
+    /// parameters every member had, again one member per step).
+    fn advance(&mut self, used: usize) -> bool {
+        if self.next >= used {
+            return true;
+        }
+        let m = self.next;
+        match self.member_system(m, &self.target) {
+            Ok((phi, qd)) => {
+                if let Some(mem) = self.members.get_mut(m) {
+                    mem.set_system(&phi, &qd);
+                }
+                self.next += 1;
+                if self.next >= used {
+                    self.applied = self.target;
+                    self.next = MEMBERS;
+                }
+                true
+            }
+            Err(_) => {
+                self.target = self.applied;
+                self.next = 0;
+                false
+            }
+        }
+    }
+
+    /// Runs every member one step with observation `z` (non-finite: missing, predict only) and
+    /// adds the step's score and Fisher information to `info` when all members updated.
+    pub fn step(&mut self, z: T, info: &mut Information<T>) -> BankStep<T> {
+        let used = 2 * self.np + 1;
+        let failed = !self.advance(used);
+        let mut inn = [MemberInnovation::<T>::default(); MEMBERS];
+        let mut all = z.is_finite() && !self.moving();
+        let mut centre = None;
+        for (m, (mem, out)) in self.members.iter_mut().zip(inn.iter_mut()).enumerate() {
+            if m >= used {
+                break;
+            }
+            mem.predict(self.n);
+            if z.is_finite() {
+                match mem.update(self.n, z, &self.h, self.r) {
+                    Some(i) => {
+                        *out = i;
+                        if m == 0 {
+                            centre = Some(i);
+                        }
+                    }
+                    None => all = false,
+                }
+            }
+        }
+        self.repair(used);
+        let accumulated = all && self.accumulate(&inn, info);
+        BankStep {
+            centre,
+            accumulated,
+            failed,
+        }
+    }
+
+    /// Central differences of `l`, `nu`, `S` into `info`; false (nothing added) if any term is
+    /// not finite.
+    fn accumulate(&self, inn: &[MemberInnovation<T>; MEMBERS], info: &mut Information<T>) -> bool {
+        let half = T::lit(0.5);
+        let inv2h = half / self.step;
+        let c = inn[0];
+        let mut dl = [T::zero(); MAXP];
+        let mut dnu = [T::zero(); MAXP];
+        let mut ds = [T::zero(); MAXP];
+        for i in 0..self.np {
+            let (pl, mi) = (inn[2 * i + 1], inn[2 * i + 2]);
+            // l+ - l- = -1/2 (ln(S+/S-) + nu+^2/S+ - nu-^2/S-): one logarithm per parameter.
+            let d = -half * ((pl.s / mi.s).ln() + pl.nu * pl.nu / pl.s - mi.nu * mi.nu / mi.s);
+            dl[i] = d * inv2h;
+            dnu[i] = (pl.nu - mi.nu) * inv2h;
+            ds[i] = (pl.s - mi.s) * inv2h;
+        }
+        if !(dl.iter().chain(dnu.iter()).chain(ds.iter())).all(|v| v.is_finite()) {
+            return false;
+        }
+        let inv_s = T::one() / c.s;
+        let w = half * inv_s * inv_s;
+        for i in 0..self.np {
+            info.score[i] += dl[i];
+            for j in 0..self.np {
+                info.fisher[i][j] += w * ds[i] * ds[j] + inv_s * dnu[i] * dnu[j];
+            }
+        }
+        info.steps = info.steps.saturating_add(1);
+        true
+    }
+
+    /// Replaces an unhealthy member's `x, P` by the centre's (or every member's by the initial
+    /// covariance if the centre itself is unhealthy).
+    fn repair(&mut self, used: usize) {
+        let n = self.n;
+        if !self.members[0].healthy(n) {
+            for m in self.members.iter_mut() {
+                m.x = [T::zero(); NX];
+                m.p = self.p0;
+            }
+            self.repairs = self.repairs.saturating_add(1);
+            return;
+        }
+        let (x0, p0) = (self.members[0].x, self.members[0].p);
+        for m in self.members.iter_mut().take(used).skip(1) {
+            if !m.healthy(n) {
+                m.x = x0;
+                m.p = p0;
+                self.repairs = self.repairs.saturating_add(1);
+            }
+        }
+    }
+}

@@ -1,0 +1,162 @@
+//! The identified parameter vector `theta` and its mapping to and from an [`InsModel`].
+//!
+//! Every identified quantity is a positive scale (a standard deviation, a correlation time, a
+//! noise density), so `theta` holds their natural logarithms: a finite-difference step `h` is then
+//! a relative perturbation `exp(h)`, the Fisher information is dimensionless, and a rate limit of
+//! `ln 2` means "at most a factor two per update" whatever the units.
+//!
+//! Which quantities are identified follows from the model's component kinds, accelerometer first,
+//! then gyro, in component order, until [`MAXP`] parameters are taken:
+//!
+//! | kind | parameters |
+//! |---|---|
+//! | Gauss-Markov | `ln sigma`, `ln tau` |
+//! | exponential-cosine | `ln sigma`, `ln tau` (`beta` kept) |
+//! | random walk | `ln q` |
+//! | white noise | `ln density` |
+//! | random constant | none (a constant has no noise to identify) |
+
+use crate::model::{Component, InsModel, Sensor};
+use crate::Real;
+use heapless::Vec;
+
+/// Largest number of identified parameters (the bank runs `2 MAXP + 1` filters).
+pub const MAXP: usize = 4;
+
+/// What one entry of `theta` is the logarithm of.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ParamKind {
+    /// Stationary standard deviation (Gauss-Markov, exponential-cosine).
+    Sigma,
+    /// Correlation time `tau = 1/alpha` [s].
+    Tau,
+    /// Random-walk intensity `q`.
+    Q,
+    /// White-noise density.
+    Density,
+}
+
+/// One identified parameter: which component of which sensor, and which of its quantities.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ParamSpec {
+    /// The sensor the component belongs to.
+    pub sensor: Sensor,
+    /// The component's index in that sensor's list.
+    pub index: u8,
+    /// The quantity.
+    pub kind: ParamKind,
+}
+
+/// The list of identified parameters of a model.
+pub type Specs = Vec<ParamSpec, MAXP>;
+
+/// The specs of every identifiable quantity of `model`, in `theta` order (at most [`MAXP`]).
+pub fn specs<T: Real>(model: &InsModel<T>) -> Specs {
+    let mut out = Specs::new();
+    let sensors = [(Sensor::Accel, &model.accel), (Sensor::Gyro, &model.gyro)];
+    for (sensor, comps) in sensors {
+        for (i, c) in comps.iter().enumerate() {
+            let kinds: &[ParamKind] = match c {
+                Component::GaussMarkov(_) | Component::ExpCosine(_) => {
+                    &[ParamKind::Sigma, ParamKind::Tau]
+                }
+                Component::RandomWalk(_) => &[ParamKind::Q],
+                Component::White(_) => &[ParamKind::Density],
+                Component::RandomConstant(_) => &[],
+            };
+            for &kind in kinds {
+                let index = u8::try_from(i).unwrap_or(u8::MAX);
+                // A full list simply stops taking parameters: the rest stay fixed.
+                let _ = out.push(ParamSpec {
+                    sensor,
+                    index,
+                    kind,
+                });
+            }
+        }
+    }
+    out
+}
+
+fn component_mut<'a, T>(
+    model: &'a mut InsModel<T>,
+    spec: &ParamSpec,
+) -> Option<&'a mut Component<T>> {
+    let i = usize::from(spec.index);
+    match spec.sensor {
+        Sensor::Accel => model.accel.get_mut(i),
+        Sensor::Gyro => model.gyro.get_mut(i),
+        Sensor::Observation => None,
+    }
+}
+
+/// The physical value (not its logarithm) of one parameter in `model`.
+pub fn value<T: Real>(model: &InsModel<T>, spec: &ParamSpec) -> Option<T> {
+    let i = usize::from(spec.index);
+    let c = match spec.sensor {
+        Sensor::Accel => model.accel.get(i),
+        Sensor::Gyro => model.gyro.get(i),
+        Sensor::Observation => None,
+    }?;
+    match (c, spec.kind) {
+        (Component::GaussMarkov(g), ParamKind::Sigma) => Some(g.sigma),
+        (Component::GaussMarkov(g), ParamKind::Tau) => Some(g.tau),
+        (Component::ExpCosine(e), ParamKind::Sigma) => Some(e.sigma),
+        (Component::ExpCosine(e), ParamKind::Tau) => Some(e.tau),
+        (Component::RandomWalk(r), ParamKind::Q) => Some(r.q),
+        (Component::White(w), ParamKind::Density) => Some(w.density),
+        _ => None,
+    }
+}
+
+/// `theta` of `model` for `specs` (natural logarithms; unused entries zero).
+pub fn theta_of<T: Real>(model: &InsModel<T>, specs: &Specs) -> [T; MAXP] {
+    let mut th = [T::zero(); MAXP];
+    for (t, s) in th.iter_mut().zip(specs.iter()) {
+        *t = value(model, s).map_or(T::zero(), |v| v.ln());
+    }
+    th
+}
+
+/// Writes `exp(theta)` into a copy of `base`. Returns `None` if a spec does not match the
+/// model (the layout changed) or a value is not finite.
+pub fn apply<T: Real>(base: &InsModel<T>, specs: &Specs, theta: &[T; MAXP]) -> Option<InsModel<T>> {
+    let mut m = base.clone();
+    for (s, &t) in specs.iter().zip(theta.iter()) {
+        let v = t.exp();
+        if !(v.is_finite() && v > T::zero()) {
+            return None;
+        }
+        let c = component_mut(&mut m, s)?;
+        match (c, s.kind) {
+            (Component::GaussMarkov(g), ParamKind::Sigma) => g.sigma = v,
+            (Component::GaussMarkov(g), ParamKind::Tau) => g.tau = v,
+            (Component::ExpCosine(e), ParamKind::Sigma) => e.sigma = v,
+            (Component::ExpCosine(e), ParamKind::Tau) => e.tau = v,
+            (Component::RandomWalk(r), ParamKind::Q) => r.q = v,
+            (Component::White(w), ParamKind::Density) => w.density = v,
+            _ => return None,
+        }
+    }
+    Some(m)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_has_four_parameters_and_round_trips() {
+        let m = InsModel::<f64>::paper();
+        let s = specs(&m);
+        assert_eq!(s.len(), 4);
+        assert_eq!(s[1].kind, ParamKind::Tau);
+        assert_eq!(s[2].sensor, Sensor::Gyro);
+        let th = theta_of(&m, &s);
+        assert!((th[1] - 100f64.ln()).abs() < 1e-12);
+        let back = apply(&m, &s, &th).unwrap();
+        assert!((value(&back, &s[3]).unwrap() - 1200.0).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,226 @@
+//! Basin selection: a few fixed "probe" filters at coarse multiples of the correlation times
+//! around the current parameters, compared with the centre filter by log-likelihood.
+//!
+//! Why: the innovation likelihood of the paper model is multi-modal. Accelerometer and gyro
+//! errors are told apart only by their spectral shapes (both end up in the velocity error, the
+//! gyro through the tilt), so from a start with correlation times 10x too short the local ascent
+//! settles on "white accelerometer + fast gyro" (tau_a at its lower bound), 30-45 nats below the
+//! true model over 12 h (measured, bench/adaptive.md). A local method cannot leave that basin;
+//! comparing a handful of distant points by their likelihood can (a small MMAE bank used only
+//! to choose where the Gauss-Newton recursion starts from).
+//!
+//! The grid: for each (sigma, tau) pair of the first two Gauss-Markov-like components,
+//! `tau * M^s` with `sigma * M^(-s/2)`, i.e. keeping the low-frequency power `2 sigma^2 tau` of
+//! the component, which long data pin down well; `s` on two rings, `{-1, 0, 1}^2` and
+//! `{-2, 0, 2}^2` without the centre: 16 probes for the paper model (`M = 3`: multipliers 3 and
+//! 9, so that any start within 30x has a probe within a factor 1.7 of the truth on each axis;
+//! a single 8x ring failed from 3x starts, between its points). Every `epoch` steps the probes
+//! are re-anchored at the centre (their `x, P` copied from it, one discretisation per step to
+//! bound the worst step), and after a warm-up the log-likelihoods `sum l_k` of the centre and of
+//! each probe are accumulated until the end of the epoch, when the best probe wins if it beats
+//! the centre by the margin.
+
+use crate::adapt::bank::{Member, MemberInnovation};
+use crate::adapt::disc::discretise_model;
+use crate::adapt::guard::Bounds;
+use crate::adapt::mat::{Arr, Vec8};
+use crate::adapt::params::{apply, ParamKind, Specs, MAXP};
+use crate::adapt::AdaptError;
+use crate::model::{InsModel, Scaling};
+use crate::Real;
+
+/// Largest number of probes: two rings (multipliers `M` and `M^2`) of `3^2 - 1` each.
+pub const PROBES: usize = 16;
+
+/// The probe filters and their likelihood sums.
+#[derive(Debug, Clone)]
+pub struct Probes<T: Real> {
+    members: [Member<T>; PROBES],
+    theta: [[T; MAXP]; PROBES],
+    ll: [T; PROBES],
+    ll_centre: T,
+    count: usize,
+    /// Probes `ready..count` still wait for their discretisation.
+    ready: usize,
+    age: u32,
+    offsets: [[i8; 2]; PROBES],
+    pairs: [(usize, usize); 2],
+    npairs: usize,
+    log_m: T,
+}
+
+/// A probe that beat the centre.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Winner<T: Real> {
+    /// Its parameters.
+    pub theta: [T; MAXP],
+    /// Its state estimate (scaled states).
+    pub x: Vec8<T>,
+    /// Its covariance (row-major).
+    pub p: Arr<T>,
+    /// Its log-likelihood advantage over the centre in the epoch [nats].
+    pub gain: T,
+}
+
+impl<T: Real> Probes<T> {
+    /// Probes for `specs` with multiplier `m` (> 1) on the correlation times.
+    pub fn new(specs: &Specs, m: T, p0: &Arr<T>) -> Self {
+        let mut pairs = [(0usize, 0usize); 2];
+        let mut npairs = 0;
+        for (i, s) in specs.iter().enumerate() {
+            if s.kind != ParamKind::Tau || npairs >= 2 {
+                continue;
+            }
+            let sig = specs.iter().position(|o| {
+                o.kind == ParamKind::Sigma && o.sensor == s.sensor && o.index == s.index
+            });
+            if let Some(j) = sig {
+                pairs[npairs] = (i, j);
+                npairs += 1;
+            }
+        }
+        let mut offsets = [[0i8; 2]; PROBES];
+        let mut count = 0;
+        let range: &[i8] = &[-1, 0, 1];
+        let second: &[i8] = if npairs >= 2 { range } else { &[0] };
+        for ring in [1i8, 2] {
+            for &a in range {
+                for &b in second {
+                    if (a, b) != (0, 0) && npairs > 0 && count < PROBES {
+                        offsets[count] = [a * ring, b * ring];
+                        count += 1;
+                    }
+                }
+            }
+        }
+        let mem = Member::new(p0);
+        Self {
+            members: core::array::from_fn(|_| mem.clone()),
+            theta: [[T::zero(); MAXP]; PROBES],
+            ll: [T::zero(); PROBES],
+            ll_centre: T::zero(),
+            count,
+            ready: count,
+            age: 0,
+            offsets,
+            pairs,
+            npairs,
+            log_m: m.ln(),
+        }
+    }
+
+    /// Number of probes.
+    pub fn len(&self) -> usize {
+        self.count
+    }
+
+    /// True when there is no probe (nothing to identify a correlation time of).
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// Parameters of probe `j`.
+    pub fn theta(&self, j: usize) -> Option<&[T; MAXP]> {
+        self.theta.get(j).filter(|_| j < self.count)
+    }
+
+    /// Re-anchors the grid at `centre` (clamped into `bounds`); the members are re-discretised
+    /// one per step by [`step`](Self::step) and start from the centre's `x, P` then.
+    pub fn anchor(&mut self, centre: &[T; MAXP], bounds: &Bounds<T>, p: usize) {
+        for (th, off) in self
+            .theta
+            .iter_mut()
+            .zip(self.offsets.iter())
+            .take(self.count)
+        {
+            let mut t = *centre;
+            for (k, &(it, is)) in self.pairs.iter().enumerate().take(self.npairs) {
+                let s = T::lit(f64::from(off[k])) * self.log_m;
+                t[it] += s;
+                t[is] -= T::lit(0.5) * s;
+            }
+            *th = bounds.clamp(&t, p);
+        }
+        self.ready = 0;
+        self.age = 0;
+        self.ll = [T::zero(); PROBES];
+        self.ll_centre = T::zero();
+    }
+
+    /// One step of every ready probe, one pending discretisation, and the likelihood sums after
+    /// `warmup` steps of the epoch. `centre_inn` is the centre's innovation of this step.
+    #[allow(clippy::too_many_arguments)]
+    pub fn step(
+        &mut self,
+        z: T,
+        centre: (&Member<T>, Option<MemberInnovation<T>>),
+        obs: (&Vec8<T>, T, usize),
+        base: &InsModel<T>,
+        specs: &Specs,
+        scale: &Scaling<T>,
+        warmup: u32,
+    ) -> Result<(), AdaptError> {
+        let (h, r, n) = obs;
+        if self.ready < self.count {
+            let j = self.ready;
+            self.ready += 1;
+            let th = self.theta.get(j).ok_or(AdaptError::BadParameter)?;
+            let model = apply(base, specs, th).ok_or(AdaptError::BadParameter)?;
+            let (phi, qd) = discretise_model(&model, scale).map_err(AdaptError::Model)?;
+            if let Some(m) = self.members.get_mut(j) {
+                m.set_system(&phi, &qd);
+                m.x = centre.0.x;
+                m.p = centre.0.p;
+            }
+        }
+        self.age = self.age.saturating_add(1);
+        let counting = self.age > warmup && self.ready >= self.count && z.is_finite();
+        let c = centre.1;
+        let all = counting && c.is_some();
+        if let (true, Some(ci)) = (all, c) {
+            self.ll_centre += Member::loglik(&ci);
+        }
+        for (m, ll) in self
+            .members
+            .iter_mut()
+            .zip(self.ll.iter_mut())
+            .take(self.ready)
+        {
+            m.predict(n);
+            if z.is_finite() {
+                match m.update(n, z, h, r) {
+                    Some(i) if all => *ll += Member::loglik(&i),
+                    Some(_) => {}
+                    // A broken probe can never win.
+                    None => *ll = T::lit(-1e30),
+                }
+            }
+            if !m.healthy(n) {
+                m.x = centre.0.x;
+                m.p = centre.0.p;
+                *ll = T::lit(-1e30);
+            }
+        }
+        Ok(())
+    }
+
+    /// The best probe and its log-likelihood advantage over the centre in the epoch (may be
+    /// negative); `None` before any probe has run.
+    pub fn best(&self) -> Option<Winner<T>> {
+        let mut best: Option<(usize, T)> = None;
+        for (j, &l) in self.ll.iter().enumerate().take(self.ready.min(self.count)) {
+            if best.map_or(true, |(_, b)| l > b) {
+                best = Some((j, l));
+            }
+        }
+        let (j, l) = best?;
+        let gain = l - self.ll_centre;
+        let m = self.members.get(j)?;
+        Some(Winner {
+            theta: *self.theta.get(j)?,
+            x: m.x,
+            p: m.p,
+            gain,
+        })
+    }
+}
