@@ -8,7 +8,10 @@ use hal_sim::{scenario, sim};
 use imu_ident::filter::{is_positive_definite, InsFilter};
 
 fn main() -> anyhow::Result<()> {
-    let steps: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(10_000_000);
+    let steps: usize = std::env::args()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(10_000_000);
     let model = scenario::load("paper")?.to_core()?;
     let mut a = InsFilter::<f64>::new(model.clone())?;
     let mut b = InsFilter::<f32>::new(model.cast())?;
