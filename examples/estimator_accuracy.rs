@@ -1,5 +1,5 @@
 //! Accuracy of the Markov-1 / exp-cosine estimators against the Cramér-Rao bound (issue 3), and
-//! host timing of `Autocorrelator::push`. Reproduces the tables of `bench/estimators.md`:
+//! host timing of `Autocorrelator::push`. Reproduces the tables of `BENCHMARKS.md`:
 //!
 //! ```text
 //! cargo run --release --example estimator_accuracy

@@ -305,7 +305,7 @@ fn lag1_bias_slope_by_monte_carlo() {
 /// the sampling error (~8 %) would put 1.3 only ~2 sd above 1.145, so this test uses M = 1000
 /// (~2.2 %, i.e. ~6 sd of room) and costs about a second. It can fail: the same estimator
 /// without the bias correction fails (1.32 at tau = 1200 s), and so would the multi-lag slope fits
-/// (1.7-2.4, see bench/estimators.md).
+/// (1.7-2.4, see BENCHMARKS.md).
 #[test]
 fn lag1_corrected_within_1_3_crb() {
     const N: usize = 43_200;

@@ -1,6 +1,6 @@
 //! Issue 3 bars for the online identification (`imu_ident::adapt`) on the `paper` scenario,
 //! 12 h logs, 3 fixed seeds per start (the 20-seed medians are in
-//! `examples/adaptive_bench.rs` and bench/adaptive.md). Run in release for speed:
+//! `examples/adaptive_bench.rs` and BENCHMARKS.md). Run in release for speed:
 //! `cargo test --release -p hal-sim --test adaptive` (about 20 s on one core).
 
 use hal_sim::adaptive::{self, gm_params, tilt_window, AdaptiveRun};
@@ -46,7 +46,7 @@ fn run(log: &[LogRow], start: &InsModel<f64>) -> (f64, f64, AdaptiveRun) {
 /// 1.10x the oracle's (fixed true model on the same log), and the median fraction of steps outside
 /// 3 sigma at most 2 %. The bar is stated on medians over >= 20 seeds; with 3 seeds the median
 /// is noisier, but the 20-seed table has every start's median at <= 1.02 and its worst single
-/// seed at 1.18 (bench/adaptive.md), so a median of 3 above 1.10 would be a real regression.
+/// seed at 1.18 (BENCHMARKS.md), so a median of 3 above 1.10 would be a real regression.
 /// Started at the truth, the same bound checks that it does not drift away.
 #[test]
 fn wrong_starts_reach_the_oracle() {

@@ -233,7 +233,7 @@ fn exp_cosine_found_on_adis_gyro_z_and_psins_gyros() {
 /// Bar 4. Replicates 1 and 2, gyro x, y, z: the angle random walk must agree within the
 /// 95 % two-sample bound (x, y) or within the difference of the measured curves themselves
 /// (z, see below); the exp-cosine centre frequencies within the line's half-width. Every
-/// other parameter is compared in bench/identify.md.
+/// other parameter is compared in BENCHMARKS.md.
 #[test]
 fn replicates_agree_within_their_intervals() {
     if !data_present(&[&adis(1), &adis(2)]) {
@@ -263,7 +263,7 @@ fn replicates_agree_within_their_intervals() {
             100.0 * bound / (0.5 * (wa[0] + wb[0]))
         );
         if axis == "gyro_z" {
-            // Explained in bench/identify.md: the measured gyro-z ADEV curves of the two runs
+            // Explained in BENCHMARKS.md: the measured gyro-z ADEV curves of the two runs
             // differ by 0.9-1.3 % at τ = 0.01-0.16 s, five times their ±0.2-0.4 % intervals,
             // so the runs differ, not the fit. Bound: the model's ARW may differ between the
             // runs by no more than the measured ADEV does where the ARW is read, on the −½

@@ -5,7 +5,7 @@
 //! errors are told apart only by their spectral shapes (both end up in the velocity error, the
 //! gyro through the tilt), so from a start with correlation times 10x too short the local ascent
 //! settles on "white accelerometer + fast gyro" (tau_a at its lower bound), 30-45 nats below the
-//! true model over 12 h (measured, bench/adaptive.md). A local method cannot leave that basin;
+//! true model over 12 h (measured, BENCHMARKS.md). A local method cannot leave that basin;
 //! comparing a handful of distant points by their likelihood can (a small MMAE bank used only
 //! to choose where the Gauss-Newton recursion starts from).
 //!
