@@ -82,21 +82,7 @@ fn param_rows(t: f64, m: &InsModel<f64>, out: &mut Vec<ParamRow>) {
 }
 
 fn row<T: Real>(t: f64, e: &Estimates<T>, nu: T, s: T) -> EstimateRow {
-    let nis = (nu * nu / s).as_f64();
-    EstimateRow {
-        t,
-        dv_hat: e.dv.as_f64(),
-        delta_hat: e.delta.as_f64(),
-        da_hat: e.da.as_f64(),
-        dw_hat: e.dw.as_f64(),
-        sigma_dv: e.sigma_dv.as_f64(),
-        sigma_delta: e.sigma_delta.as_f64(),
-        sigma_da: e.sigma_da.as_f64(),
-        sigma_dw: e.sigma_dw.as_f64(),
-        innovation: nu.as_f64(),
-        innovation_var: s.as_f64(),
-        nis,
-    }
+    EstimateRow::new(t, e, nu, s, nu * nu / s)
 }
 
 /// Number of steps from `t_prev` to `t` (the runner's rule), or `None` to skip the row.

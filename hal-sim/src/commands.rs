@@ -75,6 +75,18 @@ pub fn run(
     Ok(json)
 }
 
+/// Writes `diagnosis.json` and `suggested-model.toml` into `out`.
+fn write_diagnosis(out: &Path, d: &crate::diagnose::Diagnosis) -> Result<()> {
+    write_string(
+        &out.join("diagnosis.json"),
+        &serde_json::to_string_pretty(d)?,
+    )?;
+    write_string(
+        &out.join("suggested-model.toml"),
+        &model_toml::to_string(&d.suggested)?,
+    )
+}
+
 /// `diagnose`: compares the model with the log, names the missing effect (if any), and writes
 /// `diagnosis.json`, `suggested-model.toml` and `report.html` into `out`.
 pub fn diagnose(
@@ -86,14 +98,7 @@ pub fn diagnose(
     let rows = log::read(log_path)?;
     let d = crate::diagnose::diagnose(&model, &rows)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    write_string(
-        &out.join("diagnosis.json"),
-        &serde_json::to_string_pretty(&d)?,
-    )?;
-    write_string(
-        &out.join("suggested-model.toml"),
-        &model_toml::to_string(&d.suggested)?,
-    )?;
+    write_diagnosis(out, &d)?;
     let runs = vec![
         crate::compare::evaluate("model", &model, &rows)?,
         crate::compare::evaluate("suggested model", &d.suggested, &rows)?,
@@ -178,14 +183,7 @@ pub fn demo(effect: Option<&str>, seed: Option<u64>, hours: f64, out: &Path) -> 
     );
     println!("diagnosing the nominal model on {hours} h of data (innovations only, no truth)...");
     let d = crate::diagnose::diagnose(&nominal, &rows)?;
-    write_string(
-        &out.join("diagnosis.json"),
-        &serde_json::to_string_pretty(&d)?,
-    )?;
-    write_string(
-        &out.join("suggested-model.toml"),
-        &model_toml::to_string(&d.suggested)?,
-    )?;
+    write_diagnosis(out, &d)?;
     match (d.sensor, d.effect) {
         (Some(s), Some(e)) => println!("verdict: missing {s}/{e}: {}", d.explanation),
         _ => println!("verdict: adequate"),

@@ -7,7 +7,7 @@
 
 use crate::log::LogRow;
 use anyhow::{anyhow, bail, Result};
-use imu_ident::filter::{Innovation, InsFilter, UpdateStatus};
+use imu_ident::filter::{Estimates, Innovation, InsFilter, UpdateStatus};
 use imu_ident::model::InsModel;
 use imu_ident::Real;
 use serde::Serialize;
@@ -30,6 +30,26 @@ pub struct EstimateRow {
     pub innovation: f64,
     pub innovation_var: f64,
     pub nis: f64,
+}
+
+impl EstimateRow {
+    /// A row from SI estimates and the innovation `nu`, its variance `s` and NIS.
+    pub fn new<T: Real>(t: f64, e: &Estimates<T>, nu: T, s: T, nis: T) -> Self {
+        EstimateRow {
+            t,
+            dv_hat: e.dv.as_f64(),
+            delta_hat: e.delta.as_f64(),
+            da_hat: e.da.as_f64(),
+            dw_hat: e.dw.as_f64(),
+            sigma_dv: e.sigma_dv.as_f64(),
+            sigma_delta: e.sigma_delta.as_f64(),
+            sigma_da: e.sigma_da.as_f64(),
+            sigma_dw: e.sigma_dw.as_f64(),
+            innovation: nu.as_f64(),
+            innovation_var: s.as_f64(),
+            nis: nis.as_f64(),
+        }
+    }
 }
 
 /// Counts of what the replay did with the rows.
@@ -111,21 +131,13 @@ pub fn run<T: Real>(
 ) -> Result<(Vec<EstimateRow>, RunCounts)> {
     let mut out = Vec::with_capacity(log.len());
     let counts = replay::<T>(model, log, |row, filter, inn| {
-        let e = filter.estimates();
-        out.push(EstimateRow {
-            t: row.t,
-            dv_hat: e.dv.as_f64(),
-            delta_hat: e.delta.as_f64(),
-            da_hat: e.da.as_f64(),
-            dw_hat: e.dw.as_f64(),
-            sigma_dv: e.sigma_dv.as_f64(),
-            sigma_delta: e.sigma_delta.as_f64(),
-            sigma_da: e.sigma_da.as_f64(),
-            sigma_dw: e.sigma_dw.as_f64(),
-            innovation: inn.innovation.as_f64(),
-            innovation_var: inn.variance.as_f64(),
-            nis: inn.nis.as_f64(),
-        });
+        out.push(EstimateRow::new(
+            row.t,
+            &filter.estimates(),
+            inn.innovation,
+            inn.variance,
+            inn.nis,
+        ));
     })?;
     Ok((out, counts))
 }

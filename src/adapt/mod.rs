@@ -38,7 +38,7 @@ pub mod params;
 pub mod probes;
 
 use crate::filter::Estimates;
-use crate::model::{idx, InsModel, ModelError, Sensor, StateRow};
+use crate::model::{InsModel, ModelError, Sensor, StateRow};
 use crate::Real;
 use bank::{Bank, Information, MemberInnovation};
 use guard::{chol_solve, cholesky, inverse_diagonal, limit_step, Bounds, Mat};
@@ -473,24 +473,13 @@ impl<T: Real> AdaptiveFilter<T> {
     /// The centre filter's estimates in SI units.
     pub fn estimates(&self) -> Estimates<T> {
         let c = self.bank.centre();
-        let (x, p, s) = (&c.state(), &c.covariance(), self.bank.scale());
-        let comb = |row: &StateRow<T>| {
-            let v = (row * p * row.transpose())[0];
-            ((row * x)[0], v.max(T::zero()).sqrt())
-        };
-        let (da, sigma_da) = comb(&self.accel_row);
-        let (dw, sigma_dw) = comb(&self.gyro_row);
-        let (dv, dl) = (idx::DV, idx::DELTA);
-        Estimates {
-            dv: x[dv] * s[dv],
-            delta: x[dl] * s[dl],
-            da,
-            dw,
-            sigma_dv: p[(dv, dv)].max(T::zero()).sqrt() * s[dv],
-            sigma_delta: p[(dl, dl)].max(T::zero()).sqrt() * s[dl],
-            sigma_da,
-            sigma_dw,
-        }
+        Estimates::from_scaled(
+            &c.state(),
+            &c.covariance(),
+            self.bank.scale(),
+            &self.accel_row,
+            &self.gyro_row,
+        )
     }
 }
 

@@ -40,6 +40,36 @@ pub struct Estimates<T> {
     pub sigma_dw: T,
 }
 
+impl<T: Real> Estimates<T> {
+    /// SI estimates from a scaled state `x`, its covariance `p`, the scaling `s`, and the rows
+    /// that sum each sensor's components (in physical units).
+    pub fn from_scaled(
+        x: &StateVec<T>,
+        p: &StateMat<T>,
+        s: &Scaling<T>,
+        accel_row: &StateRow<T>,
+        gyro_row: &StateRow<T>,
+    ) -> Self {
+        let comb = |row: &StateRow<T>| {
+            let v = (row * p * row.transpose())[0];
+            ((row * x)[0], v.max(T::zero()).sqrt())
+        };
+        let (da, sigma_da) = comb(accel_row);
+        let (dw, sigma_dw) = comb(gyro_row);
+        let (dv, dl) = (idx::DV, idx::DELTA);
+        Estimates {
+            dv: x[dv] * s[dv],
+            delta: x[dl] * s[dl],
+            da,
+            dw,
+            sigma_dv: p[(dv, dv)].max(T::zero()).sqrt() * s[dv],
+            sigma_delta: p[(dl, dl)].max(T::zero()).sqrt() * s[dl],
+            sigma_da,
+            sigma_dw,
+        }
+    }
+}
+
 /// A Kalman filter of the one-channel INS errors with its sensor-noise model.
 #[derive(Debug, Clone)]
 pub struct InsFilter<T: Real> {
@@ -145,24 +175,13 @@ impl<T: Real> InsFilter<T> {
 
     /// Current estimates in SI units.
     pub fn estimates(&self) -> Estimates<T> {
-        let (x, p, s) = (&self.ekf.x, &self.ekf.P, &self.scale);
-        let comb = |row: &StateRow<T>| {
-            let v = (row * p * row.transpose())[0];
-            ((row * x)[0], v.max(T::zero()).sqrt())
-        };
-        let (da, sigma_da) = comb(&self.accel_row);
-        let (dw, sigma_dw) = comb(&self.gyro_row);
-        let (dv, dl) = (idx::DV, idx::DELTA);
-        Estimates {
-            dv: x[dv] * s[dv],
-            delta: x[dl] * s[dl],
-            da,
-            dw,
-            sigma_dv: p[(dv, dv)].max(T::zero()).sqrt() * s[dv],
-            sigma_delta: p[(dl, dl)].max(T::zero()).sqrt() * s[dl],
-            sigma_da,
-            sigma_dw,
-        }
+        Estimates::from_scaled(
+            &self.ekf.x,
+            &self.ekf.P,
+            &self.scale,
+            &self.accel_row,
+            &self.gyro_row,
+        )
     }
 
     /// Physical covariance `S P S`.
