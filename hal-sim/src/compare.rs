@@ -1,6 +1,7 @@
 //! Before/after comparison of models on one log: the checks that need no truth (likelihood,
 //! innovation whiteness, windowed NIS) and, with truth, the tilt error against its 3 sigma.
 
+use crate::diagnose::estimate_acf::{self, EstimateAcf};
 use crate::diagnose::whiteness::{nis_windows, whiteness, NisWindow, Whiteness};
 use crate::diagnose::{NIS_WINDOW, WHITENESS_LAGS};
 use crate::log::LogRow;
@@ -27,6 +28,8 @@ pub struct ModelRun {
     pub nis_band: [f64; 2],
     /// Windows outside the band.
     pub nis_failed: usize,
+    /// ACF of each estimated sensor error against the model's Monte Carlo band.
+    pub estimate_acf: Vec<EstimateAcf>,
     /// The estimates (for plots; not serialised).
     #[serde(skip)]
     pub estimates: Vec<EstimateRow>,
@@ -45,6 +48,7 @@ pub fn evaluate(name: &str, model: &InsModel<f64>, log: &[LogRow]) -> Result<Mod
         nis_windows: windows,
         nis_band: band,
         nis_failed: failed.len(),
+        estimate_acf: estimate_acf::compare(model, &est, 0xACF)?,
         estimates: est,
     })
 }

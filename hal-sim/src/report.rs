@@ -140,6 +140,35 @@ pub fn nis_plot(runs: &[ModelRun]) -> Result<String> {
     )
 }
 
+/// ACF of each estimated sensor error of one run against its model's 99 % Monte Carlo band.
+pub fn estimate_acf_plots(run: &ModelRun) -> Result<String> {
+    let mut html = String::new();
+    for a in &run.estimate_acf {
+        let pts = |v: &[f64]| {
+            a.lags
+                .iter()
+                .copied()
+                .zip(v.iter().copied())
+                .collect::<Vec<_>>()
+        };
+        let series = vec![
+            ("estimates on the data".to_string(), pts(&a.data)),
+            ("model (Monte Carlo mean)".to_string(), pts(&a.model)),
+            ("99 % band".to_string(), pts(&a.hi)),
+            ("99 % band ".to_string(), pts(&a.lo)),
+        ];
+        let title = format!(
+            "{}: ACF of the estimated {} error vs the model ({} of {} lags outside)",
+            run.name,
+            a.sensor,
+            a.outside.len(),
+            a.lags.len().saturating_sub(1)
+        );
+        html += &line_chart(&title, "lag [s]", "r", &series, &[0.0])?;
+    }
+    Ok(html)
+}
+
 /// Tilt error `true_delta - delta_hat` and `3 sigma_delta` of one run (truth only), every 30 s.
 pub fn tilt_plot(run: &ModelRun, log: &[LogRow]) -> Result<Option<String>> {
     let mut err_pts = vec![];
@@ -239,6 +268,9 @@ pub fn html(
     h += "</table>";
     h += &acf_plot(runs)?;
     h += &nis_plot(runs)?;
+    for r in runs {
+        h += &estimate_acf_plots(r)?;
+    }
     for r in runs {
         if let Some(svg) = tilt_plot(r, log)? {
             h += &svg;

@@ -13,6 +13,7 @@
 //! filter's own sensor-error estimates, which hides an oscillating drift behind a Markov-1
 //! model (issue 4's caution).
 
+pub mod estimate_acf;
 pub mod fit;
 pub mod whiteness;
 
