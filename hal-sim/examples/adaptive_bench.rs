@@ -29,16 +29,7 @@ fn env(name: &str, default: f64) -> f64 {
 }
 
 fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(|a, b| a.total_cmp(b));
-    let n = v.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
+    hal_sim::shared_data::median(v)
 }
 
 fn std_ln(v: &[f64], truth: f64) -> (f64, f64) {

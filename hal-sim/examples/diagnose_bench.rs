@@ -9,17 +9,8 @@ use hal_sim::candidates::LIBRARY;
 use hal_sim::{compare, diagnose, hidden, scenario, sim};
 use rand::SeedableRng;
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
+fn median(v: Vec<f64>) -> f64 {
+    hal_sim::shared_data::median(&v)
 }
 
 fn main() -> anyhow::Result<()> {

@@ -19,5 +19,6 @@ pub mod report;
 pub mod runner;
 pub mod scenario;
 pub mod series;
+pub mod shared_data;
 pub mod sim;
 pub mod summary;

@@ -26,26 +26,10 @@ const AXES: [(&str, &str); 6] = [
 ];
 
 fn adis_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/real/adis16405-static")
+    hal_sim::shared_data::real_dir().join("adis16405-static")
 }
 
-/// True when every file exists. Otherwise fails under CI, else prints the reason to skip.
-fn data_present(files: &[&Path]) -> bool {
-    let missing: Vec<String> = files
-        .iter()
-        .filter(|p| !p.is_file())
-        .map(|p| p.display().to_string())
-        .collect();
-    if missing.is_empty() {
-        return true;
-    }
-    let msg = format!("real-data files missing: {}", missing.join(", "));
-    if std::env::var("CI").is_ok_and(|v| v == "true") {
-        panic!("{msg} (CI=true: the shared data must be present)");
-    }
-    eprintln!("SKIPPED: {msg}");
-    false
-}
+use hal_sim::shared_data::present as data_present;
 
 fn rel(a: f64, b: f64) -> f64 {
     ((a - b) / b).abs()

@@ -17,9 +17,7 @@ const DEG: f64 = std::f64::consts::PI / 180.0;
 /// PSINS gyro: 1 count = 0.1 arcsec per 10 ms sample = 4.8481368e-5 rad/s (dataset README).
 const PSINS_GYRO: f64 = 4.848_136_8e-5;
 
-fn real_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/real")
-}
+use hal_sim::shared_data::real_dir;
 fn adis(rep: u32) -> PathBuf {
     real_dir().join(format!(
         "adis16405-static/adis16405_rep{rep}_static_100hz.csv.gz"
@@ -32,23 +30,7 @@ fn psins() -> PathBuf {
     real_dir().join("psins-lasergyro-vehicle/lasergyro_static_vehicle_100hz_counts.csv")
 }
 
-/// True when every file exists. Otherwise fails under CI, else prints the reason to skip.
-fn data_present(files: &[&Path]) -> bool {
-    let missing: Vec<String> = files
-        .iter()
-        .filter(|p| !p.is_file())
-        .map(|p| p.display().to_string())
-        .collect();
-    if missing.is_empty() {
-        return true;
-    }
-    let msg = format!("real-data files missing: {}", missing.join(", "));
-    if std::env::var("CI").is_ok_and(|v| v == "true") {
-        panic!("{msg} (CI=true: the shared data must be present)");
-    }
-    eprintln!("SKIPPED: {msg}");
-    false
-}
+use hal_sim::shared_data::present as data_present;
 
 fn identify(series: &Path, column: &str, scale: f64, out: &Path) -> IdentifySummary {
     let args = IdentifyArgs {
