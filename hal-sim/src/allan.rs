@@ -196,18 +196,10 @@ impl RunningSum {
         let mean = neumaier_sum(y.iter().copied()) / y.len() as f64;
         let mut s = Vec::with_capacity(y.len() + 1);
         s.push(0.0);
-        let (mut sum, mut comp) = (0.0_f64, 0.0_f64);
+        let mut acc = Neumaier::default();
         for &v in y {
-            let c = v - mean;
-            let t = sum + c;
-            // Neumaier: recover the low-order bits lost in `sum + c`.
-            if sum.abs() >= c.abs() {
-                comp += (sum - t) + c;
-            } else {
-                comp += (c - t) + sum;
-            }
-            sum = t;
-            s.push(sum + comp);
+            acc.add(v - mean);
+            s.push(acc.value());
         }
         Ok(Self { s })
     }
@@ -266,18 +258,34 @@ fn sum_sq_second_diff(s: &[f64], m: usize, count: usize) -> f64 {
     (s0 + s1) + (s2 + s3)
 }
 
-fn neumaier_sum(it: impl Iterator<Item = f64>) -> f64 {
-    let (mut sum, mut comp) = (0.0_f64, 0.0_f64);
-    for v in it {
-        let t = sum + v;
-        if sum.abs() >= v.abs() {
-            comp += (sum - t) + v;
+/// Neumaier's compensated sum: the rounding error of `sum + v` is recovered into `comp`, so the
+/// total's error does not grow with the number of terms.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Neumaier {
+    sum: f64,
+    comp: f64,
+}
+
+impl Neumaier {
+    pub(crate) fn add(&mut self, v: f64) {
+        let t = self.sum + v;
+        if self.sum.abs() >= v.abs() {
+            self.comp += (self.sum - t) + v;
         } else {
-            comp += (v - t) + sum;
+            self.comp += (v - t) + self.sum;
         }
-        sum = t;
+        self.sum = t;
     }
-    sum + comp
+
+    pub(crate) fn value(&self) -> f64 {
+        self.sum + self.comp
+    }
+}
+
+fn neumaier_sum(it: impl Iterator<Item = f64>) -> f64 {
+    let mut acc = Neumaier::default();
+    it.for_each(|v| acc.add(v));
+    acc.value()
 }
 
 /// Cluster sizes of a grid for `n` samples.

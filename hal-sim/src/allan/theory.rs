@@ -158,23 +158,16 @@ pub fn avar_from_semivariogram(m: usize, gamma: impl Fn(usize) -> f64) -> f64 {
     }
     let mf = m as f64;
     // Neumaier-compensated: the weights sum to −m while single terms reach ~m·γ.
-    let (mut sum, mut comp) = (0.0_f64, 0.0_f64);
+    let mut acc = super::Neumaier::default();
     for lag in 1..2 * m {
         let w = if lag <= m {
             2.0 * mf - 3.0 * lag as f64
         } else {
             -(2.0 * mf - lag as f64)
         };
-        let v = w * gamma(lag);
-        let t = sum + v;
-        if sum.abs() >= v.abs() {
-            comp += (sum - t) + v;
-        } else {
-            comp += (v - t) + sum;
-        }
-        sum = t;
+        acc.add(w * gamma(lag));
     }
-    -(sum + comp) / (mf * mf)
+    -acc.value() / (mf * mf)
 }
 
 /// One independent noise component of a sensor output model.
