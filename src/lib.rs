@@ -3,9 +3,11 @@
 
 pub mod adapt;
 pub mod autocorr;
+pub mod edge;
 pub mod filter;
 pub mod ident;
 pub mod model;
+pub mod navigator;
 pub mod real;
 pub mod replay;
 pub mod telemetry;

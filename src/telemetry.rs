@@ -18,6 +18,7 @@
 //! which is what the single-precision firmware computes and halves the bytes on the wire.
 
 use crate::filter::{Estimates, Innovation, UpdateStatus};
+pub use crate::navigator::{AcfRecord, ParamRecord};
 use crate::Real;
 
 /// The observation was missing (NaN or infinite): the filter only predicted.
@@ -32,15 +33,22 @@ pub const PARAM_CLAMPED: u16 = 1 << 3;
 pub const TIME_JUMP: u16 = 1 << 4;
 /// The row itself is unusable in part: non-finite or non-increasing time, infinite observation.
 pub const BAD_INPUT: u16 = 1 << 5;
+/// The row was skipped (its time does not advance): the filter did not run; the record only
+/// reports it.
+pub const SKIPPED: u16 = 1 << 6;
+/// A tick inserted to bridge a gap in the observation times (no row: prediction only).
+pub const BRIDGED: u16 = 1 << 7;
 
 /// Every flag with its name, in bit order (for reports and decoders).
-pub const FLAG_NAMES: [(u16, &str); 6] = [
+pub const FLAG_NAMES: [(u16, &str); 8] = [
     (MISSING, "missing"),
     (GATED_OUTLIER, "gated_outlier"),
     (P_REPAIRED, "p_repaired"),
     (PARAM_CLAMPED, "param_clamped"),
     (TIME_JUMP, "time_jump"),
     (BAD_INPUT, "bad_input"),
+    (SKIPPED, "skipped"),
+    (BRIDGED, "bridged"),
 ];
 
 /// First word of the defmt telemetry frame written by [`Record::log`]; host decoders pick the
@@ -72,7 +80,7 @@ pub struct Record {
     /// Its standard deviation [rad].
     pub sigma_delta: f32,
     /// Bitset of [`MISSING`], [`GATED_OUTLIER`], [`P_REPAIRED`], [`PARAM_CLAMPED`],
-    /// [`TIME_JUMP`], [`BAD_INPUT`].
+    /// [`TIME_JUMP`], [`BAD_INPUT`], [`SKIPPED`], [`BRIDGED`].
     pub flags: u16,
 }
 
@@ -160,6 +168,12 @@ pub trait TelemetrySink {
     /// Takes one record. Transports that can lose data count the loss themselves; the step
     /// index [`Record::k`] lets the receiver detect gaps.
     fn record(&mut self, record: &Record);
+
+    /// Takes one component's parameters, sent after a re-identification (default: dropped).
+    fn params(&mut self, _params: &ParamRecord) {}
+
+    /// Takes one autocorrelation identification of the estimates (default: dropped).
+    fn acf(&mut self, _acf: &AcfRecord) {}
 }
 
 impl<F: FnMut(&Record)> TelemetrySink for F {
@@ -178,6 +192,14 @@ pub struct DefmtSink;
 impl TelemetrySink for DefmtSink {
     fn record(&mut self, record: &Record) {
         record.log();
+    }
+
+    fn params(&mut self, params: &ParamRecord) {
+        params.log();
+    }
+
+    fn acf(&mut self, acf: &AcfRecord) {
+        acf.log();
     }
 }
 

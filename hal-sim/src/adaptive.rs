@@ -147,6 +147,7 @@ pub fn run<T: Real>(
             StepStatus::Updated => counts.updated += 1,
             StepStatus::Missing => counts.missing += 1,
             StepStatus::BadInnovationVariance => counts.repairs += 1,
+            StepStatus::Gated => counts.gated += 1,
         }
         counts.steps += 1;
         if trace && r.t % 3600.0 == 0.0 {

@@ -141,6 +141,22 @@ impl<T: Real> Member<T> {
         -T::lit(0.5) * (i.s.ln() + i.nu * i.nu / i.s)
     }
 
+    /// The innovation `z - H x` and its variance `H P H^T + r` without updating (for the outlier
+    /// gate, which must decide before any member uses `z`).
+    pub(crate) fn innovation(&self, n: usize, z: T, h: &Vec8<T>, r: T) -> MemberInnovation<T> {
+        let n = n.min(NX);
+        let (mut hx, mut s) = (T::zero(), r);
+        for i in 0..n {
+            hx += h[i] * self.x[i];
+            let mut a = T::zero();
+            for j in 0..n {
+                a += self.p[i][j] * h[j];
+            }
+            s += h[i] * a;
+        }
+        MemberInnovation { nu: z - hx, s }
+    }
+
     /// Cheap health test: finite state, finite positive diagonal of `P`.
     pub(crate) fn healthy(&self, n: usize) -> bool {
         let mut ok = true;
@@ -208,6 +224,9 @@ pub struct BankStep<T> {
     /// A staggered re-discretisation failed: the bank rolls back to the last parameters every
     /// member had (see [`Bank::theta`]).
     pub failed: bool,
+    /// The observation failed the outlier gate on the centre's NIS and no member used it; the
+    /// centre's (rejected) innovation.
+    pub gated: Option<MemberInnovation<T>>,
 }
 
 impl<T: Real> Bank<T> {
@@ -354,17 +373,38 @@ impl<T: Real> Bank<T> {
 
     /// Runs every member one step with observation `z` (non-finite: missing, predict only) and
     /// adds the step's score and Fisher information to `info` when all members updated.
-    pub fn step(&mut self, z: T, info: &mut Information<T>) -> BankStep<T> {
+    ///
+    /// With `gate = Some(g)`, an observation whose NIS on the centre filter exceeds `g` (or is
+    /// NaN) is withheld from every member, so that the members stay comparable and the
+    /// likelihood derivatives are not polluted by the outlier.
+    pub fn step(&mut self, z: T, info: &mut Information<T>, gate: Option<T>) -> BankStep<T> {
         let used = 2 * self.np + 1;
         let failed = !self.advance(used);
         let mut inn = [MemberInnovation::<T>::default(); MEMBERS];
-        let mut all = z.is_finite() && !self.moving();
         let mut centre = None;
+        let mut gated = None;
+        let mut z = z;
+        if let (Some(c), Some(g)) = (self.members.first_mut(), gate) {
+            c.predict(self.n);
+            if z.is_finite() {
+                let i = c.innovation(self.n, z, &self.h, self.r);
+                // Only a NIS within the gate passes (NaN fails, S <= 0 is left to the update).
+                let within = i.nu * i.nu <= g * i.s;
+                if i.s > T::zero() && i.s.is_finite() && !within {
+                    gated = Some(i);
+                    z = T::lit(f64::NAN);
+                }
+            }
+        }
+        let mut all = z.is_finite() && !self.moving();
         for (m, (mem, out)) in self.members.iter_mut().zip(inn.iter_mut()).enumerate() {
             if m >= used {
                 break;
             }
-            mem.predict(self.n);
+            // The centre was already predicted when a gate was given.
+            if m > 0 || gate.is_none() {
+                mem.predict(self.n);
+            }
             if z.is_finite() {
                 match mem.update(self.n, z, &self.h, self.r) {
                     Some(i) => {
@@ -383,6 +423,7 @@ impl<T: Real> Bank<T> {
             centre,
             accumulated,
             failed,
+            gated,
         }
     }
 

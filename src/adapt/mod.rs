@@ -137,6 +137,8 @@ pub enum StepStatus {
     Missing,
     /// The centre filter had an invalid innovation variance (its state was repaired).
     BadInnovationVariance,
+    /// The observation failed the outlier gate and no filter used it (prediction only).
+    Gated,
 }
 
 /// The result of one step.
@@ -155,6 +157,8 @@ pub struct StepReport<T> {
     pub jumped: bool,
     /// A parameter update was attempted and failed (the model was rejected; `theta` kept).
     pub rejected: bool,
+    /// A parameter update hit a physical bound and was clamped.
+    pub clamped: bool,
 }
 
 /// An INS filter that identifies its own sensor-noise parameters online.
@@ -179,6 +183,7 @@ pub struct AdaptiveFilter<T: Real> {
     epochs: u32,
     last_gain: T,
     searching: bool,
+    clamped: bool,
 }
 
 impl<T: Real> AdaptiveFilter<T> {
@@ -247,19 +252,30 @@ impl<T: Real> AdaptiveFilter<T> {
             epochs: 0,
             last_gain: T::zero(),
             searching: true,
+            clamped: false,
         })
     }
 
     /// One filter cycle with velocity observation `z` [m/s] (non-finite: missing), then, every
     /// `block` steps, one Gauss-Newton update of the parameters.
     pub fn step(&mut self, z: T) -> StepReport<T> {
-        let out = self.bank.step(z, &mut self.block);
+        self.step_gated(z, None)
+    }
+
+    /// [`step`](Self::step) with a chi-square outlier gate: an observation whose NIS on the
+    /// centre filter exceeds `gate` is used by no filter (bank or probes) and reported as
+    /// [`StepStatus::Gated`] with its innovation.
+    pub fn step_gated(&mut self, z: T, gate: Option<T>) -> StepReport<T> {
+        let out = self.bank.step(z, &mut self.block, gate);
         let nan = T::lit(f64::NAN);
-        let (innovation, variance, status) = match out.centre {
-            Some(MemberInnovation { nu, s }) => (nu, s, StepStatus::Updated),
-            None if z.is_finite() => (nan, nan, StepStatus::BadInnovationVariance),
-            None => (nan, nan, StepStatus::Missing),
+        let (innovation, variance, status) = match (out.centre, out.gated) {
+            (Some(MemberInnovation { nu, s }), _) => (nu, s, StepStatus::Updated),
+            (None, Some(MemberInnovation { nu, s })) => (nu, s, StepStatus::Gated),
+            (None, None) if z.is_finite() => (nan, nan, StepStatus::BadInnovationVariance),
+            (None, None) => (nan, nan, StepStatus::Missing),
         };
+        // The probes see what the bank saw: a gated observation is missing for them too.
+        let z = if out.gated.is_some() { nan } else { z };
         let (mut moved, mut rejected, mut jumped) = (false, false, false);
         if out.failed {
             // A staggered move could not be discretised: the bank rolls back; follow it.
@@ -298,6 +314,7 @@ impl<T: Real> AdaptiveFilter<T> {
             }
         }
         moved |= jumped;
+        let clamped = moved && core::mem::take(&mut self.clamped);
         StepReport {
             innovation,
             variance,
@@ -305,6 +322,7 @@ impl<T: Real> AdaptiveFilter<T> {
             moved,
             jumped,
             rejected,
+            clamped,
         }
     }
 
@@ -380,7 +398,9 @@ impl<T: Real> AdaptiveFilter<T> {
         for i in 0..p {
             th[i] += d[i];
         }
+        let raw = th;
         let th = self.bounds.clamp(&th, p);
+        self.clamped = raw.iter().zip(th.iter()).take(p).any(|(a, b)| a != b);
         let mut eff = [T::zero(); MAXP];
         let mut any = false;
         for i in 0..p {

@@ -1,0 +1,382 @@
+//! The 1 Hz step of the firmware: one function call per tick that predicts and updates the
+//! filter, gates outliers, feeds the autocorrelators, re-identifies the noise model on schedule
+//! and feeds it back into `Phi` and `Q`, and says what it did in a small [`Report`].
+//!
+//! The [`Navigator`] never reads a clock or touches hardware: the caller passes the time and the
+//! observation in (from a timer and a serial port on a board, from a recorded log under QEMU or
+//! on the host) and hands the report to a [`TelemetrySink`]. It allocates nothing; it lives in a
+//! `static` or in a struct the binary owns (about 32 KB in `f32`, see `BENCHMARKS.md`).
+//!
+//! Two engines share the interface: a fixed model ([`InsFilter`]) and the online identification
+//! ([`AdaptiveFilter`], issue 3), chosen by [`NavConfig::adapt`].
+//!
+//! ```
+//! use imu_ident::model::InsModel;
+//! use imu_ident::navigator::{NavConfig, Navigator};
+//! use imu_ident::telemetry::{Record, MISSING};
+//!
+//! let mut nav = Navigator::<f32>::new(InsModel::paper(), NavConfig::default()).unwrap();
+//! let first = nav.tick(1.0, 0.02);
+//! assert!(first.reidentified); // the starting parameters are reported once
+//! let r = nav.tick(2.0, f32::NAN);
+//! assert!(r.record.has(MISSING));
+//!
+//! // A replay: rows with gaps and repeated times, every tick sent to a sink.
+//! let mut got: Vec<Record> = Vec::new();
+//! let mut sink = |r: &Record| got.push(*r);
+//! nav.push(5.0, 0.01, &mut sink); // t = 3, 4 are bridged as missing ticks
+//! nav.push(5.0, 0.01, &mut sink); // time does not advance: skipped and flagged
+//! assert_eq!(got.len(), 4);
+//! ```
+//!
+//! # Outlier gate
+//!
+//! An observation is withheld when its NIS exceeds `g s`, with `g` = [`NavConfig::gate`] (a
+//! chi-square quantile with one degree of freedom) and `s >= 1` a running scale of the NIS:
+//!
+//! ```text
+//! s <- max(1, (1 - a) s + a min(NIS, g s)),   a = 1/64, over every finite innovation
+//! ```
+//!
+//! A fixed threshold would shield a badly wrong model from the very data that must correct it
+//! (a model with 10x too small a sigma sees NIS ~ 100 chi-square: most observations would be
+//! rejected and the identification would starve). With `s`, isolated outliers (a GNSS jump)
+//! are rejected, while a persistent change raises `s` by up to `a g = 47 %` per tick and is
+//! accepted after a few ticks.
+
+// The engine enum holds either filter by value (no heap); its size is the adaptive one.
+#![allow(clippy::large_enum_variant)]
+
+pub mod records;
+
+pub use records::{model_params, AcfRecord, ParamRecord};
+
+use crate::adapt::{AdaptConfig, AdaptError, AdaptiveFilter, StepStatus};
+use crate::autocorr::Autocorrelator;
+use crate::filter::{Estimates, InsFilter};
+use crate::model::{InsModel, ModelError, Sensor};
+use crate::telemetry::{
+    status_flags, time_flags, Record, TelemetrySink, BAD_INPUT, BRIDGED, GATED_OUTLIER, MISSING,
+    PARAM_CLAMPED, P_REPAIRED, SKIPPED, TIME_JUMP,
+};
+use crate::Real;
+
+/// Window of the estimate autocorrelators [samples].
+pub const ACF_WINDOW: usize = 1024;
+/// Lags kept by the estimate autocorrelators.
+pub const ACF_LAGS: usize = 16;
+
+/// The estimate autocorrelator of one sensor.
+pub type EstimateAcf<T> = Autocorrelator<T, ACF_WINDOW, ACF_LAGS>;
+
+/// Why a navigator could not be built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NavError {
+    /// The model was rejected by the fixed filter.
+    Model(ModelError),
+    /// The adaptive filter rejected the model or its configuration.
+    Adapt(AdaptError),
+    /// A navigator setting is out of range.
+    BadConfig,
+}
+
+/// Settings of the step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NavConfig<T> {
+    /// `None`: run the model as given; `Some`: identify it online.
+    pub adapt: Option<AdaptConfig<T>>,
+    /// Base outlier gate on the NIS (module documentation). `30` is the chi-square(1) quantile
+    /// at `1 - 4.3e-8`: about one false rejection per 270 days at 1 Hz under a right model.
+    pub gate: T,
+    /// Longest gap in the observation times bridged by missing-observation ticks. A longer gap
+    /// bridges this many ticks and flags [`TIME_JUMP`]; it bounds the work of one
+    /// [`push`](Navigator::push).
+    pub max_bridge: u32,
+    /// Ticks between autocorrelation identifications of the estimates (the paper's loop, kept
+    /// as telemetry for comparison).
+    pub acf_every: u32,
+}
+
+impl<T: Real> Default for NavConfig<T> {
+    fn default() -> Self {
+        Self {
+            adapt: None,
+            gate: T::lit(30.0),
+            max_bridge: 86_400,
+            acf_every: 600,
+        }
+    }
+}
+
+impl<T: Real> NavConfig<T> {
+    /// The default settings with the default online identification.
+    pub fn adaptive() -> Self {
+        Self {
+            adapt: Some(AdaptConfig::default()),
+            ..Self::default()
+        }
+    }
+}
+
+/// What one tick did.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Report {
+    /// The telemetry record of the tick.
+    pub record: Record,
+    /// The parameters changed at this tick (or it is the first tick): send them.
+    pub reidentified: bool,
+    /// The identification jumped to another basin (a probe won).
+    pub jumped: bool,
+    /// The estimate autocorrelators were evaluated at this tick.
+    pub acf: bool,
+}
+
+#[derive(Debug, Clone)]
+enum Engine<T: Real> {
+    Fixed(InsFilter<T>),
+    Adaptive(AdaptiveFilter<T>),
+}
+
+/// The estimator of the firmware: filter, identification, gate and bookkeeping.
+#[derive(Debug, Clone)]
+pub struct Navigator<T: Real> {
+    engine: Engine<T>,
+    cfg: NavConfig<T>,
+    dt: T,
+    acf: [EstimateAcf<T>; 2],
+    /// Running mean of each estimate's variance `P` over the ACF window (`sigma^2` correction).
+    p_mean: [T; 2],
+    nis_scale: T,
+    prev_t: Option<f64>,
+    k: u32,
+    repairs: u32,
+}
+
+impl<T: Real> Navigator<T> {
+    /// A navigator starting from `model`.
+    pub fn new(model: InsModel<T>, cfg: NavConfig<T>) -> Result<Self, NavError> {
+        let gate_ok = cfg.gate.is_finite() && cfg.gate > T::one();
+        if !gate_ok || cfg.acf_every == 0 {
+            return Err(NavError::BadConfig);
+        }
+        let dt = model.dt;
+        let engine = match cfg.adapt {
+            None => Engine::Fixed(InsFilter::new(model).map_err(NavError::Model)?),
+            Some(a) => Engine::Adaptive(AdaptiveFilter::new(model, a).map_err(NavError::Adapt)?),
+        };
+        Ok(Self {
+            engine,
+            cfg,
+            dt,
+            acf: [EstimateAcf::new(), EstimateAcf::new()],
+            p_mean: [T::zero(); 2],
+            nis_scale: T::one(),
+            prev_t: None,
+            k: 0,
+            repairs: 0,
+        })
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &NavConfig<T> {
+        &self.cfg
+    }
+
+    /// Ticks so far.
+    pub fn ticks(&self) -> u32 {
+        self.k
+    }
+
+    /// The current outlier threshold on the NIS, `g s`.
+    pub fn gate_threshold(&self) -> T {
+        self.cfg.gate * self.nis_scale
+    }
+
+    /// The model in use (with the identified parameters when adapting).
+    pub fn model(&self) -> Result<InsModel<T>, NavError> {
+        match &self.engine {
+            Engine::Fixed(f) => Ok(f.model().clone()),
+            Engine::Adaptive(a) => a.model().map_err(NavError::Adapt),
+        }
+    }
+
+    /// The adaptive filter, when identifying online.
+    pub fn adaptive(&self) -> Option<&AdaptiveFilter<T>> {
+        match &self.engine {
+            Engine::Adaptive(a) => Some(a),
+            Engine::Fixed(_) => None,
+        }
+    }
+
+    /// Estimates in SI units.
+    pub fn estimates(&self) -> Estimates<T> {
+        match &self.engine {
+            Engine::Fixed(f) => f.estimates(),
+            Engine::Adaptive(a) => a.estimates(),
+        }
+    }
+
+    /// One tick at time `t` [s] with observation `z` [m/s] (non-finite: missing): exactly one
+    /// prediction and at most one update, so its cost is bounded whatever the input.
+    pub fn tick(&mut self, t: f64, z: T) -> Report {
+        let mut flags = time_flags(self.prev_t, t, self.dt.as_f64());
+        // Infinite (not NaN, which means missing): `z == z` is false only for NaN.
+        #[allow(clippy::eq_op)]
+        let infinite = !z.is_finite() && z == z;
+        if infinite {
+            flags |= BAD_INPUT;
+        }
+        let threshold = self.gate_threshold();
+        let (nu, s, mut reidentified, jumped) = match &mut self.engine {
+            Engine::Fixed(f) => {
+                f.set_gate(Some(threshold));
+                let inn = f.step(z);
+                flags |= status_flags(inn.status);
+                if f.repair() {
+                    flags |= P_REPAIRED;
+                }
+                (inn.innovation, inn.variance, false, false)
+            }
+            Engine::Adaptive(a) => {
+                let before = a.repairs();
+                let rep = a.step_gated(z, Some(threshold));
+                flags |= match rep.status {
+                    StepStatus::Updated => 0,
+                    StepStatus::Missing => MISSING,
+                    StepStatus::Gated => GATED_OUTLIER,
+                    StepStatus::BadInnovationVariance => P_REPAIRED,
+                };
+                if a.repairs() != before {
+                    flags |= P_REPAIRED;
+                }
+                if rep.clamped {
+                    flags |= PARAM_CLAMPED;
+                }
+                (rep.innovation, rep.variance, rep.moved, rep.jumped)
+            }
+        };
+        let nis = nu * nu / s;
+        self.track_scale(nis, threshold);
+        let est = self.estimates();
+        self.feed_acf(&est);
+        if t.is_finite() {
+            self.prev_t = Some(t);
+        }
+        reidentified |= self.k == 0;
+        let narrow = |x: T| x.as_f64() as f32;
+        let record = Record {
+            k: self.k,
+            t,
+            z: narrow(z),
+            innovation: narrow(nu),
+            variance: narrow(s),
+            nis: narrow(nis),
+            delta: narrow(est.delta),
+            sigma_delta: narrow(est.sigma_delta),
+            flags,
+        };
+        self.k = self.k.wrapping_add(1);
+        if flags & P_REPAIRED != 0 {
+            self.repairs = self.repairs.saturating_add(1);
+        }
+        Report {
+            record,
+            reidentified,
+            jumped,
+            acf: self.k % self.cfg.acf_every == 0,
+        }
+    }
+
+    /// The NIS scale `s` of the gate (module documentation).
+    fn track_scale(&mut self, nis: T, threshold: T) {
+        if !nis.is_finite() {
+            return;
+        }
+        let a = T::lit(1.0 / 64.0);
+        let s = (T::one() - a) * self.nis_scale + a * nis.min(threshold);
+        self.nis_scale = s.max(T::one());
+    }
+
+    fn feed_acf(&mut self, est: &Estimates<T>) {
+        let w = T::lit(1.0 / ACF_WINDOW as f64);
+        let pairs = [(est.da, est.sigma_da), (est.dw, est.sigma_dw)];
+        for ((acf, pm), (x, sd)) in self.acf.iter_mut().zip(self.p_mean.iter_mut()).zip(pairs) {
+            // A rejected sample (non-finite after a repair) leaves the window as it was.
+            if acf.push(x).is_ok() {
+                let first = acf.len() == 1;
+                *pm = if first { sd * sd } else { *pm + w * (sd * sd - *pm) };
+            }
+        }
+    }
+
+    /// One log row: bridges a gap in time with missing-observation ticks (at most
+    /// [`NavConfig::max_bridge`]), skips a row whose time does not advance, then ticks with the
+    /// row. Every tick's record goes to `sink`, followed by the parameters when they changed
+    /// and the autocorrelation identification when it ran.
+    pub fn push(&mut self, t: f64, z: T, sink: &mut impl TelemetrySink) {
+        let dt = self.dt.as_f64();
+        let steps: f64 = match self.prev_t {
+            None => 1.0,
+            Some(p) => libm::round((t - p) / dt),
+        };
+        // NaN (non-finite t) and non-advancing times are skipped, never misread.
+        let advances = steps >= 1.0;
+        if !advances {
+            let est = self.estimates();
+            let narrow = |x: T| x.as_f64() as f32;
+            sink.record(&Record {
+                k: self.k,
+                t,
+                z: narrow(z),
+                innovation: f32::NAN,
+                variance: f32::NAN,
+                nis: f32::NAN,
+                delta: narrow(est.delta),
+                sigma_delta: narrow(est.sigma_delta),
+                flags: time_flags(self.prev_t, t, dt) | SKIPPED,
+            });
+            return;
+        }
+        let gap = steps - 1.0;
+        let bridged = gap.min(f64::from(self.cfg.max_bridge)) as u32;
+        let start = self.prev_t.unwrap_or(t);
+        for i in 1..=bridged {
+            let mut r = self.tick(start + f64::from(i) * dt, T::lit(f64::NAN));
+            r.record.flags |= BRIDGED;
+            self.emit(&r, sink);
+        }
+        let mut r = self.tick(t, z);
+        if gap > f64::from(bridged) {
+            r.record.flags |= TIME_JUMP;
+        }
+        self.emit(&r, sink);
+    }
+
+    /// Sends a tick's record and what came with it.
+    pub fn emit(&self, r: &Report, sink: &mut impl TelemetrySink) {
+        sink.record(&r.record);
+        if r.reidentified {
+            if let Ok(m) = self.model() {
+                model_params(&m, r.record.k, r.record.t, |p| sink.params(p));
+            }
+        }
+        if r.acf {
+            for sensor in [Sensor::Accel, Sensor::Gyro] {
+                sink.acf(&self.acf_identify(sensor, r.record.k, r.record.t));
+            }
+        }
+    }
+
+    /// The paper's identification from the estimates' autocorrelation (lag-1 bias-corrected
+    /// `alpha`, `sigma^2 = R_0 + mean(P)`); NaN fields when the window cannot support it.
+    pub fn acf_identify(&self, sensor: Sensor, k: u32, t: f64) -> AcfRecord {
+        let i = usize::from(sensor == Sensor::Gyro);
+        let (acf, pm) = (&self.acf[i], self.p_mean[i]);
+        records::acf_record(acf, pm, self.dt, sensor, k, t)
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,137 @@
+//! Unit tests of the step: bookkeeping, flags, gate and bridging. Statistical behaviour (the
+//! identification itself) is tested through `hal-sim` on simulated logs.
+
+extern crate std;
+use super::*;
+use crate::telemetry::FLAG_NAMES;
+use std::vec::Vec;
+
+#[derive(Default)]
+struct Collect {
+    records: Vec<Record>,
+    params: Vec<ParamRecord>,
+    acf: Vec<AcfRecord>,
+}
+
+impl TelemetrySink for Collect {
+    fn record(&mut self, r: &Record) {
+        self.records.push(*r);
+    }
+    fn params(&mut self, p: &ParamRecord) {
+        self.params.push(*p);
+    }
+    fn acf(&mut self, a: &AcfRecord) {
+        self.acf.push(*a);
+    }
+}
+
+fn noise(k: u32) -> f32 {
+    // A deterministic, roughly white sequence of about the paper's observation noise (0.03 m/s).
+    let x = (k.wrapping_mul(2_654_435_761) >> 8) as f32 / (1u32 << 24) as f32;
+    0.05 * (x - 0.5)
+}
+
+#[test]
+fn bad_config_is_an_error() {
+    for gate in [f32::NAN, 0.5, f32::INFINITY] {
+        let cfg = NavConfig { gate, ..NavConfig::default() };
+        assert_eq!(
+            Navigator::new(InsModel::paper(), cfg).err(),
+            Some(NavError::BadConfig)
+        );
+    }
+}
+
+#[test]
+fn an_isolated_jump_is_gated_and_a_persistent_one_accepted() {
+    for cfg in [NavConfig::<f32>::default(), NavConfig::adaptive()] {
+        let mut nav = Navigator::new(InsModel::paper(), cfg).unwrap();
+        let mut sink = Collect::default();
+        for k in 1..=2000u32 {
+            nav.push(f64::from(k), noise(k), &mut sink);
+        }
+        // One GNSS jump of 5 m/s.
+        nav.push(2001.0, 5.0, &mut sink);
+        let r = sink.records.last().unwrap();
+        assert!(r.has(GATED_OUTLIER), "flags {:#x}", r.flags);
+        // A persistent 0.5 m/s offset: the gate scale grows and lets it in within a minute.
+        let mut accepted_at = None;
+        for k in 2002..=2100u32 {
+            nav.push(f64::from(k), 0.5 + noise(k), &mut sink);
+            let r = sink.records.last().unwrap();
+            if accepted_at.is_none() && !r.has(GATED_OUTLIER) {
+                accepted_at = Some(k);
+            }
+        }
+        let at = accepted_at.expect("a persistent change must be accepted");
+        assert!(at < 2062, "accepted only at {at}");
+    }
+}
+
+#[test]
+fn gaps_are_bridged_and_non_advancing_rows_skipped() {
+    let mut nav = Navigator::<f32>::new(InsModel::paper(), NavConfig::default()).unwrap();
+    let mut sink = Collect::default();
+    nav.push(10.0, 0.01, &mut sink);
+    nav.push(14.0, 0.01, &mut sink);
+    nav.push(13.0, 0.01, &mut sink);
+    nav.push(f64::NAN, 0.01, &mut sink);
+    let flags: Vec<u16> = sink.records.iter().map(|r| r.flags).collect();
+    assert_eq!(flags.len(), 7);
+    assert_eq!(flags[0], 0);
+    for f in &flags[1..4] {
+        assert_eq!(*f, BRIDGED | MISSING, "bridged ticks are missing observations");
+    }
+    assert_eq!(flags[4], 0, "the row after a bridged gap is on time");
+    // t = 13 went backwards, t = NaN is unusable: both skipped, the filter untouched.
+    for f in &flags[5..] {
+        assert_eq!(*f & (SKIPPED | BAD_INPUT), SKIPPED | BAD_INPUT);
+    }
+    assert_eq!(nav.ticks(), 5);
+    // t of the bridged ticks.
+    let ts: Vec<f64> = sink.records.iter().take(5).map(|r| r.t).collect();
+    assert_eq!(ts, [10.0, 11.0, 12.0, 13.0, 14.0]);
+}
+
+#[test]
+fn a_gap_longer_than_the_bridge_is_flagged() {
+    let cfg = NavConfig::<f32> {
+        max_bridge: 100,
+        ..NavConfig::default()
+    };
+    let mut nav = Navigator::new(InsModel::paper(), cfg).unwrap();
+    let mut sink = Collect::default();
+    nav.push(0.0, 0.0, &mut sink);
+    nav.push(1.0e6, 0.0, &mut sink);
+    assert_eq!(sink.records.len(), 102);
+    assert!(sink.records[101].has(TIME_JUMP));
+    assert!(nav.estimates().sigma_delta.is_finite());
+}
+
+#[test]
+fn parameters_are_reported_at_start_and_acf_on_schedule() {
+    let cfg = NavConfig::<f32> {
+        acf_every: 500,
+        ..NavConfig::default()
+    };
+    let mut nav = Navigator::new(InsModel::paper(), cfg).unwrap();
+    let mut sink = Collect::default();
+    for k in 1..=2500u32 {
+        nav.push(f64::from(k), noise(k), &mut sink);
+    }
+    // paper: one accelerometer and one gyro Gauss-Markov component.
+    assert_eq!(sink.params.len(), 2);
+    assert_eq!(sink.params[0].sensor, Sensor::Accel);
+    assert_eq!(sink.params[1].sensor, Sensor::Gyro);
+    assert!(sink.params.iter().all(|p| p.tau > 0.0 && p.sigma > 0.0));
+    // 5 schedules x 2 sensors; the window (1024) is full from the third on.
+    assert_eq!(sink.acf.len(), 10);
+    assert!(sink.acf[..4].iter().all(|a| a.tau.is_nan()));
+    assert!(sink.acf[4..].iter().all(|a| a.sigma.is_finite() && a.sigma > 0.0));
+}
+
+#[test]
+fn flag_names_cover_the_new_bits() {
+    let all = FLAG_NAMES.iter().fold(0u16, |a, (b, _)| a | b);
+    assert_eq!(all & (SKIPPED | BRIDGED), SKIPPED | BRIDGED);
+}
