@@ -485,6 +485,16 @@ impl<T: Real> AdaptiveFilter<T> {
         self.last_gain
     }
 
+    /// The centre filter (scaled states; see [`Bank::scale`](bank::Bank::scale)).
+    pub fn centre(&self) -> &bank::Member<T> {
+        self.bank.centre()
+    }
+
+    /// Number of active states of the filters.
+    pub fn active(&self) -> usize {
+        self.bank.active()
+    }
+
     /// Member repairs so far.
     pub fn repairs(&self) -> u32 {
         self.bank.repairs

@@ -54,7 +54,7 @@ pub use records::{model_params, AcfRecord, ParamRecord};
 use crate::adapt::{AdaptConfig, AdaptError, AdaptiveFilter, StepStatus};
 use crate::autocorr::Autocorrelator;
 use crate::filter::{Estimates, InsFilter};
-use crate::model::{InsModel, ModelError, Sensor};
+use crate::model::{InsModel, ModelError, Sensor, StateMat};
 use crate::telemetry::{
     status_flags, time_flags, Record, TelemetrySink, BAD_INPUT, BRIDGED, GATED_OUTLIER, MISSING,
     PARAM_CLAMPED, P_REPAIRED, SKIPPED, TIME_JUMP,
@@ -207,6 +207,15 @@ impl<T: Real> Navigator<T> {
         match &self.engine {
             Engine::Adaptive(a) => Some(a),
             Engine::Fixed(_) => None,
+        }
+    }
+
+    /// The covariance of the (centre) filter in its scaled states, and the number of active
+    /// states (the leading block; the rest is zero).
+    pub fn covariance_scaled(&self) -> (StateMat<T>, usize) {
+        match &self.engine {
+            Engine::Fixed(f) => (f.ekf().P, f.ekf().active()),
+            Engine::Adaptive(a) => (a.centre().covariance(), a.active()),
         }
     }
 
