@@ -1,5 +1,5 @@
-//! A compact binary form of an observation log, read by the firmware and written by the host,
-//! and the replay loop that turns its rows into telemetry [`Record`]s.
+//! A compact binary form of an observation log, read by the firmware and written by the host.
+//! The loop that steps through its rows is [`Navigator::push`](crate::navigator::Navigator::push).
 //!
 //! # Format (version 1, all integers and floats little-endian)
 //!
@@ -30,10 +30,6 @@
 //! assert_eq!(decode(&buf[..n], |_row| seen += 1), Ok(2));
 //! assert_eq!(seen, 2);
 //! ```
-
-use crate::filter::InsFilter;
-use crate::telemetry::{status_flags, time_flags, Record, BAD_INPUT, P_REPAIRED};
-use crate::Real;
 
 /// First four bytes of every log.
 pub const MAGIC: [u8; 4] = *b"IMUR";
@@ -359,57 +355,6 @@ impl Crc32 {
     }
 }
 
-/// Runs a filter over log rows and describes each step as a telemetry [`Record`]: the one
-/// replay loop shared by the firmware and by the host tests that check it.
-///
-/// It predicts and updates once per row (the filter's fixed `dt`; a gap in time is flagged
-/// [`TIME_JUMP`](crate::telemetry::TIME_JUMP), not bridged), then repairs the covariance if it
-/// lost positive definiteness. The 1 Hz step of the full pipeline (identification and
-/// adaptation) will take its place; until then this keeps firmware and host identical.
-#[derive(Debug, Clone)]
-pub struct Replayer<T: Real> {
-    filter: InsFilter<T>,
-    prev_t: Option<f64>,
-    k: u32,
-}
-
-impl<T: Real> Replayer<T> {
-    /// Starts a replay with `filter`.
-    pub fn new(filter: InsFilter<T>) -> Self {
-        Self {
-            filter,
-            prev_t: None,
-            k: 0,
-        }
-    }
-
-    /// The filter after the steps so far.
-    pub fn filter(&self) -> &InsFilter<T> {
-        &self.filter
-    }
-
-    /// Runs one row through the filter.
-    pub fn step(&mut self, row: Row) -> Record {
-        let dt = self.filter.model().dt.as_f64();
-        let mut flags = time_flags(self.prev_t, row.t, dt);
-        if row.z.is_infinite() {
-            flags |= BAD_INPUT;
-        }
-        let z = T::lit(f64::from(row.z));
-        let inn = self.filter.step(z);
-        flags |= status_flags(inn.status);
-        if self.filter.repair() {
-            flags |= P_REPAIRED;
-        }
-        if row.t.is_finite() {
-            self.prev_t = Some(row.t);
-        }
-        let rec = Record::from_step(self.k, row.t, z, &inn, &self.filter.estimates(), flags);
-        self.k = self.k.wrapping_add(1);
-        rec
-    }
-}
-
 #[cfg(test)]
 mod tests {
     extern crate std;
@@ -527,32 +472,6 @@ mod tests {
         }
         assert_eq!(dec.push(0), Err(ReplayError::BadMagic));
         assert_eq!(dec.finish(), Err(ReplayError::BadMagic));
-    }
-
-    #[test]
-    fn replayer_flags_missing_gaps_and_bad_rows() {
-        use crate::model::InsModel;
-        use crate::telemetry::{MISSING, TIME_JUMP};
-        let filter = InsFilter::new(InsModel::<f64>::paper()).unwrap();
-        let mut r = Replayer::new(filter);
-        let rows = [
-            (1.0, 0.01),
-            (2.0, f32::NAN),
-            (5.0, 0.02),
-            (6.0, f32::INFINITY),
-            (f64::NAN, 0.0),
-        ];
-        let got: Vec<Record> = rows.iter().map(|&(t, z)| r.step(Row { t, z })).collect();
-        let flags: Vec<u16> = got.iter().map(|rec| rec.flags).collect();
-        assert_eq!(
-            flags,
-            [0, MISSING, TIME_JUMP, MISSING | BAD_INPUT, BAD_INPUT]
-        );
-        assert_eq!(
-            got.iter().map(|rec| rec.k).collect::<Vec<_>>(),
-            [0, 1, 2, 3, 4]
-        );
-        assert!(got[0].nis.is_finite() && got[1].nis.is_nan());
     }
 
     #[test]

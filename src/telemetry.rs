@@ -17,7 +17,7 @@
 //! Precision: time stays `f64` (an `f32` has a 1 s spacing at 1e7 s); everything else is `f32`,
 //! which is what the single-precision firmware computes and halves the bytes on the wire.
 
-use crate::filter::{Estimates, Innovation, UpdateStatus};
+use crate::filter::{Estimates, UpdateStatus};
 pub use crate::navigator::{AcfRecord, ParamRecord};
 use crate::Real;
 
@@ -57,7 +57,9 @@ pub const WIRE_TAG: &str = "tlm";
 
 /// Field names of the defmt telemetry frame, in order. Each parameter of the frame is
 /// preceded by `name=`, so a decoder can check the layout instead of trusting positions.
-pub const WIRE_FIELDS: [&str; 9] = ["k", "t", "z", "nu", "s", "nis", "delta", "sd", "flags"];
+pub const WIRE_FIELDS: [&str; 15] = [
+    "k", "t", "z", "nu", "s", "nis", "dv", "sdv", "delta", "sd", "da", "sda", "dw", "sdw", "flags",
+];
 
 /// One filter step, as reported.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -75,36 +77,48 @@ pub struct Record {
     pub variance: f32,
     /// Normalised innovation squared (NaN when missing).
     pub nis: f32,
+    /// Velocity error estimate after the update [m/s].
+    pub dv: f32,
+    /// Its standard deviation [m/s].
+    pub sigma_dv: f32,
     /// Tilt error estimate after the update [rad].
     pub delta: f32,
     /// Its standard deviation [rad].
     pub sigma_delta: f32,
+    /// Accelerometer error estimate (sum of its components) [m/s^2].
+    pub da: f32,
+    /// Its standard deviation [m/s^2].
+    pub sigma_da: f32,
+    /// Gyro drift estimate (sum of its components) [rad/s].
+    pub dw: f32,
+    /// Its standard deviation [rad/s].
+    pub sigma_dw: f32,
     /// Bitset of [`MISSING`], [`GATED_OUTLIER`], [`P_REPAIRED`], [`PARAM_CLAMPED`],
     /// [`TIME_JUMP`], [`BAD_INPUT`], [`SKIPPED`], [`BRIDGED`].
     pub flags: u16,
 }
 
 impl Record {
-    /// Builds the record of step `k` at time `t` from the filter's outputs.
-    pub fn from_step<T: Real>(
-        k: u32,
-        t: f64,
-        z: T,
-        inn: &Innovation<T>,
-        est: &Estimates<T>,
-        flags: u16,
-    ) -> Self {
+    /// Builds the record of tick `k` at time `t` with observation `z`, innovation `nu`, its
+    /// variance `s` and the estimates after the update.
+    pub fn new<T: Real>(k: u32, t: f64, z: T, nu: T, s: T, est: &Estimates<T>, flags: u16) -> Self {
         // Narrowing to f32 is the telemetry's precision, not the filter's.
         let f = |x: T| x.as_f64() as f32;
         Self {
             k,
             t,
             z: f(z),
-            innovation: f(inn.innovation),
-            variance: f(inn.variance),
-            nis: f(inn.nis),
+            innovation: f(nu),
+            variance: f(s),
+            nis: f(nu * nu / s),
+            dv: f(est.dv),
+            sigma_dv: f(est.sigma_dv),
             delta: f(est.delta),
             sigma_delta: f(est.sigma_delta),
+            da: f(est.da),
+            sigma_da: f(est.sigma_da),
+            dw: f(est.dw),
+            sigma_dw: f(est.sigma_dw),
             flags,
         }
     }
@@ -120,15 +134,21 @@ impl Record {
     #[cfg(feature = "defmt")]
     pub fn log(&self) {
         defmt::info!(
-            "tlm k={=u32} t={=f64} z={=f32} nu={=f32} s={=f32} nis={=f32} delta={=f32} sd={=f32} flags={=u16}",
+            "tlm k={=u32} t={=f64} z={=f32} nu={=f32} s={=f32} nis={=f32} dv={=f32} sdv={=f32} delta={=f32} sd={=f32} da={=f32} sda={=f32} dw={=f32} sdw={=f32} flags={=u16}",
             self.k,
             self.t,
             self.z,
             self.innovation,
             self.variance,
             self.nis,
+            self.dv,
+            self.sigma_dv,
             self.delta,
             self.sigma_delta,
+            self.da,
+            self.sigma_da,
+            self.dw,
+            self.sigma_dw,
             self.flags
         );
     }

@@ -25,6 +25,8 @@ pub struct ParamRow {
     pub sensor: &'static str,
     /// Component index within the sensor.
     pub component: usize,
+    /// Its kind (model-TOML spelling): with the rows of one time, the selected structure.
+    pub kind: &'static str,
     /// Correlation time [s] (NaN when the kind has none).
     pub tau: f64,
     /// Standard deviation (NaN when the kind has none).
@@ -73,6 +75,7 @@ fn param_rows(t: f64, m: &InsModel<f64>, out: &mut Vec<ParamRow>) {
                 t,
                 sensor: sensor.name(),
                 component: i,
+                kind: c.kind().name(),
                 tau,
                 sigma,
                 beta,
@@ -284,14 +287,16 @@ pub fn run_acf_loop(
     Ok((est, f.model().clone()))
 }
 
-/// Writes the parameters-over-time log as CSV (`t,sensor,component,tau,sigma,beta`).
+/// Writes the parameters-over-time log as CSV (`t,sensor,component,kind,tau,sigma,beta`).
 pub fn write_params_csv(path: &std::path::Path, rows: &[ParamRow]) -> Result<()> {
-    let mut w = csv::Writer::from_path(path)?;
-    for r in rows {
-        w.serialize(r)?;
-    }
-    w.flush()?;
-    Ok(())
+    crate::output::write_atomic(path, |w| {
+        let mut csv = csv::Writer::from_writer(w);
+        for r in rows {
+            csv.serialize(r)?;
+        }
+        csv.flush()?;
+        Ok(())
+    })
 }
 
 /// The kind of the `i`-th identified parameter, for reports.

@@ -2,7 +2,7 @@
 
 use crate::model_toml;
 use crate::output::{write_atomic, write_string};
-use crate::runner::{self, EstimateRow};
+use crate::runner::EstimateRow;
 use crate::summary::{summarise, Summary};
 use crate::{log, scenario, sim};
 use anyhow::{anyhow, Context, Result};
@@ -36,9 +36,10 @@ pub fn write_estimates(path: &Path, rows: &[EstimateRow]) -> Result<()> {
     })
 }
 
-/// `run`: replays a log through the filter; writes `estimates.csv` and `summary.json` into
-/// `out`. With `adapt`, the adaptive loop identifies the noise model online, starting from the
-/// given model, and `params.csv` logs the parameters over time; the summary gains
+/// `run`: replays a log through the firmware's 1 Hz step ([`imu_ident::navigator`], in double
+/// precision); writes `estimates.csv`, `params.csv`, `acf.csv` and `summary.json` into `out`.
+/// With `adapt`, the step identifies the noise model online, starting from the given model;
+/// `params.csv` logs the parameters at each re-identification and the summary gains
 /// `identified_model` (model-TOML structure).
 pub fn run(
     log_path: &Path,
@@ -49,25 +50,116 @@ pub fn run(
     let model = model_toml::load(model_path)?;
     let rows = log::read(log_path)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    if !adapt {
-        let (est, counts) = runner::run::<f64>(&model, &rows)?;
-        let summary = summarise(&rows, &est, counts);
-        write_estimates(&out.join("estimates.csv"), &est)?;
-        let json = serde_json::to_value(&summary)?;
-        write_string(
-            &out.join("summary.json"),
-            &serde_json::to_string_pretty(&json)?,
-        )?;
-        return Ok(json);
+    let (tel, end) = crate::navigate::run::<f64>(&model, adapt, &rows)?;
+    write_run(out, &rows, &tel, adapt.then_some(&end))
+}
+
+/// `qemu`: runs the firmware ELF under QEMU on the log with the model; writes the files of
+/// [`run`] from the decoded telemetry, plus `firmware.json` (instruction counts, stack, exit).
+pub fn qemu(
+    log_path: &Path,
+    model_path: &Path,
+    adapt: bool,
+    out: &Path,
+    elf: Option<std::path::PathBuf>,
+) -> Result<serde_json::Value> {
+    let model = model_toml::load(model_path)?;
+    let rows = log::read(log_path)?;
+    let elf = elf
+        .or_else(|| std::env::var_os("IMU_IDENT_FIRMWARE_ELF").map(Into::into))
+        .unwrap_or_else(|| "target/thumbv7em-none-eabihf/release/imu-ident-qemu".into());
+    let pairs: Vec<(f64, f64)> = rows.iter().map(|r| (r.t, r.z)).collect();
+    let run = crate::qemu::run_firmware(
+        &elf,
+        &model,
+        adapt,
+        &pairs,
+        &crate::qemu::QemuConfig::default(),
+    )?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let fw = serde_json::json!({
+        "elf": elf.display().to_string(),
+        "exit_success": run.success(),
+        "icount": run.icount,
+        "stack": run.stack,
+        "messages": run.messages,
+    });
+    write_string(
+        &out.join("firmware.json"),
+        &serde_json::to_string_pretty(&fw)?,
+    )?;
+    if !run.success() {
+        return Err(anyhow!(
+            "the firmware failed ({}): {}",
+            run.status,
+            run.messages.join("; ")
+        ));
     }
-    let r = crate::adaptive::run::<f64>(&model, &rows, imu_ident::adapt::AdaptConfig::default())?;
-    let summary: Summary = summarise(&rows, &r.estimates, r.counts);
-    write_estimates(&out.join("estimates.csv"), &r.estimates)?;
-    crate::adaptive::write_params_csv(&out.join("params.csv"), &r.params)?;
+    let end = identified_from_params(&model, &run.telemetry);
+    let mut json = write_run(out, &rows, &run.telemetry, adapt.then_some(&end))?;
+    json["firmware"] = fw;
+    Ok(json)
+}
+
+/// The model with the last reported parameters (what the firmware ended with).
+fn identified_from_params(
+    start: &imu_ident::model::InsModel<f64>,
+    tel: &crate::navigate::Telemetry,
+) -> imu_ident::model::InsModel<f64> {
+    use imu_ident::model::{Component, Sensor};
+    let mut m = start.clone();
+    let Some(last_k) = tel.params.last().map(|p| p.k) else {
+        return m;
+    };
+    for p in tel.params.iter().filter(|p| p.k == last_k) {
+        let (tau, sigma, beta) = (f64::from(p.tau), f64::from(p.sigma), f64::from(p.beta));
+        let i = usize::from(p.component);
+        let c = match p.sensor {
+            Sensor::Accel => m.accel.get_mut(i),
+            Sensor::Gyro => m.gyro.get_mut(i),
+            Sensor::Observation => {
+                if let Some(g) = m.colored.get_mut(i) {
+                    g.tau = tau;
+                    g.sigma = sigma;
+                }
+                None
+            }
+        };
+        match c {
+            Some(Component::GaussMarkov(g)) => {
+                g.tau = tau;
+                g.sigma = sigma;
+            }
+            Some(Component::ExpCosine(e)) => {
+                e.tau = tau;
+                e.sigma = sigma;
+                e.beta = beta;
+            }
+            Some(Component::RandomWalk(r)) => r.q = sigma * sigma,
+            Some(Component::RandomConstant(r)) => r.sigma = sigma,
+            Some(Component::White(w)) => w.density = sigma,
+            None => {}
+        }
+    }
+    m
+}
+
+/// Writes a run's files (host or firmware telemetry) and returns its summary.
+pub fn write_run(
+    out: &Path,
+    rows: &[log::LogRow],
+    tel: &crate::navigate::Telemetry,
+    identified: Option<&imu_ident::model::InsModel<f64>>,
+) -> Result<serde_json::Value> {
+    tel.write(out)?;
+    let summary: Summary = summarise(rows, &tel.estimate_rows(), tel.counts());
     let mut json = serde_json::to_value(&summary)?;
-    json["identified_model"] =
-        serde_json::to_value(model_toml::ModelToml::from_core(&r.final_model))?;
-    json["parameter_updates"] = r.updates.into();
+    if let Some(m) = identified {
+        json["identified_model"] = serde_json::to_value(model_toml::ModelToml::from_core(m))?;
+        let mut ks: Vec<u32> = tel.params.iter().map(|p| p.k).collect();
+        ks.dedup();
+        json["parameter_updates"] = ks.len().saturating_sub(1).into();
+    }
     write_string(
         &out.join("summary.json"),
         &serde_json::to_string_pretty(&json)?,

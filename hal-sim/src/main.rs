@@ -104,6 +104,25 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Run the firmware under QEMU on a log; writes the files of `run` plus firmware.json.
+    Qemu {
+        /// Log CSV.
+        #[arg(long)]
+        log: PathBuf,
+        /// Model TOML.
+        #[arg(long)]
+        model: PathBuf,
+        /// Identify the noise model online, starting from --model.
+        #[arg(long)]
+        adapt: bool,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// Firmware ELF (default: $IMU_IDENT_FIRMWARE_ELF, else
+        /// target/thumbv7em-none-eabihf/release/imu-ident-qemu).
+        #[arg(long)]
+        elf: Option<PathBuf>,
+    },
     /// Hide an effect in `paper` data, diagnose the nominal model, add the effect, rerun.
     Demo {
         /// The hidden effect, e.g. gyro/exp-cosine (default: drawn at random).
@@ -140,6 +159,16 @@ fn main() -> Result<()> {
             adapt,
         } => {
             let s = commands::run(&log, &model, &out, adapt)?;
+            println!("{}", serde_json::to_string_pretty(&s)?);
+        }
+        Command::Qemu {
+            log,
+            model,
+            adapt,
+            out,
+            elf,
+        } => {
+            let s = commands::qemu(&log, &model, adapt, &out, elf)?;
             println!("{}", serde_json::to_string_pretty(&s)?);
         }
         Command::Figures { seed, out } => {

@@ -1,21 +1,24 @@
 //! Runs the `imu-ident-qemu` firmware under QEMU on a log and reads back its telemetry.
 //!
-//! The log is written in the core's binary replay format ([`imu_ident::replay`]) into a fresh
-//! temporary directory, QEMU is started there (so the firmware opens it by a short relative
-//! name, passed as a semihosting argument), and everything the firmware writes to semihosting
-//! stdout is decoded as defmt frames with the ELF's own format table.
+//! The model (with its run options, [`imu_ident::model::wire`]) and the log (the core's binary
+//! replay format, [`imu_ident::replay`]) are written into a fresh temporary directory, QEMU is
+//! started there with `-icount shift=0` (so the firmware's SysTick counts instructions and
+//! opens both files by short relative names, passed as semihosting arguments), and everything
+//! the firmware writes to semihosting stdout is decoded as defmt frames with the ELF's own
+//! format table.
 //!
-//! Telemetry frames are parsed structurally: defmt-decoder hands out each format parameter as
-//! its own fragment, and the literal before each one names it (`k=`, `t=`, ... see
+//! Frames are parsed structurally: defmt-decoder hands out each format parameter as its own
+//! fragment, and the literal before each one names it (`k=`, `t=`, ... see
 //! [`imu_ident::telemetry::WIRE_FIELDS`]), so a layout change on the firmware side is an
 //! error here rather than silently shifted columns.
 //!
 //! ```no_run
 //! use hal_sim::qemu::{run_firmware, QemuConfig};
+//! use imu_ident::model::InsModel;
 //! let rows: Vec<(f64, f64)> = (1..=600).map(|k| (k as f64, 0.0)).collect();
-//! let run = run_firmware("imu-ident-qemu".as_ref(), &rows, &QemuConfig::default())?;
+//! let run = run_firmware("imu-ident-qemu".as_ref(), &InsModel::paper(), false, &rows, &QemuConfig::default())?;
 //! assert!(run.success());
-//! assert_eq!(run.records.len(), 600);
+//! assert_eq!(run.telemetry.records.len(), 600);
 //! # Ok::<(), anyhow::Error>(())
 //! ```
 
@@ -28,11 +31,25 @@ use std::time::{Duration, Instant};
 use anyhow::{anyhow, bail, Context, Result};
 use defmt_decoder::{DecodeError, Frame, Table};
 use defmt_parser::Fragment;
+use imu_ident::model::{wire, ComponentKind, InsModel, Sensor};
+use imu_ident::navigator::records::{ACF_WIRE_TAG, PARAM_WIRE_FIELDS, PARAM_WIRE_TAG};
+use imu_ident::navigator::{AcfRecord, ParamRecord};
 use imu_ident::replay::{encode, encoded_len, Row};
 use imu_ident::telemetry::{Record, WIRE_FIELDS, WIRE_TAG};
+use serde::Serialize;
+
+use crate::navigate::Telemetry;
 
 /// Name of the log inside QEMU's working directory.
 const LOG_NAME: &str = "replay.bin";
+/// Name of the model file inside QEMU's working directory.
+const MODEL_NAME: &str = "model.bin";
+/// Fields of the firmware's autocorrelation frame.
+const ACF_FIELDS: [&str; 5] = ["k", "t", "sensor", "tau", "sigma"];
+/// Fields of the firmware's instruction-count summary.
+const ICOUNT_FIELDS: [&str; 5] = ["class", "n", "mean", "worst", "worst_k"];
+/// Fields of the firmware's stack summary.
+const STACK_FIELDS: [&str; 4] = ["phase", "high_water", "statics_end", "ram_top"];
 
 /// How to start QEMU.
 #[derive(Debug, Clone)]
@@ -45,19 +62,51 @@ pub struct QemuConfig {
 
 impl Default for QemuConfig {
     fn default() -> Self {
-        // A 600-step replay takes well under a second; the margin is for loaded CI machines.
+        // A 12 h adaptive replay takes well under a minute; the margin is for loaded CI machines.
         Self {
             program: PathBuf::from("qemu-system-arm"),
-            timeout: Duration::from_secs(120),
+            timeout: Duration::from_secs(600),
         }
     }
+}
+
+/// The firmware's instruction counts of one class of ticks (`-icount shift=0`, SysTick).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Icount {
+    /// `ordinary` or `reident` (a tick at the end of an identification block or probe epoch).
+    pub class: String,
+    /// Ticks counted.
+    pub n: u32,
+    /// Mean instructions per tick (40-instruction resolution).
+    pub mean: u64,
+    /// Largest count.
+    pub worst: u32,
+    /// Tick index of the largest count.
+    pub worst_k: u32,
+}
+
+/// The firmware's stack measurement (painted at boot, scanned at exit).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Stack {
+    /// `init` (building the navigator) or `run` (the ticks).
+    pub phase: String,
+    /// Deepest stack use [bytes].
+    pub high_water: u32,
+    /// End of the statics (`.data` + `.bss`): RAM used by statics is `statics_end - 0x2000_0000`.
+    pub statics_end: u32,
+    /// Top of RAM (initial stack pointer).
+    pub ram_top: u32,
 }
 
 /// What one firmware run produced.
 #[derive(Debug, Clone)]
 pub struct FirmwareRun {
-    /// Telemetry records, in the order received.
-    pub records: Vec<Record>,
+    /// Telemetry, in the order received.
+    pub telemetry: Telemetry,
+    /// Instruction counts per class of ticks.
+    pub icount: Vec<Icount>,
+    /// Stack high-water marks of start-up and of the ticks.
+    pub stack: Vec<Stack>,
     /// Every other defmt frame, formatted (`LEVEL message`), e.g. the final summary or error.
     pub messages: Vec<String>,
     /// QEMU's exit status: the firmware's semihosting exit code.
@@ -84,16 +133,37 @@ pub fn encode_log(rows: &[(f64, f64)]) -> Result<Vec<u8>> {
     Ok(buf)
 }
 
-/// Runs the firmware `elf` on `rows` (see [`encode_log`]) and decodes its telemetry.
+/// Encodes the model and the `adapt` option for the firmware.
+pub fn encode_model(model: &InsModel<f64>, adapt: bool) -> Result<Vec<u8>> {
+    let mut buf = vec![0u8; wire::MAX_LEN];
+    let n =
+        wire::encode(model, adapt, &mut buf).map_err(|e| anyhow!("encoding the model: {e:?}"))?;
+    buf.truncate(n);
+    Ok(buf)
+}
+
+/// Runs the firmware `elf` with `model` (identified online when `adapt`) on `rows` (see
+/// [`encode_log`]) and decodes its telemetry.
 ///
 /// An `Err` means the run could not be carried out or understood (QEMU missing, timeout,
 /// undecodable output); the firmware's own failure is reported in [`FirmwareRun::status`].
-pub fn run_firmware(elf: &Path, rows: &[(f64, f64)], cfg: &QemuConfig) -> Result<FirmwareRun> {
-    run_firmware_bytes(elf, &encode_log(rows)?, cfg)
+pub fn run_firmware(
+    elf: &Path,
+    model: &InsModel<f64>,
+    adapt: bool,
+    rows: &[(f64, f64)],
+    cfg: &QemuConfig,
+) -> Result<FirmwareRun> {
+    run_firmware_bytes(elf, &encode_model(model, adapt)?, &encode_log(rows)?, cfg)
 }
 
-/// Like [`run_firmware`] with the log given as raw bytes (to test corrupt logs).
-pub fn run_firmware_bytes(elf: &Path, log: &[u8], cfg: &QemuConfig) -> Result<FirmwareRun> {
+/// Like [`run_firmware`] with the model and log given as raw bytes (to test corrupt files).
+pub fn run_firmware_bytes(
+    elf: &Path,
+    model: &[u8],
+    log: &[u8],
+    cfg: &QemuConfig,
+) -> Result<FirmwareRun> {
     let elf_bytes = std::fs::read(elf).with_context(|| format!("reading {}", elf.display()))?;
     // An absolute path: QEMU runs in the temporary directory.
     let elf = elf
@@ -101,14 +171,17 @@ pub fn run_firmware_bytes(elf: &Path, log: &[u8], cfg: &QemuConfig) -> Result<Fi
         .with_context(|| format!("resolving {}", elf.display()))?;
     let dir = tempfile::tempdir().context("creating a temporary directory")?;
     std::fs::write(dir.path().join(LOG_NAME), log).context("writing the replay log")?;
+    std::fs::write(dir.path().join(MODEL_NAME), model).context("writing the model")?;
 
     let mut child = Command::new(&cfg.program)
         .args(["-cpu", "cortex-m4", "-machine", "mps2-an386"])
         // No display, monitor or UART on stdio: stdout carries nothing but defmt frames.
         .args(["-display", "none", "-monitor", "none", "-serial", "null"])
+        // 1 ns of virtual time per instruction: the firmware's SysTick counts instructions.
+        .args(["-icount", "shift=0"])
         .arg("-semihosting-config")
         .arg(format!(
-            "enable=on,target=native,arg=imu-ident-qemu,arg={LOG_NAME}"
+            "enable=on,target=native,arg=imu-ident-qemu,arg={MODEL_NAME},arg={LOG_NAME}"
         ))
         .arg("-kernel")
         .arg(&elf)
@@ -160,51 +233,67 @@ pub fn run_firmware_bytes(elf: &Path, log: &[u8], cfg: &QemuConfig) -> Result<Fi
         .join()
         .map_err(|_| anyhow!("stderr reader panicked"))??;
 
-    let (records, messages) = decode_telemetry(&elf_bytes, &stdout)
+    let decoded = decode_telemetry(&elf_bytes, &stdout)
         .with_context(|| format!("decoding the output of {}", elf.display()))?;
     Ok(FirmwareRun {
-        records,
-        messages,
+        telemetry: decoded.telemetry,
+        icount: decoded.icount,
+        stack: decoded.stack,
+        messages: decoded.messages,
         status,
         stderr: String::from_utf8_lossy(&stderr).into_owned(),
     })
 }
 
-/// Decodes a defmt byte stream produced by the firmware `elf_bytes`: telemetry frames become
-/// [`Record`]s, all other frames formatted messages.
-pub fn decode_telemetry(elf_bytes: &[u8], stream: &[u8]) -> Result<(Vec<Record>, Vec<String>)> {
+/// Everything decoded from a firmware's defmt stream.
+#[derive(Debug, Clone, Default)]
+pub struct Decoded {
+    /// Tick records, parameters and autocorrelation identifications.
+    pub telemetry: Telemetry,
+    /// Instruction-count summaries.
+    pub icount: Vec<Icount>,
+    /// The stack summaries.
+    pub stack: Vec<Stack>,
+    /// Every other frame, formatted (`LEVEL message`).
+    pub messages: Vec<String>,
+}
+
+/// Decodes a defmt byte stream produced by the firmware `elf_bytes`.
+pub fn decode_telemetry(elf_bytes: &[u8], stream: &[u8]) -> Result<Decoded> {
     let table = Table::parse(elf_bytes)
         .context("reading the defmt table")?
         .ok_or_else(|| anyhow!("the ELF has no defmt table (not built with defmt?)"))?;
     let mut decoder = table.new_stream_decoder();
     decoder.received(stream);
-    let (mut records, mut messages) = (Vec::new(), Vec::new());
+    let mut out = Decoded::default();
     loop {
         match decoder.decode() {
-            Ok(frame) => match parse_record(&frame)? {
-                Some(rec) => records.push(rec),
-                None => messages.push(frame.display(false).to_string()),
-            },
+            Ok(frame) => parse_frame(&frame, &mut out)?,
             // The end of the stream (a cut-off last frame also ends here).
             Err(DecodeError::UnexpectedEof) => break,
             Err(DecodeError::Malformed) if table.encoding().can_recover() => {
-                messages.push("<malformed defmt frame skipped>".to_string());
+                out.messages
+                    .push("<malformed defmt frame skipped>".to_string());
             }
             Err(DecodeError::Malformed) => bail!("malformed defmt frame in a raw-encoded stream"),
         }
     }
-    Ok((records, messages))
+    Ok(out)
 }
 
-/// Parses a telemetry frame (`tlm k=.. t=.. ...`, written by `Record::log`); `None` for any
-/// other frame.
-fn parse_record(frame: &Frame<'_>) -> Result<Option<Record>> {
+/// The displayed parameters of a frame whose first literal starts with `tag`, checked against
+/// the expected field names; `None` for a frame with another tag.
+fn tagged<const N: usize>(
+    frame: &Frame<'_>,
+    tag: &str,
+    expected: &[&str; N],
+) -> Result<Option<[String; N]>> {
     let fragments = frame.fragments();
     match fragments.first() {
-        Some(Fragment::Literal(s)) if s.starts_with(&format!("{WIRE_TAG} ")) => {}
+        Some(Fragment::Literal(s)) if s.starts_with(&format!("{tag} ")) => {}
         _ => return Ok(None),
     }
-    let mut values = Vec::with_capacity(WIRE_FIELDS.len());
+    let mut values = Vec::with_capacity(N);
     let mut name = String::new();
     for (fragment, shown) in fragments.iter().zip(frame.display_fragments()) {
         match fragment {
@@ -217,10 +306,10 @@ fn parse_record(frame: &Frame<'_>) -> Result<Option<Record>> {
                     .to_string()
             }
             Fragment::Parameter(_) => {
-                let expected = WIRE_FIELDS.get(values.len()).copied().unwrap_or("<none>");
-                if name != expected {
+                let want = expected.get(values.len()).copied().unwrap_or("<none>");
+                if name != want {
                     bail!(
-                        "telemetry field {} is `{name}`, expected `{expected}`",
+                        "`{tag}` frame field {} is `{name}`, expected `{want}`",
                         values.len()
                     );
                 }
@@ -229,23 +318,95 @@ fn parse_record(frame: &Frame<'_>) -> Result<Option<Record>> {
         }
     }
     let n = values.len();
-    let [k, t, z, nu, s, nis, delta, sd, flags]: [String; 9] = values.try_into().map_err(|_| {
-        anyhow!(
-            "telemetry frame has {n} fields, expected {}",
-            WIRE_FIELDS.len()
-        )
-    })?;
-    Ok(Some(Record {
-        k: field("k", &k)?,
-        t: field("t", &t)?,
-        z: field("z", &z)?,
-        innovation: field("nu", &nu)?,
-        variance: field("s", &s)?,
-        nis: field("nis", &nis)?,
-        delta: field("delta", &delta)?,
-        sigma_delta: field("sd", &sd)?,
-        flags: field("flags", &flags)?,
-    }))
+    values
+        .try_into()
+        .map(Some)
+        .map_err(|_| anyhow!("`{tag}` frame has {n} fields, expected {N}"))
+}
+
+fn sensor(code: u8) -> Result<Sensor> {
+    [Sensor::Accel, Sensor::Gyro, Sensor::Observation]
+        .get(usize::from(code))
+        .copied()
+        .ok_or_else(|| anyhow!("unknown sensor code {code}"))
+}
+
+fn kind(code: u8) -> Result<ComponentKind> {
+    [
+        ComponentKind::GaussMarkov,
+        ComponentKind::ExpCosine,
+        ComponentKind::RandomWalk,
+        ComponentKind::RandomConstant,
+        ComponentKind::White,
+    ]
+    .get(usize::from(code))
+    .copied()
+    .ok_or_else(|| anyhow!("unknown component kind code {code}"))
+}
+
+/// Sorts one frame into `out`.
+fn parse_frame(frame: &Frame<'_>, out: &mut Decoded) -> Result<()> {
+    if let Some(v) = tagged(frame, WIRE_TAG, &WIRE_FIELDS)? {
+        let [k, t, z, nu, s, nis, dv, sdv, delta, sd, da, sda, dw, sdw, flags] = v;
+        out.telemetry.records.push(Record {
+            k: field("k", &k)?,
+            t: field("t", &t)?,
+            z: field("z", &z)?,
+            innovation: field("nu", &nu)?,
+            variance: field("s", &s)?,
+            nis: field("nis", &nis)?,
+            dv: field("dv", &dv)?,
+            sigma_dv: field("sdv", &sdv)?,
+            delta: field("delta", &delta)?,
+            sigma_delta: field("sd", &sd)?,
+            da: field("da", &da)?,
+            sigma_da: field("sda", &sda)?,
+            dw: field("dw", &dw)?,
+            sigma_dw: field("sdw", &sdw)?,
+            flags: field("flags", &flags)?,
+        });
+    } else if let Some(v) = tagged(frame, PARAM_WIRE_TAG, &PARAM_WIRE_FIELDS)? {
+        let [k, t, s, comp, kd, tau, sigma, beta] = v;
+        out.telemetry.params.push(ParamRecord {
+            k: field("k", &k)?,
+            t: field("t", &t)?,
+            sensor: sensor(field("sensor", &s)?)?,
+            component: field("comp", &comp)?,
+            kind: kind(field("kind", &kd)?)?,
+            tau: field("tau", &tau)?,
+            sigma: field("sigma", &sigma)?,
+            beta: field("beta", &beta)?,
+        });
+    } else if let Some(v) = tagged(frame, ACF_WIRE_TAG, &ACF_FIELDS)? {
+        let [k, t, s, tau, sigma] = v;
+        out.telemetry.acf.push(AcfRecord {
+            k: field("k", &k)?,
+            t: field("t", &t)?,
+            sensor: sensor(field("sensor", &s)?)?,
+            tau: field("tau", &tau)?,
+            sigma: field("sigma", &sigma)?,
+        });
+    } else if let Some(v) = tagged(frame, "icount", &ICOUNT_FIELDS)? {
+        let [class, n, mean, worst, worst_k] = v;
+        out.icount.push(Icount {
+            class,
+            n: field("n", &n)?,
+            mean: field("mean", &mean)?,
+            worst: field("worst", &worst)?,
+            worst_k: field("worst_k", &worst_k)?,
+        });
+    } else if let Some(v) = tagged(frame, "stack", &STACK_FIELDS)? {
+        let [phase, h, e, top] = v;
+        out.stack.push(Stack {
+            phase,
+            high_water: field("high_water", &h)?,
+            statics_end: field("statics_end", &e)?,
+            ram_top: field("ram_top", &top)?,
+        });
+    } else {
+        out.messages.push(frame.display(false).to_string());
+    }
+    Ok(())
 }
 
 /// Parses one displayed value. defmt-decoder prints floats with `ryu` (shortest round-trip

@@ -52,6 +52,27 @@ impl EstimateRow {
     }
 }
 
+impl EstimateRow {
+    /// A row from a telemetry record of the firmware's step (host or QEMU).
+    pub fn from_record(r: &imu_ident::telemetry::Record) -> Self {
+        let f = f64::from;
+        EstimateRow {
+            t: r.t,
+            dv_hat: f(r.dv),
+            delta_hat: f(r.delta),
+            da_hat: f(r.da),
+            dw_hat: f(r.dw),
+            sigma_dv: f(r.sigma_dv),
+            sigma_delta: f(r.sigma_delta),
+            sigma_da: f(r.sigma_da),
+            sigma_dw: f(r.sigma_dw),
+            innovation: f(r.innovation),
+            innovation_var: f(r.variance),
+            nis: f(r.nis),
+        }
+    }
+}
+
 /// Counts of what the replay did with the rows.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct RunCounts {

@@ -7,11 +7,11 @@
 
 use std::path::PathBuf;
 
-use hal_sim::qemu::{encode_log, run_firmware, run_firmware_bytes, QemuConfig};
-use imu_ident::filter::InsFilter;
+use hal_sim::log::LogRow;
+use hal_sim::navigate::Telemetry;
+use hal_sim::qemu::{encode_log, encode_model, run_firmware, run_firmware_bytes, QemuConfig};
 use imu_ident::model::InsModel;
-use imu_ident::replay::{Replayer, Row};
-use imu_ident::telemetry::{Record, MISSING, TIME_JUMP};
+use imu_ident::telemetry::{BRIDGED, MISSING};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -65,13 +65,20 @@ fn make_log() -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// The same replay on the host, in double precision, on the same `f32` observations.
-fn host_records(log: &[(f64, f64)]) -> Vec<Record> {
-    let filter = InsFilter::new(InsModel::<f64>::paper()).unwrap_or_else(|e| panic!("{e}"));
-    let mut replay = Replayer::new(filter);
-    log.iter()
-        .map(|&(t, z)| replay.step(Row { t, z: z as f32 }))
-        .collect()
+/// The same log through the same step on the host, in double precision, on the same `f32`
+/// observations.
+fn host_run(model: &InsModel<f64>, adapt: bool, log: &[(f64, f64)]) -> Telemetry {
+    let rows: Vec<LogRow> = log
+        .iter()
+        .map(|&(t, z)| LogRow {
+            t,
+            z: f64::from(z as f32),
+            truth: None,
+        })
+        .collect();
+    hal_sim::navigate::run::<f64>(model, adapt, &rows)
+        .unwrap_or_else(|e| panic!("{e:#}"))
+        .0
 }
 
 fn same_f32(a: f32, b: f32) -> bool {
@@ -82,7 +89,9 @@ fn same_f32(a: f32, b: f32) -> bool {
 fn qemu_firmware_matches_the_host_filter() {
     let Some(elf) = firmware_elf() else { return };
     let log = make_log();
-    let run = run_firmware(&elf, &log, &QemuConfig::default()).unwrap_or_else(|e| panic!("{e:#}"));
+    let model = InsModel::paper();
+    let run = run_firmware(&elf, &model, false, &log, &QemuConfig::default())
+        .unwrap_or_else(|e| panic!("{e:#}"));
     assert!(
         run.success(),
         "firmware failed: {:?}\nmessages: {:?}\nstderr: {}",
@@ -98,20 +107,21 @@ fn qemu_firmware_matches_the_host_filter() {
         run.messages
     );
 
-    let host = host_records(&log);
-    assert_eq!(run.records.len(), host.len(), "record count");
+    let host = host_run(&model, false, &log).records;
+    let fw = &run.telemetry.records;
+    assert_eq!(fw.len(), host.len(), "record count");
     assert!(
         host.iter().any(|r| r.has(MISSING)),
         "the log should exercise MISSING"
     );
     assert!(
-        host.iter().any(|r| r.has(TIME_JUMP)),
-        "the log should exercise TIME_JUMP"
+        host.iter().any(|r| r.has(BRIDGED)),
+        "the log should exercise a bridged gap"
     );
 
     let mut worst_delta = 0.0f64;
     let mut worst_nis = 0.0f64;
-    for (fw, h) in run.records.iter().zip(&host) {
+    for (fw, h) in fw.iter().zip(&host) {
         let at = format!("step {}: firmware {fw:?}\nhost {h:?}", h.k);
         assert_eq!(fw.k, h.k, "{at}");
         assert_eq!(
@@ -153,7 +163,8 @@ fn qemu_firmware_fails_on_a_corrupt_log() {
     let mut bytes = encode_log(&make_log()[..20]).unwrap_or_else(|e| panic!("{e:#}"));
     let last = bytes.len() - 1;
     bytes[last] ^= 0x01; // break the checksum
-    let run = run_firmware_bytes(&elf, &bytes, &QemuConfig::default())
+    let model = encode_model(&InsModel::paper(), false).unwrap_or_else(|e| panic!("{e:#}"));
+    let run = run_firmware_bytes(&elf, &model, &bytes, &QemuConfig::default())
         .unwrap_or_else(|e| panic!("{e:#}"));
     assert!(
         !run.success(),
@@ -164,5 +175,141 @@ fn qemu_firmware_fails_on_a_corrupt_log() {
         run.messages.iter().any(|m| m.contains("BadChecksum")),
         "the failure should say why: {:?}",
         run.messages
+    );
+}
+
+#[test]
+fn qemu_firmware_rejects_a_corrupt_model() {
+    let Some(elf) = firmware_elf() else { return };
+    let log = encode_log(&make_log()[..20]).unwrap_or_else(|e| panic!("{e:#}"));
+    let mut model = encode_model(&InsModel::paper(), true).unwrap_or_else(|e| panic!("{e:#}"));
+    model[12] ^= 0x40; // inside dt
+    let run = run_firmware_bytes(&elf, &model, &log, &QemuConfig::default())
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    assert!(!run.success(), "messages: {:?}", run.messages);
+    assert!(
+        run.messages.iter().any(|m| m.contains("BadChecksum")),
+        "the failure should say why: {:?}",
+        run.messages
+    );
+}
+
+/// Firmware (f32, QEMU) against host (f64) with the online identification on a 12 h log:
+/// every record's flags equal, the tilt estimate within 0.05 of its standard deviation at every
+/// step (issue 5), and the same re-identifications with every parameter within 1 % relative.
+fn assert_parity(model: &InsModel<f64>, adapt: bool, rows: &[LogRow], what: &str) {
+    let Some(elf) = firmware_elf() else { return };
+    let log: Vec<(f64, f64)> = rows.iter().map(|r| (r.t, r.z)).collect();
+    let run = run_firmware(&elf, model, adapt, &log, &QemuConfig::default())
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    assert!(
+        run.success(),
+        "{what}: firmware failed: {:?} {:?}",
+        run.status,
+        run.messages
+    );
+    let host = host_run(model, adapt, &log);
+    let (fw, h) = (&run.telemetry, &host);
+    assert_eq!(fw.records.len(), h.records.len(), "{what}: record count");
+    let mut worst_delta = 0.0f64;
+    for (a, b) in fw.records.iter().zip(&h.records) {
+        assert_eq!(a.k, b.k, "{what}");
+        assert_eq!(a.flags, b.flags, "{what}: flags at k = {}", b.k);
+        let d = f64::from((a.delta - b.delta).abs()) / f64::from(b.sigma_delta);
+        assert!(
+            d <= 0.05,
+            "{what}: delta differs by {d:.3} sigma at k = {}",
+            b.k
+        );
+        worst_delta = worst_delta.max(d);
+    }
+    assert!(
+        !adapt || h.params.len() > model.accel.len() + model.gyro.len(),
+        "{what}: the identification should have moved at least once"
+    );
+    assert_eq!(fw.params.len(), h.params.len(), "{what}: parameter records");
+    let mut worst_param = 0.0f64;
+    for (a, b) in fw.params.iter().zip(&h.params) {
+        assert_eq!(
+            (a.k, a.sensor, a.component, a.kind),
+            (b.k, b.sensor, b.component, b.kind)
+        );
+        for (x, y) in [(a.tau, b.tau), (a.sigma, b.sigma), (a.beta, b.beta)] {
+            if y.is_nan() {
+                assert!(x.is_nan(), "{what}: {a:?} vs {b:?}");
+                continue;
+            }
+            let r = f64::from((x - y).abs() / y.abs());
+            assert!(
+                r <= 0.01,
+                "{what}: parameter differs by {r:.2e}: {a:?} vs {b:?}"
+            );
+            worst_param = worst_param.max(r);
+        }
+    }
+    let mean: Vec<String> = run
+        .icount
+        .iter()
+        .map(|c| format!("{} mean {} worst {}", c.class, c.mean, c.worst))
+        .collect();
+    eprintln!(
+        "QEMU parity ({what}): {} ticks, {} parameter records; worst |delta diff| = \
+         {worst_delta:.2e} sigma, worst parameter diff = {worst_param:.2e}; icount {mean:?}; stack {:?}",
+        h.records.len(),
+        h.params.len(),
+        run.stack
+    );
+}
+
+#[test]
+fn qemu_firmware_parity_paper_12h() {
+    let model = InsModel::<f64>::paper();
+    let rows =
+        hal_sim::sim::simulate(&model, 43_200, 5_150_001).unwrap_or_else(|e| panic!("{e:#}"));
+    assert_parity(&model, true, &rows, "paper");
+}
+
+/// A log with a hidden gyro exponential-cosine drift (drawn at a realistic magnitude).
+fn hidden_effect_log() -> (hal_sim::candidates::Candidate, Vec<LogRow>) {
+    use rand::SeedableRng;
+    let cand = hal_sim::hidden::by_label("gyro/exp-cosine").unwrap_or_else(|| panic!("candidate"));
+    let base = InsModel::<f64>::paper();
+    let mut rng = ChaCha8Rng::seed_from_u64(5_150_002);
+    let truth = hal_sim::hidden::truth(&base, cand, &mut rng).unwrap_or_else(|| panic!("truth"));
+    let rows =
+        hal_sim::sim::simulate(&truth, 43_200, 5_150_003).unwrap_or_else(|e| panic!("{e:#}"));
+    (cand, rows)
+}
+
+#[test]
+fn qemu_firmware_parity_hidden_effect_12h() {
+    // The nominal model, identified online on data it cannot explain (as a user runs it
+    // before the diagnosis).
+    let (_, rows) = hidden_effect_log();
+    assert_parity(
+        &InsModel::paper(),
+        true,
+        &rows,
+        "gyro/exp-cosine hidden, paper start",
+    );
+}
+
+#[test]
+fn qemu_firmware_parity_exp_cosine_model_12h() {
+    // The suggested model (paper + exp-cosine at a starting guess), run as given: the
+    // six-state exponential-cosine discretisation in f32 against f64. (With the online
+    // identification on, this case is where f32 and f64 take one Gauss-Newton move at different
+    // blocks: see BENCHMARKS.md, "Firmware parity".)
+    let (cand, rows) = hidden_effect_log();
+    let base = InsModel::<f64>::paper();
+    let start = cand.starts(&base)[1].clone();
+    let model = cand
+        .add_to(&base, &start)
+        .unwrap_or_else(|| panic!("start model"));
+    assert_parity(
+        &model,
+        false,
+        &rows,
+        "gyro/exp-cosine hidden, exp-cosine model, fixed",
     );
 }

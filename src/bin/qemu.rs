@@ -1,28 +1,27 @@
-//! Firmware for QEMU's mps2-an386 (Cortex-M4F): replays a recorded log through the filter and
-//! reports every step as a defmt frame.
+//! Firmware for QEMU's mps2-an386 (Cortex-M4F): replays a recorded log through the 1 Hz step
+//! ([`Navigator`]) at full speed and reports every tick, parameter change and autocorrelation
+//! identification as defmt frames; then the instruction counts and the stack high-water mark.
 //!
-//! Kept thin on purpose: the codec ([`imu_ident::replay`]), the loop ([`Replayer`]) and the
-//! record ([`imu_ident::telemetry`]) live in the library, where the host tests them; this file
-//! only wires semihosting to them.
+//! Kept thin on purpose: the model codec ([`imu_ident::model::wire`]), the log codec
+//! ([`imu_ident::replay`]), the step and the records live in the library, where the host tests
+//! them; this file only wires semihosting and the SysTick counter to them.
 //!
-//! - Input: a binary replay log read from the host with semihosting. Its name is the first
-//!   semihosting argument after the program name (`-semihosting-config arg=imu-ident-qemu,
-//!   arg=log.bin`, or `-kernel ELF -append log.bin`); without one it is `replay.bin`. Relative
-//!   names resolve against QEMU's working directory, which is how hal-sim's runner uses it
-//!   (a temporary directory, so paths with spaces or commas never reach QEMU's option parser).
-//! - Output: one defmt frame per row on semihosting stdout (defmt-semihosting), then a summary.
-//! - Exit: semihosting exit status 0 after a complete, checksum-valid log; 1 for anything else
-//!   (missing or corrupt log, bad model, panic, hard fault).
+//! - Input (semihosting, relative to QEMU's working directory): the arguments after the program
+//!   name are the model file (written by `hal-sim qemu`: model and run options, see
+//!   [`imu_ident::model::wire`]) and the binary replay log; defaults `model.bin`, `replay.bin`.
+//! - Output: defmt frames on semihosting stdout (defmt-semihosting): `tlm` per tick, `par` per
+//!   component at each re-identification, `acf` on schedule, then `icount` and `stack` summaries.
+//! - Exit: status 0 after a complete, checksum-valid log; 1 for anything else.
 //!
 //! ```text
-//! qemu-system-arm -cpu cortex-m4 -machine mps2-an386 -nographic \
-//!   -semihosting-config enable=on,target=native -kernel imu-ident-qemu -append log.bin \
-//!   | defmt-print -e imu-ident-qemu
+//! qemu-system-arm -cpu cortex-m4 -machine mps2-an386 -nographic -icount shift=0 \
+//!   -semihosting-config enable=on,target=native,arg=imu-ident-qemu,arg=model.bin,arg=log.bin \
+//!   -kernel imu-ident-qemu | defmt-print -e imu-ident-qemu
 //! ```
 //!
-//! Panics: none are expected (the library returns errors as values); the handler below ends QEMU
-//! with a failure status rather than hanging. A later issue adds a link-time proof that no
-//! panic path is linked at all.
+//! Instruction counts: with `-icount shift=0` QEMU advances its virtual clock 1 ns per
+//! instruction and SysTick counts at 25 MHz, so one SysTick count is 40 instructions. They are
+//! instruction counts on a Cortex-M4, not cycle times (QEMU models no pipeline or wait states).
 
 #![cfg_attr(all(target_arch = "arm", target_os = "none"), no_std, no_main)]
 
@@ -36,48 +35,89 @@ fn main() {
 #[cfg(all(target_arch = "arm", target_os = "none"))]
 mod firmware {
     use core::ffi::CStr;
+    use core::mem::MaybeUninit;
 
+    use cortex_m::peripheral::syst::SystClkSource;
+    use cortex_m::peripheral::SYST;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
     use defmt_semihosting as _; // the global defmt logger: frames go to semihosting stdout
-    use imu_ident::filter::InsFilter;
-    use imu_ident::model::{InsModel, ModelError};
-    use imu_ident::replay::{Decoder, ReplayError, Replayer};
-    use imu_ident::telemetry::{DefmtSink, TelemetrySink};
+    use imu_ident::model::wire::{self, WireError};
+    use imu_ident::navigator::{NavConfig, NavError, Navigator};
+    use imu_ident::replay::{Decoder, ReplayError};
+    use imu_ident::telemetry::DefmtSink;
     use semihosting::experimental::env;
     use semihosting::fs::File;
     use semihosting::io::Read;
 
-    /// Log name used when QEMU passes no argument.
+    /// File names used when QEMU passes no arguments.
+    const DEFAULT_MODEL: &CStr = c"model.bin";
     const DEFAULT_LOG: &CStr = c"replay.bin";
-    /// Longest accepted command line and log name (bytes, including the terminating NUL).
+    /// Longest accepted command line and file name (bytes, including the terminating NUL).
     const CMDLINE_LEN: usize = 256;
     /// Read size: the decoder takes any chunking, so this only trades RAM for host calls.
     const CHUNK: usize = 512;
+    /// Stack paint pattern.
+    const PAINT: u32 = 0xC0DE_5AFE;
 
     /// Why a replay failed.
     #[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
     enum FirmwareError {
-        /// The command line could not be read, or the log name is too long.
+        /// The command line could not be read, or a file name is too long.
         BadArgument,
-        /// The log file could not be opened.
+        /// A file could not be opened.
         Open,
-        /// Reading the log file failed.
+        /// Reading a file failed.
         Read,
+        /// The model file is not valid.
+        Model(WireError),
+        /// The model or its options were rejected by the navigator.
+        Navigator(NavError),
         /// The log is not a valid replay log.
         Log(ReplayError),
-        /// The model was rejected by the filter.
-        Model(ModelError),
     }
 
-    /// The model the filter runs with. A later issue passes the model in (from a second
-    /// semihosting file or from flash); it only has to replace this function.
-    fn model() -> InsModel<f32> {
-        InsModel::paper()
+    /// Instruction counts of one class of ticks (SysTick counts x 40).
+    #[derive(Default)]
+    struct Counts {
+        n: u32,
+        sum: u64,
+        worst: u32,
+        worst_k: u32,
     }
+
+    impl Counts {
+        fn add(&mut self, instr: u32, k: u32) {
+            self.n = self.n.saturating_add(1);
+            self.sum = self.sum.saturating_add(u64::from(instr));
+            if instr > self.worst {
+                self.worst = instr;
+                self.worst_k = k;
+            }
+        }
+        fn log(&self, class: &str) {
+            let mean = if self.n == 0 {
+                0
+            } else {
+                self.sum / u64::from(self.n)
+            };
+            defmt::info!(
+                "icount class={=str} n={=u32} mean={=u64} worst={=u32} worst_k={=u32}",
+                class,
+                self.n,
+                mean,
+                self.worst,
+                self.worst_k
+            );
+        }
+    }
+
+    /// The navigator lives in a static, not on the stack (about 32 KB).
+    static mut NAV: MaybeUninit<Navigator<f32>> = MaybeUninit::uninit();
 
     #[entry]
     fn main() -> ! {
+        paint_stack();
         let status = match run() {
             Ok(rows) => {
                 defmt::info!("replay done rows={=u32}", rows);
@@ -88,6 +128,7 @@ mod firmware {
                 EXIT_FAILURE
             }
         };
+        report_stack("run");
         exit(status)
     }
 
@@ -99,42 +140,222 @@ mod firmware {
         }
     }
 
+    #[inline(never)]
     fn run() -> Result<u32, FirmwareError> {
-        let mut name = [0u8; CMDLINE_LEN];
-        let path = log_path(&mut name)?;
-        let mut file = File::open(path).map_err(|_| FirmwareError::Open)?;
+        let mut names = [[0u8; CMDLINE_LEN]; 2];
+        let [model_name, log_name] = &mut names;
+        let (model_path, log_path) = paths(model_name, log_name)?;
 
-        let filter = InsFilter::new(model()).map_err(FirmwareError::Model)?;
-        let mut replay = Replayer::new(filter);
+        let mut model_bytes = [0u8; wire::MAX_LEN];
+        let n = read_all(model_path, &mut model_bytes)?;
+        let bytes = model_bytes.get(..n).ok_or(FirmwareError::Read)?;
+        let (model, adapt) = wire::decode::<f32>(bytes).map_err(FirmwareError::Model)?;
+        let cfg = if adapt {
+            NavConfig::adaptive()
+        } else {
+            NavConfig::default()
+        };
+        let block = cfg.adapt.map_or(0, |a| a.block);
+        let epoch = cfg.adapt.map_or(0, |a| a.epoch);
+        let nav = init(model, cfg)?;
+        // Start-up and steady state are measured apart: paint again for the ticks.
+        report_stack("init");
+        paint_stack();
+        replay(nav, log_path, block, epoch)
+    }
+
+    /// Builds the navigator into [`NAV`] (its own frame, so that its temporaries are not part
+    /// of the replay loop's stack).
+    #[inline(never)]
+    fn init(
+        model: imu_ident::model::InsModel<f32>,
+        cfg: NavConfig<f32>,
+    ) -> Result<&'static mut Navigator<f32>, FirmwareError> {
+        let nav = Navigator::new(model, cfg).map_err(FirmwareError::Navigator)?;
+        // SAFETY: called once, from `run`, before any other access to NAV.
+        Ok(unsafe { (*core::ptr::addr_of_mut!(NAV)).write(nav) })
+    }
+
+    /// Replays the log through `nav`, counting instructions per tick.
+    #[inline(never)]
+    fn replay(
+        nav: &mut Navigator<f32>,
+        log_path: &CStr,
+        block: u32,
+        epoch: u32,
+    ) -> Result<u32, FirmwareError> {
+        let mut file = File::open(log_path).map_err(|_| FirmwareError::Open)?;
+        let _syst = timer();
         let mut sink = DefmtSink;
         let mut decoder = Decoder::new();
         let mut buf = [0u8; CHUNK];
+        let (mut ordinary, mut reident) = (Counts::default(), Counts::default());
         loop {
             let n = file.read(&mut buf).map_err(|_| FirmwareError::Read)?;
             let Some(chunk) = buf.get(..n).filter(|c| !c.is_empty()) else {
                 break;
             };
             for &byte in chunk {
-                if let Some(row) = decoder.push(byte).map_err(FirmwareError::Log)? {
-                    sink.record(&replay.step(row));
+                let Some(row) = decoder.push(byte).map_err(FirmwareError::Log)? else {
+                    continue;
+                };
+                // One tick per row when the log has no gaps (a gap's bridged ticks are counted
+                // together with their row's): the instruction count of `push` without the sink.
+                let k = nav.ticks();
+                let mut counting = Counting::default();
+                let t0 = SYST::get_current();
+                nav.push(row.t, row.z, &mut counting);
+                let t1 = SYST::get_current();
+                // SysTick counts down and wraps at 2^24.
+                let instr = (t0.wrapping_sub(t1) & 0x00FF_FFFF) * 40;
+                let boundary = |p: u32| p != 0 && (k + 1) % p == 0;
+                if boundary(block) || boundary(epoch) {
+                    reident.add(instr, k);
+                } else {
+                    ordinary.add(instr, k);
                 }
+                counting.replay(nav, &mut sink);
             }
         }
+        ordinary.log("ordinary");
+        reident.log("reident");
         decoder.finish().map_err(FirmwareError::Log)
     }
 
-    /// The log name: the first argument after the program name, else [`DEFAULT_LOG`]. The
-    /// name is copied into `buf` to add the NUL that semihosting's open needs.
-    fn log_path(buf: &mut [u8; CMDLINE_LEN]) -> Result<&CStr, FirmwareError> {
+    /// A sink that only remembers what `push` produced, so the telemetry's own cost (semihosting
+    /// writes) stays out of the instruction count; the records are re-sent afterwards.
+    #[derive(Default)]
+    struct Counting {
+        records: heapless::Vec<imu_ident::telemetry::Record, 4>,
+        overflow: bool,
+        reidentified: bool,
+        acf: bool,
+    }
+
+    impl imu_ident::telemetry::TelemetrySink for Counting {
+        fn record(&mut self, r: &imu_ident::telemetry::Record) {
+            if self.records.push(*r).is_err() {
+                // A long bridged gap: send the record now (it is counted, but rare).
+                self.overflow = true;
+                r.log();
+            }
+        }
+        fn params(&mut self, _: &imu_ident::telemetry::ParamRecord) {
+            self.reidentified = true;
+        }
+        fn acf(&mut self, _: &imu_ident::telemetry::AcfRecord) {
+            self.acf = true;
+        }
+    }
+
+    impl Counting {
+        /// Sends what was collected, with the parameters and ACF records recomputed from the
+        /// navigator (they describe the state after the last tick, which is what they were).
+        fn replay(&self, nav: &Navigator<f32>, sink: &mut DefmtSink) {
+            use imu_ident::navigator::Report;
+            let n = self.records.len();
+            for (i, r) in self.records.iter().enumerate() {
+                let last = i + 1 == n;
+                let rep = Report {
+                    record: *r,
+                    reidentified: last && self.reidentified,
+                    jumped: false,
+                    acf: last && self.acf,
+                };
+                nav.emit(&rep, sink);
+            }
+        }
+    }
+
+    fn timer() -> SYST {
+        // SAFETY: the only user of the core peripherals.
+        let mut p = unsafe { cortex_m::Peripherals::steal() };
+        p.SYST.set_clock_source(SystClkSource::Core);
+        p.SYST.set_reload(0x00FF_FFFF);
+        p.SYST.clear_current();
+        p.SYST.enable_counter();
+        p.SYST
+    }
+
+    /// Reads a whole (small) file into `buf`; returns its length.
+    fn read_all(path: &CStr, buf: &mut [u8]) -> Result<usize, FirmwareError> {
+        let mut f = File::open(path).map_err(|_| FirmwareError::Open)?;
+        let mut n = 0;
+        loop {
+            let rest = buf.get_mut(n..).ok_or(FirmwareError::Read)?;
+            if rest.is_empty() {
+                // Longer than any valid model: let the decoder reject it by length.
+                return Ok(n);
+            }
+            let m = f.read(rest).map_err(|_| FirmwareError::Read)?;
+            if m == 0 {
+                return Ok(n);
+            }
+            n += m;
+        }
+    }
+
+    /// The model and log names: the first two arguments after the program name, else the
+    /// defaults. Each is copied into its buffer to add the NUL that semihosting's open needs.
+    fn paths<'a>(
+        model: &'a mut [u8; CMDLINE_LEN],
+        log: &'a mut [u8; CMDLINE_LEN],
+    ) -> Result<(&'a CStr, &'a CStr), FirmwareError> {
         let args = env::args::<CMDLINE_LEN>().map_err(|_| FirmwareError::BadArgument)?;
-        let Some(arg) = (&args).nth(1) else {
-            return Ok(DEFAULT_LOG);
+        let mut it = (&args).skip(1);
+        let mut name = |buf: &'a mut [u8; CMDLINE_LEN], default: &'static CStr| {
+            let Some(arg) = it.next() else {
+                return Ok(default);
+            };
+            let arg = arg.map_err(|_| FirmwareError::BadArgument)?.as_bytes();
+            let dst = buf.get_mut(..arg.len()).ok_or(FirmwareError::BadArgument)?;
+            dst.copy_from_slice(arg);
+            // `buf` was zeroed, so the name is followed by a NUL unless it filled the buffer.
+            CStr::from_bytes_until_nul(buf).map_err(|_| FirmwareError::BadArgument)
         };
-        let arg = arg.map_err(|_| FirmwareError::BadArgument)?.as_bytes();
-        let dst = buf.get_mut(..arg.len()).ok_or(FirmwareError::BadArgument)?;
-        dst.copy_from_slice(arg);
-        // `buf` was zeroed, so the name is followed by a NUL unless it filled the buffer.
-        CStr::from_bytes_until_nul(buf).map_err(|_| FirmwareError::BadArgument)
+        let m = name(model, DEFAULT_MODEL)?;
+        let l = name(log, DEFAULT_LOG)?;
+        Ok((m, l))
+    }
+
+    extern "C" {
+        static mut __sheap: u32;
+        static mut _stack_start: u32;
+    }
+
+    /// Fills the unused stack (from the end of static RAM up to just below the current stack
+    /// pointer) with [`PAINT`].
+    #[inline(never)]
+    fn paint_stack() {
+        let sp = cortex_m::register::msp::read() as usize;
+        let lo = core::ptr::addr_of_mut!(__sheap) as usize;
+        let mut p = lo;
+        // Leave 256 bytes below the current frame untouched.
+        while p + 4 <= sp.saturating_sub(256) {
+            // SAFETY: [__sheap, sp - 256) is RAM not used by anything yet (no heap).
+            unsafe { core::ptr::write_volatile(p as *mut u32, PAINT) };
+            p += 4;
+        }
+    }
+
+    /// Reports the deepest stack use since the last paint: the lowest word that no longer holds
+    /// [`PAINT`].
+    #[inline(never)]
+    fn report_stack(phase: &str) {
+        let lo = core::ptr::addr_of_mut!(__sheap) as usize;
+        let hi = core::ptr::addr_of_mut!(_stack_start) as usize;
+        let mut p = lo;
+        // SAFETY: reads of RAM between the statics and the stack top.
+        while p < hi && unsafe { core::ptr::read_volatile(p as *const u32) } == PAINT {
+            p += 4;
+        }
+        defmt::info!(
+            "stack phase={=str} high_water={=u32} statics_end={=u32} ram_top={=u32}",
+            phase,
+            (hi - p) as u32,
+            lo as u32,
+            hi as u32
+        );
     }
 
     #[panic_handler]

@@ -14,6 +14,7 @@ pub mod ins;
 pub mod random_constant;
 pub mod random_walk;
 pub mod white;
+pub mod wire;
 
 pub use component::{Component, ComponentKind};
 pub use discretise::Discrete;

@@ -266,26 +266,14 @@ impl<T: Real> Navigator<T> {
                 (rep.innovation, rep.variance, rep.moved, rep.jumped)
             }
         };
-        let nis = nu * nu / s;
-        self.track_scale(nis, threshold);
+        self.track_scale(nu * nu / s, threshold);
         let est = self.estimates();
         self.feed_acf(&est);
         if t.is_finite() {
             self.prev_t = Some(t);
         }
         reidentified |= self.k == 0;
-        let narrow = |x: T| x.as_f64() as f32;
-        let record = Record {
-            k: self.k,
-            t,
-            z: narrow(z),
-            innovation: narrow(nu),
-            variance: narrow(s),
-            nis: narrow(nis),
-            delta: narrow(est.delta),
-            sigma_delta: narrow(est.sigma_delta),
-            flags,
-        };
+        let record = Record::new(self.k, t, z, nu, s, &est, flags);
         self.k = self.k.wrapping_add(1);
         if flags & P_REPAIRED != 0 {
             self.repairs = self.repairs.saturating_add(1);
@@ -315,7 +303,11 @@ impl<T: Real> Navigator<T> {
             // A rejected sample (non-finite after a repair) leaves the window as it was.
             if acf.push(x).is_ok() {
                 let first = acf.len() == 1;
-                *pm = if first { sd * sd } else { *pm + w * (sd * sd - *pm) };
+                *pm = if first {
+                    sd * sd
+                } else {
+                    *pm + w * (sd * sd - *pm)
+                };
             }
         }
     }
@@ -333,19 +325,17 @@ impl<T: Real> Navigator<T> {
         // NaN (non-finite t) and non-advancing times are skipped, never misread.
         let advances = steps >= 1.0;
         if !advances {
-            let est = self.estimates();
-            let narrow = |x: T| x.as_f64() as f32;
-            sink.record(&Record {
-                k: self.k,
+            let nan = T::lit(f64::NAN);
+            let flags = time_flags(self.prev_t, t, dt) | SKIPPED;
+            sink.record(&Record::new(
+                self.k,
                 t,
-                z: narrow(z),
-                innovation: f32::NAN,
-                variance: f32::NAN,
-                nis: f32::NAN,
-                delta: narrow(est.delta),
-                sigma_delta: narrow(est.sigma_delta),
-                flags: time_flags(self.prev_t, t, dt) | SKIPPED,
-            });
+                z,
+                nan,
+                nan,
+                &self.estimates(),
+                flags,
+            ));
             return;
         }
         let gap = steps - 1.0;

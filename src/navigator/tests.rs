@@ -34,7 +34,10 @@ fn noise(k: u32) -> f32 {
 #[test]
 fn bad_config_is_an_error() {
     for gate in [f32::NAN, 0.5, f32::INFINITY] {
-        let cfg = NavConfig { gate, ..NavConfig::default() };
+        let cfg = NavConfig {
+            gate,
+            ..NavConfig::default()
+        };
         assert_eq!(
             Navigator::new(InsModel::paper(), cfg).err(),
             Some(NavError::BadConfig)
@@ -80,7 +83,11 @@ fn gaps_are_bridged_and_non_advancing_rows_skipped() {
     assert_eq!(flags.len(), 7);
     assert_eq!(flags[0], 0);
     for f in &flags[1..4] {
-        assert_eq!(*f, BRIDGED | MISSING, "bridged ticks are missing observations");
+        assert_eq!(
+            *f,
+            BRIDGED | MISSING,
+            "bridged ticks are missing observations"
+        );
     }
     assert_eq!(flags[4], 0, "the row after a bridged gap is on time");
     // t = 13 went backwards, t = NaN is unusable: both skipped, the filter untouched.
@@ -127,11 +134,37 @@ fn parameters_are_reported_at_start_and_acf_on_schedule() {
     // 5 schedules x 2 sensors; the window (1024) is full from the third on.
     assert_eq!(sink.acf.len(), 10);
     assert!(sink.acf[..4].iter().all(|a| a.tau.is_nan()));
-    assert!(sink.acf[4..].iter().all(|a| a.sigma.is_finite() && a.sigma > 0.0));
+    assert!(sink.acf[4..]
+        .iter()
+        .all(|a| a.sigma.is_finite() && a.sigma > 0.0));
 }
 
 #[test]
 fn flag_names_cover_the_new_bits() {
     let all = FLAG_NAMES.iter().fold(0u16, |a, (b, _)| a | b);
     assert_eq!(all & (SKIPPED | BRIDGED), SKIPPED | BRIDGED);
+}
+
+#[test]
+fn row_flags_for_missing_infinite_and_unusable_rows() {
+    let mut nav = Navigator::<f64>::new(InsModel::paper(), NavConfig::default()).unwrap();
+    let mut sink = Collect::default();
+    let rows = [
+        (1.0, 0.01),
+        (2.0, f64::NAN),
+        (3.0, 0.02),
+        (4.0, f64::INFINITY),
+        (f64::NAN, 0.0),
+    ];
+    for (t, z) in rows {
+        nav.push(t, z, &mut sink);
+    }
+    let flags: Vec<u16> = sink.records.iter().map(|r| r.flags).collect();
+    assert_eq!(
+        flags,
+        [0, MISSING, 0, MISSING | BAD_INPUT, BAD_INPUT | SKIPPED]
+    );
+    let ks: Vec<u32> = sink.records.iter().map(|r| r.k).collect();
+    assert_eq!(ks, [0, 1, 2, 3, 4]);
+    assert!(sink.records[0].nis.is_finite() && sink.records[1].nis.is_nan());
 }
