@@ -5,6 +5,8 @@
 #     the toolchain, so nothing else is needed to link)
 #   - clippy and rustfmt
 #   - QEMU for the emulated board (Debian's qemu-system-arm), through apt
+#   - `size` for the firmware sizes (Debian's binutils), through apt, unless llvm-size or size
+#     is already there
 #
 # Needs rustup on PATH. apt runs as root here; elsewhere through sudo if it exists.
 set -euo pipefail
@@ -30,13 +32,24 @@ for component in clippy rustfmt; do
     fi
 done
 
+# Debian packages: QEMU for the emulated board, and binutils' `size` for the firmware sizes
+# (skipped when LLVM's llvm-size is there instead).
+packages=()
 if command -v qemu-system-arm >/dev/null 2>&1; then
     echo "install-tools: $(qemu-system-arm --version | head -n 1)"
 else
+    packages+=(qemu-system-arm)
+fi
+if command -v llvm-size >/dev/null 2>&1 || command -v size >/dev/null 2>&1; then
+    echo "install-tools: size present"
+else
+    packages+=(binutils)
+fi
+if [ "${#packages[@]}" -gt 0 ]; then
     sudo=""
     if [ "$(id -u)" -ne 0 ]; then
         sudo="sudo"
     fi
     $sudo apt-get update
-    $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends qemu-system-arm
+    $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends "${packages[@]}"
 fi

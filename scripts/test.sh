@@ -4,10 +4,11 @@
 #   1. install missing tools          (scripts/install-tools.sh)
 #   2. formatting                     (cargo fmt --check)
 #   3. clippy -D warnings, host       (whole workspace, all targets)
-#   4. clippy -D warnings, Cortex-M4F (the no_std library, and the QEMU firmware)
+#   4. clippy -D warnings, Cortex-M4F (the no_std library, the QEMU and the STM32F405 firmware)
 #   5. host tests                     (cargo test --workspace; the QEMU tests wait for step 7)
-#   6. firmware release build         (imu-ident-qemu for thumbv7em-none-eabihf, sizes printed)
-#   7. QEMU smoke test                (hal-sim/tests/qemu_smoke.rs against that firmware)
+#   6. firmware release builds        (imu-ident-qemu and imu-ident-board for thumbv7em-none-eabihf,
+#                                      sizes printed)
+#   7. QEMU smoke test                (hal-sim/tests/qemu_smoke.rs against the QEMU firmware)
 #
 # Uses the default target dir unless CARGO_TARGET_DIR is set.
 set -euo pipefail
@@ -40,26 +41,37 @@ cargo fmt --all -- --check
 section "3/7 clippy, host (workspace, all targets)"
 cargo clippy --workspace --all-targets -- -D warnings
 
-section "4/7 clippy, $TARGET (library; firmware with --features qemu)"
+section "4/7 clippy, $TARGET (library; firmware with --features qemu, --features board)"
 cargo clippy -p imu-ident --target "$TARGET" --lib -- -D warnings
 cargo clippy -p imu-ident --target "$TARGET" --features qemu --bins -- -D warnings
+# Release, as step 6 builds it (the board's features never mix with the QEMU ones).
+cargo clippy --release -p imu-ident --target "$TARGET" --features board --bin imu-ident-board -- -D warnings
 
 section "5/7 host tests (cargo test --workspace)"
 # The QEMU tests are named qemu_firmware_*; they run in step 7 with the firmware built. Under
 # CI=true they fail rather than skip without it, so they are held back here.
 cargo test --workspace -- --skip qemu_firmware_
 
-section "6/7 firmware release build ($TARGET, imu-ident-qemu)"
+section "6/7 firmware release builds ($TARGET: imu-ident-qemu, imu-ident-board)"
+# Prints an ELF's text/data/bss sizes (and, with -A, every section's).
+print_size() {
+    if command -v llvm-size >/dev/null 2>&1; then
+        llvm-size "$@"
+    elif command -v size >/dev/null 2>&1; then
+        size "$@"
+    else
+        ls -l "${@: -1}"
+    fi
+}
 cargo build --release -p imu-ident --target "$TARGET" --features qemu --bin imu-ident-qemu
 ELF="$TARGET_DIR/$TARGET/release/imu-ident-qemu"
 case "$ELF" in /*) ;; *) ELF="$PWD/$ELF" ;; esac
-if command -v llvm-size >/dev/null 2>&1; then
-    llvm-size "$ELF"
-elif command -v size >/dev/null 2>&1; then
-    size "$ELF"
-else
-    ls -l "$ELF"
-fi
+print_size "$ELF"
+# The STM32F405 board (built only: running it needs a probe and a board, see README).
+cargo build --release -p imu-ident --target "$TARGET" --features board --bin imu-ident-board
+BOARD_ELF="$TARGET_DIR/$TARGET/release/imu-ident-board"
+print_size "$BOARD_ELF"
+print_size -A "$BOARD_ELF" | grep -E '^(section|\.vector_table|\.text|\.rodata|\.data|\.bss|\.uninit) '
 
 section "7/7 QEMU smoke test (mps2-an386)"
 # --workspace keeps the feature set of step 5, so nothing is rebuilt.

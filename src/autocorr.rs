@@ -214,30 +214,45 @@ impl<T: Real, const N: usize, const L: usize> Autocorrelator<T, N, L> {
         "Autocorrelator<T, N, L> needs L < N <= 2^24"
     );
 
-    /// An empty autocorrelator.
-    pub fn new() -> Self {
+    /// An empty autocorrelator (a `const fn`: a `static` holding one costs no flash).
+    pub const fn new() -> Self {
         #[allow(clippy::let_unit_value)]
         let () = Self::PARAMS_OK;
-        let z = Compensated::default();
+        let z = Compensated {
+            sum: T::ZERO,
+            comp: T::ZERO,
+        };
         Autocorrelator {
-            buf: [T::zero(); N],
+            buf: [T::ZERO; N],
             head: 0,
             len: 0,
-            pivot: T::zero(),
+            pivot: T::ZERO,
             s0: z,
             sum: z,
             lag: [z; L],
             block: 0,
-            shadow_pivot: T::zero(),
+            shadow_pivot: T::ZERO,
             shadow_s0: z,
             shadow_sum: z,
             shadow_lag: [z; L],
         }
     }
 
-    /// Forgets every sample.
+    /// Forgets every sample (in place: no copy of the window on the stack).
     pub fn reset(&mut self) {
-        *self = Self::new();
+        let z = Compensated::default();
+        self.buf.fill(T::zero());
+        self.head = 0;
+        self.len = 0;
+        self.pivot = T::zero();
+        self.s0 = z;
+        self.sum = z;
+        self.lag.fill(z);
+        self.block = 0;
+        self.shadow_pivot = T::zero();
+        self.shadow_s0 = z;
+        self.shadow_sum = z;
+        self.shadow_lag.fill(z);
     }
 
     /// Window length `N`.

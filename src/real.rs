@@ -22,6 +22,9 @@ pub trait Real: nalgebra::RealField + Copy + core::fmt::Debug + Default {
     fn as_f64(self) -> f64;
     /// Machine epsilon of this precision.
     const EPS: f64;
+    /// `0`, usable in `const` items (blank filters built at compile time, see
+    /// [`Navigator::BLANK`](crate::navigator::Navigator::BLANK)).
+    const ZERO: Self;
 }
 
 impl Real for f64 {
@@ -34,6 +37,7 @@ impl Real for f64 {
         self
     }
     const EPS: f64 = f64::EPSILON;
+    const ZERO: Self = 0.0;
 }
 
 impl Real for f32 {
@@ -46,4 +50,5 @@ impl Real for f32 {
         self as f64
     }
     const EPS: f64 = f32::EPSILON as f64;
+    const ZERO: Self = 0.0;
 }

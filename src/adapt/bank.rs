@@ -64,16 +64,25 @@ pub struct MemberInnovation<T> {
 }
 
 impl<T: Real> Member<T> {
-    pub(crate) fn new(p0: &Arr<T>) -> Self {
-        let mut phi = mat::zeros();
-        for (i, row) in phi.iter_mut().enumerate() {
-            row[i] = T::one();
+    /// All zeros (a compile-time value: see [`Bank::BLANK`]).
+    pub const BLANK: Self = Self {
+        x: [T::ZERO; NX],
+        p: [[T::ZERO; NX]; NX],
+        phi: [[T::ZERO; NX]; NX],
+        qd: [[T::ZERO; NX]; NX],
+    };
+
+    /// Zero state, covariance `p0`, identity transition, no process noise (in place).
+    pub(crate) fn reset(&mut self, p0: &Arr<T>) {
+        self.x = [T::zero(); NX];
+        self.p = *p0;
+        for (i, row) in self.phi.iter_mut().enumerate() {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = if i == j { T::one() } else { T::zero() };
+            }
         }
-        Self {
-            x: [T::zero(); NX],
-            p: *p0,
-            phi,
-            qd: mat::zeros(),
+        for row in self.qd.iter_mut() {
+            row.fill(T::zero());
         }
     }
 
@@ -181,13 +190,18 @@ pub struct Information<T> {
     pub steps: u32,
 }
 
+impl<T: Real> Information<T> {
+    /// Nothing accumulated.
+    pub const BLANK: Self = Self {
+        score: [T::ZERO; MAXP],
+        fisher: [[T::ZERO; MAXP]; MAXP],
+        steps: 0,
+    };
+}
+
 impl<T: Real> Default for Information<T> {
     fn default() -> Self {
-        Self {
-            score: [T::zero(); MAXP],
-            fisher: [[T::zero(); MAXP]; MAXP],
-            steps: 0,
-        }
+        Self::BLANK
     }
 }
 
@@ -230,34 +244,59 @@ pub struct BankStep<T> {
 }
 
 impl<T: Real> Bank<T> {
+    /// An empty bank (a compile-time value, all zeros): call [`init`](Self::init) before use.
+    pub const BLANK: Self = Self {
+        members: [Member::BLANK; MEMBERS],
+        p0: [[T::ZERO; NX]; NX],
+        h: [T::ZERO; NX],
+        r: T::ZERO,
+        n: 0,
+        np: 0,
+        step: T::ZERO,
+        scale: Scaling::from_array_storage(nalgebra::ArrayStorage([[T::ZERO; NX]; 1])),
+        base: InsModel::BLANK,
+        specs: Specs::new(),
+        applied: [T::ZERO; MAXP],
+        target: [T::ZERO; MAXP],
+        next: 0,
+        repairs: 0,
+    };
+
     /// A bank for `model` with `np` parameters perturbed by `+-step` (log scale). The state
     /// scaling is chosen once from `model` and kept, so that `x, P` stay meaningful when the
     /// parameters move.
     pub fn new(model: &InsModel<T>, specs: &Specs, step: T) -> Result<Self, AdaptError> {
+        let mut b = Self::BLANK;
+        b.init(model, specs, step)?;
+        Ok(b)
+    }
+
+    /// [`new`](Self::new) in place: the firmware builds its filters inside a `static`, since
+    /// by-value construction would put several copies of the bank on the stack. On error
+    /// nothing is changed.
+    pub fn init(&mut self, model: &InsModel<T>, specs: &Specs, step: T) -> Result<(), AdaptError> {
         let scale = model.scaling().map_err(AdaptError::Model)?;
         let sys = model.continuous(&scale).map_err(AdaptError::Model)?;
         let p0 = mat::from_mat(&sys.P0);
-        let m = Member::new(&p0);
-        let mut h = [T::zero(); NX];
-        for (hi, v) in h.iter_mut().zip(sys.H.iter()) {
+        for m in self.members.iter_mut() {
+            m.reset(&p0);
+        }
+        for (hi, v) in self.h.iter_mut().zip(sys.H.iter()) {
             *hi = *v;
         }
-        Ok(Self {
-            members: core::array::from_fn(|_| m.clone()),
-            p0,
-            h,
-            r: model.sigma_v * model.sigma_v,
-            n: sys.n,
-            np: specs.len().min(MAXP),
-            step,
-            scale,
-            base: model.clone(),
-            specs: specs.clone(),
-            applied: [T::zero(); MAXP],
-            target: [T::zero(); MAXP],
-            next: MEMBERS,
-            repairs: 0,
-        })
+        self.p0 = p0;
+        self.r = model.sigma_v * model.sigma_v;
+        self.n = sys.n;
+        self.np = specs.len().min(MAXP);
+        self.step = step;
+        self.scale = scale;
+        self.base = model.clone();
+        self.specs = specs.clone();
+        self.applied = [T::zero(); MAXP];
+        self.target = [T::zero(); MAXP];
+        self.next = MEMBERS;
+        self.repairs = 0;
+        Ok(())
     }
 
     /// The parameters the bank is at (or moving to, while [`moving`](Self::moving)).

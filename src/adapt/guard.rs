@@ -82,6 +82,12 @@ pub struct Bounds<T> {
 }
 
 impl<T: Real> Bounds<T> {
+    /// All zeros (a compile-time placeholder).
+    pub const BLANK: Self = Self {
+        lo: [T::ZERO; MAXP],
+        hi: [T::ZERO; MAXP],
+    };
+
     /// Physical bounds around the starting `theta0`: `tau` within `[dt, tau_max]`, every scale
     /// (sigma, q, density) within `spread` decades of its starting value either way. The finite
     /// difference step `h` is kept inside too, so that no bank member leaves the bounds.

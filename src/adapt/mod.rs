@@ -38,7 +38,7 @@ pub mod params;
 pub mod probes;
 
 use crate::filter::Estimates;
-use crate::model::{InsModel, ModelError, Sensor, StateRow};
+use crate::model::{InsModel, ModelError, Sensor, StateRow, NX};
 use crate::Real;
 use bank::{Bank, Information, MemberInnovation};
 use guard::{chol_solve, cholesky, inverse_diagonal, limit_step, Bounds, Mat};
@@ -101,6 +101,29 @@ pub struct AdaptConfig<T> {
     pub search_until_settled: bool,
     /// `false`: never move (the bank still accumulates the Fisher information, for the CRB).
     pub adapt: bool,
+}
+
+impl<T: Real> AdaptConfig<T> {
+    /// All zeros (rejected by [`AdaptiveFilter::new`]; a compile-time placeholder).
+    pub const BLANK: Self = Self {
+        block: 0,
+        h: T::ZERO,
+        window: T::ZERO,
+        damping: T::ZERO,
+        hysteresis: T::ZERO,
+        max_step: T::ZERO,
+        tau_max: T::ZERO,
+        spread: T::ZERO,
+        move_discount: T::ZERO,
+        probe_factor: T::ZERO,
+        epoch: 0,
+        warmup: 0,
+        margin: T::ZERO,
+        first_margin: T::ZERO,
+        hold_first_epoch: false,
+        search_until_settled: false,
+        adapt: false,
+    };
 }
 
 impl<T: Real> Default for AdaptConfig<T> {
@@ -187,8 +210,42 @@ pub struct AdaptiveFilter<T: Real> {
 }
 
 impl<T: Real> AdaptiveFilter<T> {
+    /// An empty filter (a compile-time value, all zeros): call [`init`](Self::init) before use.
+    /// A `static` initialised with it costs no flash (it goes to `.bss`) and no stack.
+    pub const BLANK: Self = Self {
+        base: InsModel::BLANK,
+        specs: Specs::new(),
+        theta: [T::ZERO; MAXP],
+        bounds: Bounds::BLANK,
+        cfg: AdaptConfig::BLANK,
+        forget: T::ZERO,
+        bank: Bank::BLANK,
+        probes: Probes::BLANK,
+        block: Information::BLANK,
+        acc: Information::BLANK,
+        total: Information::BLANK,
+        accel_row: StateRow::from_array_storage(nalgebra::ArrayStorage([[T::ZERO; 1]; NX])),
+        gyro_row: StateRow::from_array_storage(nalgebra::ArrayStorage([[T::ZERO; 1]; NX])),
+        steps: 0,
+        updates: 0,
+        jumps: 0,
+        epochs: 0,
+        last_gain: T::ZERO,
+        searching: false,
+        clamped: false,
+    };
+
     /// Starts from `model` (its parameters are the initial guess).
     pub fn new(model: InsModel<T>, cfg: AdaptConfig<T>) -> Result<Self, AdaptError> {
+        let mut f = Self::BLANK;
+        f.init(model, cfg)?;
+        Ok(f)
+    }
+
+    /// [`new`](Self::new) in place: the filters (about 21 KB in `f32`) are initialised where
+    /// they are, never built on the stack and moved. On error the filter must not be stepped
+    /// (initialise it again).
+    pub fn init(&mut self, model: InsModel<T>, cfg: AdaptConfig<T>) -> Result<(), AdaptError> {
         let ok = |v: T| v.is_finite() && v > T::zero();
         // `v >= 0` is false for NaN, so a NaN setting is rejected too.
         let nonneg = |v: T| v >= T::zero();
@@ -216,44 +273,42 @@ impl<T: Real> AdaptiveFilter<T> {
         let theta0 = theta_of(&model, &specs);
         let bounds = Bounds::new(&specs, &theta0, model.dt, cfg.tau_max, cfg.spread, cfg.h);
         let theta = bounds.clamp(&theta0, specs.len());
-        let mut bank = Bank::new(&model, &specs, cfg.h)?;
-        bank.set_theta(&theta)?;
-        let scale = *bank.scale();
+        // The bank chooses the same scaling from the same model.
+        let scale = model.scaling().map_err(AdaptError::Model)?;
         let accel_row = model
             .output_row(Sensor::Accel, &scale)
             .map_err(AdaptError::Model)?;
         let gyro_row = model
             .output_row(Sensor::Gyro, &scale)
             .map_err(AdaptError::Model)?;
+        self.bank.init(&model, &specs, cfg.h)?;
+        self.bank.set_theta(&theta)?;
         let forget = (-T::lit(f64::from(cfg.block)) * model.dt / cfg.window).exp();
-        let mut probes = if cfg.probe_factor > T::one() {
-            Probes::new(&specs, cfg.probe_factor, bank.p0())
+        if cfg.probe_factor > T::one() {
+            self.probes.init(&specs, cfg.probe_factor, self.bank.p0());
         } else {
-            Probes::new(&Specs::new(), T::lit(2.0), bank.p0())
-        };
-        probes.anchor(&theta, &bounds, specs.len());
-        Ok(Self {
-            base: model,
-            specs,
-            theta,
-            bounds,
-            cfg,
-            forget,
-            bank,
-            probes,
-            block: Information::default(),
-            acc: Information::default(),
-            total: Information::default(),
-            accel_row,
-            gyro_row,
-            steps: 0,
-            updates: 0,
-            jumps: 0,
-            epochs: 0,
-            last_gain: T::zero(),
-            searching: true,
-            clamped: false,
-        })
+            self.probes.init(&Specs::new(), T::lit(2.0), self.bank.p0());
+        }
+        self.probes.anchor(&theta, &bounds, specs.len());
+        self.base = model;
+        self.specs = specs;
+        self.theta = theta;
+        self.bounds = bounds;
+        self.cfg = cfg;
+        self.forget = forget;
+        self.block = Information::BLANK;
+        self.acc = Information::BLANK;
+        self.total = Information::BLANK;
+        self.accel_row = accel_row;
+        self.gyro_row = gyro_row;
+        self.steps = 0;
+        self.updates = 0;
+        self.jumps = 0;
+        self.epochs = 0;
+        self.last_gain = T::zero();
+        self.searching = true;
+        self.clamped = false;
+        Ok(())
     }
 
     /// One filter cycle with velocity observation `z` [m/s] (non-finite: missing), then, every

@@ -63,8 +63,30 @@ pub struct Winner<T: Real> {
 }
 
 impl<T: Real> Probes<T> {
+    /// No probes (a compile-time value): call [`init`](Self::init) before use.
+    pub const BLANK: Self = Self {
+        members: [Member::BLANK; PROBES],
+        theta: [[T::ZERO; MAXP]; PROBES],
+        ll: [T::ZERO; PROBES],
+        ll_centre: T::ZERO,
+        count: 0,
+        ready: 0,
+        age: 0,
+        offsets: [[0; 2]; PROBES],
+        pairs: [(0, 0); 2],
+        npairs: 0,
+        log_m: T::ZERO,
+    };
+
     /// Probes for `specs` with multiplier `m` (> 1) on the correlation times.
     pub fn new(specs: &Specs, m: T, p0: &Arr<T>) -> Self {
+        let mut p = Self::BLANK;
+        p.init(specs, m, p0);
+        p
+    }
+
+    /// [`new`](Self::new) in place (no copy of the probe filters on the stack).
+    pub fn init(&mut self, specs: &Specs, m: T, p0: &Arr<T>) {
         let mut pairs = [(0usize, 0usize); 2];
         let mut npairs = 0;
         for (i, s) in specs.iter().enumerate() {
@@ -93,20 +115,19 @@ impl<T: Real> Probes<T> {
                 }
             }
         }
-        let mem = Member::new(p0);
-        Self {
-            members: core::array::from_fn(|_| mem.clone()),
-            theta: [[T::zero(); MAXP]; PROBES],
-            ll: [T::zero(); PROBES],
-            ll_centre: T::zero(),
-            count,
-            ready: count,
-            age: 0,
-            offsets,
-            pairs,
-            npairs,
-            log_m: m.ln(),
+        for mem in self.members.iter_mut() {
+            mem.reset(p0);
         }
+        self.theta = [[T::zero(); MAXP]; PROBES];
+        self.ll = [T::zero(); PROBES];
+        self.ll_centre = T::zero();
+        self.count = count;
+        self.ready = count;
+        self.age = 0;
+        self.offsets = offsets;
+        self.pairs = pairs;
+        self.npairs = npairs;
+        self.log_m = m.ln();
     }
 
     /// Number of probes.

@@ -35,7 +35,6 @@ fn main() {
 #[cfg(all(target_arch = "arm", target_os = "none"))]
 mod firmware {
     use core::ffi::CStr;
-    use core::mem::MaybeUninit;
 
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m::peripheral::SYST;
@@ -112,8 +111,9 @@ mod firmware {
         }
     }
 
-    /// The navigator lives in a static, not on the stack (about 32 KB).
-    static mut NAV: MaybeUninit<Navigator<f32>> = MaybeUninit::uninit();
+    /// The navigator lives in a static, not on the stack (about 32 KB; all zeros until
+    /// initialised, so it sits in `.bss`).
+    static mut NAV: Navigator<f32> = Navigator::BLANK;
 
     #[entry]
     fn main() -> ! {
@@ -164,16 +164,17 @@ mod firmware {
         replay(nav, log_path, block, epoch)
     }
 
-    /// Builds the navigator into [`NAV`] (its own frame, so that its temporaries are not part
-    /// of the replay loop's stack).
+    /// Initialises [`NAV`] in place (its own frame, so that its temporaries are not part of the
+    /// replay loop's stack).
     #[inline(never)]
     fn init(
         model: imu_ident::model::InsModel<f32>,
         cfg: NavConfig<f32>,
     ) -> Result<&'static mut Navigator<f32>, FirmwareError> {
-        let nav = Navigator::new(model, cfg).map_err(FirmwareError::Navigator)?;
-        // SAFETY: called once, from `run`, before any other access to NAV.
-        Ok(unsafe { (*core::ptr::addr_of_mut!(NAV)).write(nav) })
+        // SAFETY: called once, from `run`; no other reference to NAV exists.
+        let nav = unsafe { &mut *core::ptr::addr_of_mut!(NAV) };
+        nav.init(model, cfg).map_err(FirmwareError::Navigator)?;
+        Ok(nav)
     }
 
     /// Replays the log through `nav`, counting instructions per tick.

@@ -167,6 +167,18 @@ impl<T: Real> InsModel<T> {
         }
     }
 
+    /// All zeros, no components (a compile-time placeholder for blank filters; not a valid
+    /// model).
+    pub const BLANK: Self = Self {
+        dt: T::ZERO,
+        sigma_v: T::ZERO,
+        colored: Vec::new(),
+        accel: Vec::new(),
+        gyro: Vec::new(),
+        sigma_dv0: T::ZERO,
+        sigma_delta0: T::ZERO,
+    };
+
     /// A model with no sensor components; initial sigmas default to `sigma_v` and 1e-4 rad
     /// (a static levelling error of an accelerometer bias of 1e-3 m/s^2).
     pub fn empty(dt: T, sigma_v: T) -> Self {

@@ -133,10 +133,12 @@ pub struct Report {
     pub acf: bool,
 }
 
+// Adaptive first: the all-zero `BLANK` navigator holds it, and an all-zero-bits `static`
+// goes to `.bss` (no flash image).
 #[derive(Debug, Clone)]
 enum Engine<T: Real> {
-    Fixed(InsFilter<T>),
     Adaptive(AdaptiveFilter<T>),
+    Fixed(InsFilter<T>),
 }
 
 /// The estimator of the firmware: filter, identification, gate and bookkeeping.
@@ -155,28 +157,68 @@ pub struct Navigator<T: Real> {
 }
 
 impl<T: Real> Navigator<T> {
+    /// An uninitialised navigator (a compile-time value, all zeros): the firmware keeps one in
+    /// a `static` (no flash, no stack) and calls [`init`](Self::init) on it.
+    pub const BLANK: Self = Self {
+        engine: Engine::Adaptive(AdaptiveFilter::BLANK),
+        cfg: NavConfig {
+            // `Some`: `None` would be stored as a non-zero niche value, which would put the
+            // whole blank navigator in `.data` (30 KB of flash).
+            adapt: Some(AdaptConfig::BLANK),
+            gate: T::ZERO,
+            max_bridge: 0,
+            acf_every: 0,
+        },
+        dt: T::ZERO,
+        acf: [EstimateAcf::new(), EstimateAcf::new()],
+        p_mean: [T::ZERO; 2],
+        nis_scale: T::ZERO,
+        prev_t: None,
+        k: 0,
+        repairs: 0,
+    };
+
     /// A navigator starting from `model`.
     pub fn new(model: InsModel<T>, cfg: NavConfig<T>) -> Result<Self, NavError> {
+        let mut nav = Self::BLANK;
+        nav.init(model, cfg)?;
+        Ok(nav)
+    }
+
+    /// [`new`](Self::new) in place, for a navigator in a `static`: nothing of its ~32 KB is
+    /// built on the stack and moved (measured: by-value construction peaked at 94 KB of stack
+    /// on the Cortex-M4, in place 18 KB; `BENCHMARKS.md`). On error it must not be ticked.
+    pub fn init(&mut self, model: InsModel<T>, cfg: NavConfig<T>) -> Result<(), NavError> {
         let gate_ok = cfg.gate.is_finite() && cfg.gate > T::one();
         if !gate_ok || cfg.acf_every == 0 {
             return Err(NavError::BadConfig);
         }
         let dt = model.dt;
-        let engine = match cfg.adapt {
-            None => Engine::Fixed(InsFilter::new(model).map_err(NavError::Model)?),
-            Some(a) => Engine::Adaptive(AdaptiveFilter::new(model, a).map_err(NavError::Adapt)?),
-        };
-        Ok(Self {
-            engine,
-            cfg,
-            dt,
-            acf: [EstimateAcf::new(), EstimateAcf::new()],
-            p_mean: [T::zero(); 2],
-            nis_scale: T::one(),
-            prev_t: None,
-            k: 0,
-            repairs: 0,
-        })
+        match cfg.adapt {
+            None => {
+                // Small (about 2 KB): built by value.
+                self.engine = Engine::Fixed(InsFilter::new(model).map_err(NavError::Model)?);
+            }
+            Some(a) => {
+                if !matches!(self.engine, Engine::Adaptive(_)) {
+                    self.engine = Engine::Adaptive(AdaptiveFilter::BLANK);
+                }
+                if let Engine::Adaptive(f) = &mut self.engine {
+                    f.init(model, a).map_err(NavError::Adapt)?;
+                }
+            }
+        }
+        self.cfg = cfg;
+        self.dt = dt;
+        for acf in self.acf.iter_mut() {
+            acf.reset();
+        }
+        self.p_mean = [T::zero(); 2];
+        self.nis_scale = T::one();
+        self.prev_t = None;
+        self.k = 0;
+        self.repairs = 0;
+        Ok(())
     }
 
     /// The settings.
@@ -282,7 +324,8 @@ impl<T: Real> Navigator<T> {
             record,
             reidentified,
             jumped,
-            acf: self.k % self.cfg.acf_every == 0,
+            // `checked_rem`: a BLANK navigator (acf_every = 0) ticked without `init` must not panic.
+            acf: self.k.checked_rem(self.cfg.acf_every) == Some(0),
         }
     }
 
