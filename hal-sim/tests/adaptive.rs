@@ -198,5 +198,5 @@ fn missing_observations_and_gaps() {
     let path = dir.path().join("params.csv");
     adaptive::write_params_csv(&path, &r.params).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
-    assert!(text.starts_with("t,sensor,component,tau,sigma,beta"));
+    assert!(text.starts_with("t,sensor,component,kind,tau,sigma,beta"));
 }
