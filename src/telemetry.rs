@@ -203,7 +203,7 @@ impl<F: FnMut(&Record)> TelemetrySink for F {
 }
 
 /// Sends each record as one defmt frame (see [`Record::log`]) through whatever global defmt
-/// logger the binary links (defmt-semihosting under QEMU, defmt-rtt on a board).
+/// logger the binary defines (semihosting stdout under QEMU, RTT on a board).
 #[cfg(feature = "defmt")]
 #[derive(Debug, Clone, Copy, Default)]
 pub struct DefmtSink;

@@ -428,7 +428,9 @@ impl<T: Real> Bank<T> {
             if z.is_finite() {
                 let i = c.innovation(self.n, z, &self.h, self.r);
                 // Only a NIS within the gate passes (NaN fails, S <= 0 is left to the update).
-                let within = i.nu * i.nu <= g * i.s;
+                // `nu^2 / S <= g`, as the fixed filter tests it: `nu^2 <= g S` let an infinite
+                // `nu^2` through when `g S` overflowed too (issue 7 fuzz).
+                let within = i.nu * i.nu / i.s <= g;
                 if i.s > T::zero() && i.s.is_finite() && !within {
                     gated = Some(i);
                     z = T::lit(f64::NAN);
@@ -475,7 +477,10 @@ impl<T: Real> Bank<T> {
         let mut dl = [T::zero(); MAXP];
         let mut dnu = [T::zero(); MAXP];
         let mut ds = [T::zero(); MAXP];
-        for i in 0..self.np {
+        // `np <= MAXP` always; the `min` lets the optimiser drop the bounds checks (and their
+        // panics) below.
+        let np = self.np.min(MAXP);
+        for i in 0..np {
             let (pl, mi) = (inn[2 * i + 1], inn[2 * i + 2]);
             // l+ - l- = -1/2 (ln(S+/S-) + nu+^2/S+ - nu-^2/S-): one logarithm per parameter.
             let d = -half * ((pl.s / mi.s).ln() + pl.nu * pl.nu / pl.s - mi.nu * mi.nu / mi.s);
@@ -488,9 +493,9 @@ impl<T: Real> Bank<T> {
         }
         let inv_s = T::one() / c.s;
         let w = half * inv_s * inv_s;
-        for i in 0..self.np {
+        for i in 0..np {
             info.score[i] += dl[i];
-            for j in 0..self.np {
+            for j in 0..np {
                 info.fisher[i][j] += w * ds[i] * ds[j] + inv_s * dnu[i] * dnu[j];
             }
         }
@@ -499,10 +504,14 @@ impl<T: Real> Bank<T> {
     }
 
     /// Replaces an unhealthy member's `x, P` by the centre's (or every member's by the initial
-    /// covariance if the centre itself is unhealthy).
+    /// covariance if the centre itself is unhealthy). The centre, whose covariance is reported
+    /// and copied, must also pass a Cholesky test: rounding in `P - a a^T / S` can make a nearly
+    /// singular `P` indefinite with a positive diagonal (issue 7 fuzz, f32). The other members
+    /// keep the cheap diagonal test.
     fn repair(&mut self, used: usize) {
         let n = self.n;
-        if !self.members[0].healthy(n) {
+        let c = &self.members[0];
+        if !c.healthy(n) || !mat::positive_definite(&c.p, n) {
             for m in self.members.iter_mut() {
                 m.x = [T::zero(); NX];
                 m.p = self.p0;

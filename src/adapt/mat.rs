@@ -6,6 +6,7 @@
 //! iterators (`zip`, `take(n)`), which need no bounds checks and no index arithmetic, so a
 //! multiply-add is a load, a fused multiply-add and the loop step.
 
+use crate::filter::is_positive_definite;
 use crate::model::{StateMat, StateVec, NX};
 use crate::Real;
 
@@ -24,7 +25,7 @@ pub fn from_mat<T: Real>(m: &StateMat<T>) -> Arr<T> {
     let mut a = zeros();
     for (i, row) in a.iter_mut().enumerate() {
         for (j, v) in row.iter_mut().enumerate() {
-            *v = m[(i, j)];
+            *v = m.get((i, j)).copied().unwrap_or_else(T::zero);
         }
     }
     a
@@ -189,6 +190,13 @@ pub fn update_c<T: Real, const N: usize>(
         }
     }
     Some((nu, s))
+}
+
+/// Cholesky test of the leading `n x n` block of a symmetric `p`: true when every pivot is
+/// finite and positive. The fixed filter's [`is_positive_definite`] on a copy (its accesses are
+/// checked, so no panic path; one call per step costs ~64 copies and `n^3 / 6` multiply-adds).
+pub fn positive_definite<T: Real>(p: &Arr<T>, n: usize) -> bool {
+    is_positive_definite(&to_mat(p), n)
 }
 
 /// `A^T`.

@@ -352,13 +352,15 @@ impl<T: Real> AdaptiveFilter<T> {
             rejected |= res.is_err();
         }
         self.steps = self.steps.wrapping_add(1);
-        if !self.probes.is_empty() && self.steps % self.cfg.epoch == 0 {
+        if !self.probes.is_empty() && self.steps.checked_rem(self.cfg.epoch) == Some(0) {
             match self.epoch_end() {
                 Ok(j) => jumped = j,
                 Err(_) => rejected = true,
             }
         }
-        if self.steps % self.cfg.block == 0 {
+        // `checked_rem`: no division-by-zero panic path (`block` and `epoch` are validated to be
+        // non-zero, so this is `steps % block == 0`).
+        if self.steps.checked_rem(self.cfg.block) == Some(0) {
             // No Gauss-Newton move on the step of a jump (its information was just discarded),
             // nor before the first epoch has chosen the basin.
             let holding = self.cfg.hold_first_epoch && self.searching && !self.probes.is_empty();
@@ -394,7 +396,13 @@ impl<T: Real> AdaptiveFilter<T> {
             } else {
                 self.cfg.margin
             };
-            if let Some(w) = best.filter(|w| w.gain.is_finite() && w.gain > margin) {
+            // A probe whose covariance lost positive definiteness (its health test looks at the
+            // diagonal only) is broken and cannot win: the centre would copy its `P`.
+            let n = self.bank.active();
+            let valid = |w: &probes::Winner<T>| {
+                w.gain.is_finite() && w.gain > margin && mat::positive_definite(&w.p, n)
+            };
+            if let Some(w) = best.filter(valid) {
                 // At once, not staggered like the Gauss-Newton moves: measured, staggering the
                 // jump (members keeping their old model for up to 2p steps on the probe's x, P)
                 // worsened the worst seeds (10x start: max tilt ratio 1.33 vs 1.18). A jump is
@@ -420,7 +428,9 @@ impl<T: Real> AdaptiveFilter<T> {
 
     /// The block update (module documentation). Returns whether `theta` moved.
     fn update(&mut self, allow_move: bool) -> Result<bool, AdaptError> {
-        let p = self.specs.len();
+        // `Specs` holds at most MAXP; the `min` lets the optimiser drop the bounds checks (and
+        // their panics) below.
+        let p = self.specs.len().min(MAXP);
         let f = self.forget;
         let b = core::mem::take(&mut self.block);
         for i in 0..p {

@@ -155,10 +155,15 @@ impl<T: Real> Probes<T> {
             .take(self.count)
         {
             let mut t = *centre;
-            for (k, &(it, is)) in self.pairs.iter().enumerate().take(self.npairs) {
-                let s = T::lit(f64::from(off[k])) * self.log_m;
-                t[it] += s;
-                t[is] -= T::lit(0.5) * s;
+            // `get_mut`: the pair indices are < MAXP by construction; no bounds-check panic.
+            for (&(it, is), &o) in self.pairs.iter().zip(off.iter()).take(self.npairs) {
+                let s = T::lit(f64::from(o)) * self.log_m;
+                if let Some(v) = t.get_mut(it) {
+                    *v += s;
+                }
+                if let Some(v) = t.get_mut(is) {
+                    *v -= T::lit(0.5) * s;
+                }
             }
             *th = bounds.clamp(&t, p);
         }

@@ -17,7 +17,7 @@
 //! - Step: `t` = whole seconds since the timer started at boot, `z` = the newest frame received
 //!   since the previous tick (NaN when none; the frame's own `t` is not used: the board's timer
 //!   is the time base), then [`Navigator::tick`] and [`Navigator::emit`] to defmt over RTT
-//!   (defmt-rtt; `probe-rs run` decodes it).
+//!   (this file's RTT logger, laid out as defmt-rtt's; `probe-rs run` decodes it).
 //! - Errors: a failed start-up is reported with `defmt::error!` and parks the core. Serial line
 //!   errors, queue overflows, bad CRCs, superseded frames and late ticks are counted and
 //!   reported with `defmt::warn!` when they change; the frame decoder resynchronises by
@@ -26,7 +26,9 @@
 //!   ([`Navigator::init`]: no copy of it on the stack); no heap.
 //!
 //! Panics: none are expected; the handler below parks the core without formatting anything.
-//! A later issue adds a link-time proof that no panic path is linked at all.
+//! `--features prove-no-panic` proves at link time that no panic path is linked at all (see
+//! RELIABILITY.md): the defmt logger is therefore this file's own RTT channel ([`rtt`]), which
+//! drops a re-entered frame where `defmt-rtt` panics.
 
 #![cfg_attr(all(target_arch = "arm", target_os = "none"), no_std, no_main)]
 
@@ -39,14 +41,13 @@ fn main() {
 
 #[cfg(all(target_arch = "arm", target_os = "none"))]
 mod firmware {
-    use core::cell::RefCell;
+    use core::cell::{RefCell, UnsafeCell};
     use core::convert::Infallible;
     use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
     use cortex_m::interrupt::{self as irq, Mutex};
     use cortex_m::peripheral::NVIC;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
-    use defmt_rtt as _; // the global defmt logger: frames go to the RTT up channel
     use heapless::spsc::{Consumer, Producer, Queue};
     use imu_ident::edge::{ObservationSource, SerialSource, Tick};
     use imu_ident::model::InsModel;
@@ -367,11 +368,220 @@ mod firmware {
         });
     }
 
+    /// The global defmt logger: one RTT up channel named `defmt` in a `_SEGGER_RTT` control
+    /// block, as `defmt-rtt` lays it out (so `probe-rs run` finds and decodes it the same way),
+    /// without its panics: a frame started inside another (the logger re-entered from an
+    /// exception handler) is dropped.
+    mod rtt {
+        use super::UnsafeCell;
+        use core::sync::atomic::{AtomicU32, Ordering};
+
+        /// Up buffer size [bytes] (defmt-rtt's default).
+        const BUF_SIZE: usize = 1024;
+        /// The flags' mode bits; the host sets "block if full" when it is attached.
+        const MODE_MASK: u32 = 0b11;
+        const MODE_BLOCK_IF_FULL: u32 = 2;
+        const MODE_NON_BLOCKING_TRIM: u32 = 1;
+
+        #[repr(C)]
+        struct Channel {
+            name: *const u8,
+            buffer: *mut u8,
+            size: u32,
+            write: AtomicU32,
+            read: AtomicU32,
+            flags: AtomicU32,
+        }
+
+        #[repr(C)]
+        struct Header {
+            id: [u8; 16],
+            max_up_channels: u32,
+            max_down_channels: u32,
+            up_channel: Channel,
+        }
+
+        // SAFETY: the pointers are to statics; the cursors are atomics.
+        unsafe impl Sync for Header {}
+
+        struct Buffer(UnsafeCell<[u8; BUF_SIZE]>);
+
+        // SAFETY: written only by the logger, with interrupts disabled; the host reads it.
+        unsafe impl Sync for Buffer {}
+
+        #[link_section = ".uninit.defmt-rtt.BUFFER"]
+        static BUFFER: Buffer = Buffer(UnsafeCell::new([0; BUF_SIZE]));
+
+        #[link_section = ".data.defmt-rtt.NAME"]
+        static NAME: [u8; 6] = *b"defmt\0";
+
+        #[no_mangle]
+        static _SEGGER_RTT: Header = Header {
+            id: *b"SEGGER RTT\0\0\0\0\0\0",
+            max_up_channels: 1,
+            max_down_channels: 0,
+            up_channel: Channel {
+                name: NAME.as_ptr(),
+                buffer: BUFFER.0.get() as *mut u8,
+                size: BUF_SIZE as u32,
+                write: AtomicU32::new(0),
+                read: AtomicU32::new(0),
+                flags: AtomicU32::new(MODE_NON_BLOCKING_TRIM),
+            },
+        };
+
+        /// Free bytes between the write and the read cursor (one slot stays empty).
+        fn available(read: usize, write: usize) -> usize {
+            if read > write {
+                read - write - 1
+            } else {
+                BUF_SIZE - 1 - write + read
+            }
+        }
+
+        /// Copies `bytes` into the buffer from `cursor` on, wrapping; returns the new cursor.
+        /// `bytes.len() < BUF_SIZE`.
+        fn copy_wrapping(bytes: &[u8], cursor: usize) -> usize {
+            let cursor = cursor % BUF_SIZE;
+            let first = bytes.len().min(BUF_SIZE - cursor);
+            let Some((head, tail)) = bytes.split_at_checked(first) else {
+                return cursor;
+            };
+            let base = BUFFER.0.get() as *mut u8;
+            // SAFETY: `cursor + head.len() <= BUF_SIZE` and `tail.len() < BUF_SIZE`; the
+            // buffer is written only here (interrupts disabled), the host only reads it.
+            unsafe {
+                core::ptr::copy_nonoverlapping(head.as_ptr(), base.add(cursor), head.len());
+                core::ptr::copy_nonoverlapping(tail.as_ptr(), base, tail.len().min(BUF_SIZE));
+            }
+            (cursor + bytes.len()) % BUF_SIZE
+        }
+
+        /// Writes all of `bytes`: waits for the host when it asked for blocking mode, else
+        /// overwrites what it has not read (as defmt-rtt does).
+        fn write_all(mut bytes: &[u8]) {
+            let ch = &_SEGGER_RTT.up_channel;
+            while !bytes.is_empty() {
+                let blocking = ch.flags.load(Ordering::Relaxed) & MODE_MASK == MODE_BLOCK_IF_FULL;
+                let write = ch.write.load(Ordering::Acquire) as usize % BUF_SIZE;
+                let room = if blocking {
+                    available(ch.read.load(Ordering::Relaxed) as usize % BUF_SIZE, write)
+                } else {
+                    BUF_SIZE - 1
+                };
+                let Some((now, rest)) = bytes.split_at_checked(bytes.len().min(room)) else {
+                    return;
+                };
+                if !now.is_empty() {
+                    let next = copy_wrapping(now, write);
+                    ch.write.store(next as u32, Ordering::Release);
+                }
+                bytes = rest;
+            }
+        }
+
+        #[defmt::global_logger]
+        struct Logger;
+
+        struct State {
+            /// Frames in progress: 1 while a frame is written; more when re-entered.
+            depth: UnsafeCell<u32>,
+            /// PRIMASK's active bit before the outermost `acquire`.
+            enable: UnsafeCell<bool>,
+            encoder: UnsafeCell<defmt::Encoder>,
+        }
+
+        // SAFETY: only touched with interrupts disabled (between acquire and release).
+        unsafe impl Sync for State {}
+
+        static STATE: State = State {
+            depth: UnsafeCell::new(0),
+            enable: UnsafeCell::new(false),
+            encoder: UnsafeCell::new(defmt::Encoder::new()),
+        };
+
+        // SAFETY: frames are written with interrupts disabled; nested frames are dropped.
+        unsafe impl defmt::Logger for Logger {
+            fn acquire() {
+                let active = cortex_m::register::primask::read().is_active();
+                cortex_m::interrupt::disable();
+                // SAFETY: interrupts are disabled (single core).
+                unsafe {
+                    let depth = &mut *STATE.depth.get();
+                    *depth = depth.saturating_add(1);
+                    if *depth > 1 {
+                        // Nested: the outer frame keeps interrupts off until its release.
+                        return;
+                    }
+                    *STATE.enable.get() = active;
+                    (*STATE.encoder.get()).start_frame(write_all);
+                }
+            }
+
+            unsafe fn flush() {
+                let ch = &_SEGGER_RTT.up_channel;
+                if ch.flags.load(Ordering::Relaxed) & MODE_MASK != MODE_BLOCK_IF_FULL {
+                    return;
+                }
+                while ch.read.load(Ordering::Relaxed) != ch.write.load(Ordering::Relaxed) {
+                    core::hint::spin_loop();
+                }
+            }
+
+            unsafe fn release() {
+                // SAFETY: interrupts are disabled since `acquire`.
+                unsafe {
+                    let depth = &mut *STATE.depth.get();
+                    match *depth {
+                        0 => {}
+                        1 => {
+                            *depth = 0;
+                            (*STATE.encoder.get()).end_frame(write_all);
+                            if *STATE.enable.get() {
+                                cortex_m::interrupt::enable();
+                            }
+                        }
+                        _ => *depth -= 1,
+                    }
+                }
+            }
+
+            unsafe fn write(bytes: &[u8]) {
+                // SAFETY: interrupts are disabled since `acquire`.
+                unsafe {
+                    if *STATE.depth.get() != 1 {
+                        return;
+                    }
+                    (*STATE.encoder.get()).write(bytes, write_all);
+                }
+            }
+        }
+    }
+
+    #[cfg(not(feature = "prove-no-panic"))]
     #[panic_handler]
     fn panic(_info: &core::panic::PanicInfo) -> ! {
         // No defmt here: the panic may come from inside the logger, which is not re-entrant.
         irq::disable();
         park()
+    }
+
+    #[cfg(feature = "prove-no-panic")]
+    extern "Rust" {
+        /// Defined nowhere: a release build with `prove-no-panic` links only if every call to
+        /// the panic handler was optimised away (see RELIABILITY.md, "Panic-free firmware,
+        /// proved at link time").
+        fn imu_ident_panic_path_is_linked() -> !;
+    }
+
+    /// With `prove-no-panic`: any panic path that survives LTO makes the link fail with an
+    /// undefined `imu_ident_panic_path_is_linked`.
+    #[cfg(feature = "prove-no-panic")]
+    #[panic_handler]
+    fn panic(_info: &core::panic::PanicInfo) -> ! {
+        // SAFETY: never executed; the symbol does not exist, so a binary that could reach this
+        // call does not link.
+        unsafe { imu_ident_panic_path_is_linked() }
     }
 
     #[exception]

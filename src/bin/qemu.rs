@@ -9,7 +9,7 @@
 //! - Input (semihosting, relative to QEMU's working directory): the arguments after the program
 //!   name are the model file (written by `hal-sim qemu`: model and run options, see
 //!   [`imu_ident::model::wire`]) and the binary replay log; defaults `model.bin`, `replay.bin`.
-//! - Output: defmt frames on semihosting stdout (defmt-semihosting): `tlm` per tick, `par` per
+//! - Output: defmt frames on semihosting stdout (this file's panic-free logger): `tlm` per tick, `par` per
 //!   component at each re-identification, `acf` on schedule, then `icount` and `stack` summaries.
 //! - Exit: status 0 after a complete, checksum-valid log; 1 for anything else.
 //!
@@ -34,20 +34,19 @@ fn main() {
 
 #[cfg(all(target_arch = "arm", target_os = "none"))]
 mod firmware {
+    use core::cell::UnsafeCell;
     use core::ffi::CStr;
 
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m::peripheral::SYST;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
-    use defmt_semihosting as _; // the global defmt logger: frames go to semihosting stdout
+    use cortex_m_semihosting::hio::{self, HostStream};
+    use cortex_m_semihosting::{nr, syscall, syscall1};
     use imu_ident::model::wire::{self, WireError};
     use imu_ident::navigator::{NavConfig, NavError, Navigator};
     use imu_ident::replay::{Decoder, ReplayError};
     use imu_ident::telemetry::DefmtSink;
-    use semihosting::experimental::env;
-    use semihosting::fs::File;
-    use semihosting::io::Read;
 
     /// File names used when QEMU passes no arguments.
     const DEFAULT_MODEL: &CStr = c"model.bin";
@@ -185,14 +184,14 @@ mod firmware {
         block: u32,
         epoch: u32,
     ) -> Result<u32, FirmwareError> {
-        let mut file = File::open(log_path).map_err(|_| FirmwareError::Open)?;
+        let mut file = HostFile::open(log_path)?;
         let _syst = timer();
         let mut sink = DefmtSink;
         let mut decoder = Decoder::new();
         let mut buf = [0u8; CHUNK];
         let (mut ordinary, mut reident) = (Counts::default(), Counts::default());
         loop {
-            let n = file.read(&mut buf).map_err(|_| FirmwareError::Read)?;
+            let n = file.read(&mut buf)?;
             let Some(chunk) = buf.get(..n).filter(|c| !c.is_empty()) else {
                 break;
             };
@@ -280,7 +279,7 @@ mod firmware {
 
     /// Reads a whole (small) file into `buf`; returns its length.
     fn read_all(path: &CStr, buf: &mut [u8]) -> Result<usize, FirmwareError> {
-        let mut f = File::open(path).map_err(|_| FirmwareError::Open)?;
+        let mut f = HostFile::open(path)?;
         let mut n = 0;
         loop {
             let rest = buf.get_mut(n..).ok_or(FirmwareError::Read)?;
@@ -288,7 +287,7 @@ mod firmware {
                 // Longer than any valid model: let the decoder reject it by length.
                 return Ok(n);
             }
-            let m = f.read(rest).map_err(|_| FirmwareError::Read)?;
+            let m = f.read(rest)?;
             if m == 0 {
                 return Ok(n);
             }
@@ -302,13 +301,13 @@ mod firmware {
         model: &'a mut [u8; CMDLINE_LEN],
         log: &'a mut [u8; CMDLINE_LEN],
     ) -> Result<(&'a CStr, &'a CStr), FirmwareError> {
-        let args = env::args::<CMDLINE_LEN>().map_err(|_| FirmwareError::BadArgument)?;
-        let mut it = (&args).skip(1);
+        let mut line = [0u8; CMDLINE_LEN];
+        let line = cmdline(&mut line)?;
+        let mut it = Words(line).skip(1);
         let mut name = |buf: &'a mut [u8; CMDLINE_LEN], default: &'static CStr| {
             let Some(arg) = it.next() else {
                 return Ok(default);
             };
-            let arg = arg.map_err(|_| FirmwareError::BadArgument)?.as_bytes();
             let dst = buf.get_mut(..arg.len()).ok_or(FirmwareError::BadArgument)?;
             dst.copy_from_slice(arg);
             // `buf` was zeroed, so the name is followed by a NUL unless it filled the buffer.
@@ -317,6 +316,173 @@ mod firmware {
         let m = name(model, DEFAULT_MODEL)?;
         let l = name(log, DEFAULT_LOG)?;
         Ok((m, l))
+    }
+
+    /// The semihosting command line (SYS_GET_CMDLINE), without its NUL.
+    fn cmdline(buf: &mut [u8; CMDLINE_LEN]) -> Result<&[u8], FirmwareError> {
+        // The parameter block: buffer address and size in; the host writes the length back.
+        let mut block = [buf.as_mut_ptr() as usize, CMDLINE_LEN];
+        // SAFETY: the host writes at most CMDLINE_LEN bytes into `buf` and one word of `block`.
+        let r = unsafe { syscall1(nr::GET_CMDLINE, block.as_mut_ptr() as usize) };
+        if r != 0 {
+            return Err(FirmwareError::BadArgument);
+        }
+        let [_, len] = block;
+        buf.get(..len).ok_or(FirmwareError::BadArgument)
+    }
+
+    /// The words of a command line: separated by blanks (space, tab); a word that starts with
+    /// `"` or `'` runs to the matching quote (as the `semihosting` crate splits it).
+    struct Words<'a>(&'a [u8]);
+
+    impl<'a> Iterator for Words<'a> {
+        type Item = &'a [u8];
+        fn next(&mut self) -> Option<&'a [u8]> {
+            let is_blank = |b: &u8| *b == b' ' || *b == b'\t';
+            let start = self.0.iter().position(|b| !is_blank(b))?;
+            let rest = self.0.get(start..)?;
+            let (word, after) = match rest.split_first() {
+                Some((&q, tail)) if q == b'"' || q == b'\'' => {
+                    let end = tail.iter().position(|&b| b == q).unwrap_or(tail.len());
+                    (
+                        tail.get(..end)?,
+                        tail.get(end.saturating_add(1)..).unwrap_or(&[]),
+                    )
+                }
+                _ => {
+                    let end = rest.iter().position(is_blank).unwrap_or(rest.len());
+                    (rest.get(..end)?, rest.get(end..).unwrap_or(&[]))
+                }
+            };
+            self.0 = after;
+            Some(word)
+        }
+    }
+
+    /// A host file opened for reading through raw semihosting calls (SYS_OPEN, SYS_READ,
+    /// SYS_CLOSE): the `semihosting` crate's `File` carries panic paths.
+    struct HostFile(usize);
+
+    impl HostFile {
+        fn open(path: &CStr) -> Result<Self, FirmwareError> {
+            let len = path.to_bytes().len();
+            // SAFETY: `path` is NUL-terminated and `len` excludes the NUL, as SYS_OPEN expects.
+            let fd = unsafe { syscall!(OPEN, path.as_ptr(), nr::open::R_BINARY, len) };
+            if fd as isize == -1 {
+                return Err(FirmwareError::Open);
+            }
+            Ok(Self(fd))
+        }
+
+        /// Reads up to `buf.len()` bytes; 0 at the end of the file.
+        fn read(&mut self, buf: &mut [u8]) -> Result<usize, FirmwareError> {
+            // SAFETY: the host writes at most `buf.len()` bytes into `buf`.
+            let not_read = unsafe { syscall!(READ, self.0, buf.as_mut_ptr(), buf.len()) };
+            // SYS_READ returns the number of bytes *not* read.
+            buf.len().checked_sub(not_read).ok_or(FirmwareError::Read)
+        }
+    }
+
+    impl Drop for HostFile {
+        fn drop(&mut self) {
+            // SAFETY: closes the handle this value owns.
+            unsafe { syscall!(CLOSE, self.0) };
+        }
+    }
+
+    /// The global defmt logger: the encoded frames go to semihosting stdout (`:tt`), the bytes
+    /// `defmt-semihosting` writes, but without its panics. A frame started while another is
+    /// being written (a logger re-entered from an exception handler) is dropped instead.
+    #[defmt::global_logger]
+    struct Logger;
+
+    struct LoggerState {
+        /// Frames in progress: 1 while a frame is written; more when re-entered.
+        depth: UnsafeCell<u32>,
+        /// PRIMASK's active bit before the outermost `acquire`.
+        enable: UnsafeCell<bool>,
+        encoder: UnsafeCell<defmt::Encoder>,
+        stdout: UnsafeCell<Option<HostStream>>,
+    }
+
+    // SAFETY: only touched with interrupts disabled (between acquire and release).
+    unsafe impl Sync for LoggerState {}
+
+    static LOGGER: LoggerState = LoggerState {
+        depth: UnsafeCell::new(0),
+        enable: UnsafeCell::new(false),
+        encoder: UnsafeCell::new(defmt::Encoder::new()),
+        stdout: UnsafeCell::new(None),
+    };
+
+    impl LoggerState {
+        /// Writes `bytes` to stdout, opening it on first use; errors are ignored (there is
+        /// nowhere to report them).
+        ///
+        /// # Safety
+        /// Interrupts disabled, no other reference to `stdout` live.
+        unsafe fn emit(stdout: *mut Option<HostStream>, bytes: &[u8]) {
+            // SAFETY: per the function's contract.
+            let stdout = unsafe { &mut *stdout };
+            if stdout.is_none() {
+                *stdout = hio::hstdout().ok();
+            }
+            if let Some(h) = stdout {
+                let _ = h.write_all(bytes);
+            }
+        }
+    }
+
+    // SAFETY: frames are written with interrupts disabled; nested frames are dropped.
+    unsafe impl defmt::Logger for Logger {
+        fn acquire() {
+            let active = cortex_m::register::primask::read().is_active();
+            cortex_m::interrupt::disable();
+            // SAFETY: interrupts are disabled (single core).
+            unsafe {
+                let depth = &mut *LOGGER.depth.get();
+                *depth = depth.saturating_add(1);
+                if *depth > 1 {
+                    // Nested: the outer frame keeps interrupts off until its release.
+                    return;
+                }
+                *LOGGER.enable.get() = active;
+                let stdout = LOGGER.stdout.get();
+                (*LOGGER.encoder.get()).start_frame(|b| LoggerState::emit(stdout, b));
+            }
+        }
+
+        unsafe fn flush() {}
+
+        unsafe fn release() {
+            // SAFETY: interrupts are disabled since `acquire`.
+            unsafe {
+                let depth = &mut *LOGGER.depth.get();
+                match *depth {
+                    0 => {}
+                    1 => {
+                        *depth = 0;
+                        let stdout = LOGGER.stdout.get();
+                        (*LOGGER.encoder.get()).end_frame(|b| LoggerState::emit(stdout, b));
+                        if *LOGGER.enable.get() {
+                            cortex_m::interrupt::enable();
+                        }
+                    }
+                    _ => *depth -= 1,
+                }
+            }
+        }
+
+        unsafe fn write(bytes: &[u8]) {
+            // SAFETY: interrupts are disabled since `acquire`.
+            unsafe {
+                if *LOGGER.depth.get() != 1 {
+                    return;
+                }
+                let stdout = LOGGER.stdout.get();
+                (*LOGGER.encoder.get()).write(bytes, |b| LoggerState::emit(stdout, b));
+            }
+        }
     }
 
     extern "C" {
@@ -359,10 +525,29 @@ mod firmware {
         );
     }
 
+    #[cfg(not(feature = "prove-no-panic"))]
     #[panic_handler]
     fn panic(_info: &core::panic::PanicInfo) -> ! {
         // No defmt here: the panic may come from inside the logger, which is not re-entrant.
         exit(EXIT_FAILURE)
+    }
+
+    #[cfg(feature = "prove-no-panic")]
+    extern "Rust" {
+        /// Defined nowhere: a release build with `prove-no-panic` links only if every call to
+        /// the panic handler was optimised away (see RELIABILITY.md, "Panic-free firmware,
+        /// proved at link time").
+        fn imu_ident_panic_path_is_linked() -> !;
+    }
+
+    /// With `prove-no-panic`: any panic path that survives LTO makes the link fail with an
+    /// undefined `imu_ident_panic_path_is_linked`.
+    #[cfg(feature = "prove-no-panic")]
+    #[panic_handler]
+    fn panic(_info: &core::panic::PanicInfo) -> ! {
+        // SAFETY: never executed; the symbol does not exist, so a binary that could reach this
+        // call does not link.
+        unsafe { imu_ident_panic_path_is_linked() }
     }
 
     #[exception]

@@ -20,7 +20,7 @@
 //! assert_eq!(ekf.update(f64::NAN, &h, 1.0, None).status, UpdateStatus::Missing);
 //! ```
 
-use crate::model::{StateMat, StateRow, StateVec, NX};
+use crate::model::{At, StateMat, StateRow, StateVec, NX};
 use crate::Real;
 
 /// What happened to one observation.
@@ -101,9 +101,9 @@ impl<T: Real> Ekf<T> {
         for i in 0..n {
             let mut s = T::zero();
             for k in 0..n {
-                s += Phi[(i, k)] * self.x[k];
+                s += Phi.at(i, k) * self.x.el(k);
             }
-            x[i] = s;
+            x.set_el(i, s);
         }
         self.x = x;
         // M = Phi P (n x n), then P' = M Phi^T + Qd, computing the upper triangle and mirroring.
@@ -112,19 +112,19 @@ impl<T: Real> Ekf<T> {
             for j in 0..n {
                 let mut s = T::zero();
                 for k in 0..n {
-                    s += Phi[(i, k)] * self.P[(k, j)];
+                    s += Phi.at(i, k) * self.P.at(k, j);
                 }
-                m[(i, j)] = s;
+                m.set_at(i, j, s);
             }
         }
         for i in 0..n {
             for j in i..n {
-                let mut s = Qd[(i, j)];
+                let mut s = Qd.at(i, j);
                 for k in 0..n {
-                    s += m[(i, k)] * Phi[(j, k)];
+                    s += m.at(i, k) * Phi.at(j, k);
                 }
-                self.P[(i, j)] = s;
-                self.P[(j, i)] = s;
+                self.P.set_at(i, j, s);
+                self.P.set_at(j, i, s);
             }
         }
     }
@@ -144,15 +144,15 @@ impl<T: Real> Ekf<T> {
         for i in 0..n {
             let mut s = T::zero();
             for k in 0..n {
-                s += self.P[(i, k)] * H[k];
+                s += self.P.at(i, k) * H.el(k);
             }
-            a[i] = s;
+            a.set_el(i, s);
         }
         let mut hx = T::zero();
         let mut hph = T::zero();
         for k in 0..n {
-            hx += H[k] * self.x[k];
-            hph += H[k] * a[k];
+            hx += H.el(k) * self.x.el(k);
+            hph += H.el(k) * a.el(k);
         }
         let S = hph + R;
         let nan = T::lit(f64::NAN);
@@ -189,12 +189,13 @@ impl<T: Real> Ekf<T> {
         }
         let K = a / S;
         for i in 0..n {
-            self.x[i] += K[i] * nu;
+            self.x.set_el(i, self.x.el(i) + K.el(i) * nu);
             for j in i..n {
                 // Joseph, expanded: P - K a^T - a K^T + S K K^T (symmetric by construction).
-                let p = self.P[(i, j)] - K[i] * a[j] - a[i] * K[j] + S * K[i] * K[j];
-                self.P[(i, j)] = p;
-                self.P[(j, i)] = p;
+                let p =
+                    self.P.at(i, j) - K.el(i) * a.el(j) - a.el(i) * K.el(j) + S * K.el(i) * K.el(j);
+                self.P.set_at(i, j, p);
+                self.P.set_at(j, i, p);
             }
         }
         Innovation {
@@ -231,22 +232,22 @@ pub fn is_positive_definite<T: Real>(p: &StateMat<T>, n: usize) -> bool {
     let n = n.min(NX);
     let mut l = StateMat::<T>::zeros();
     for j in 0..n {
-        let mut d = p[(j, j)];
+        let mut d = p.at(j, j);
         for k in 0..j {
-            d -= l[(j, k)] * l[(j, k)];
+            d -= l.at(j, k) * l.at(j, k);
         }
         if !(d.is_finite() && d > T::zero()) {
             return false;
         }
         let djj = d.sqrt();
-        l[(j, j)] = djj;
+        l.set_at(j, j, djj);
         for i in (j + 1)..n {
-            let mut s = p[(i, j)];
+            let mut s = p.at(i, j);
             for k in 0..j {
-                s -= l[(i, k)] * l[(j, k)];
+                s -= l.at(i, k) * l.at(j, k);
             }
-            l[(i, j)] = s / djj;
+            l.set_at(i, j, s / djj);
         }
     }
-    (0..n).all(|i| (0..n).all(|j| p[(i, j)].is_finite()))
+    (0..n).all(|i| (0..n).all(|j| p.at(i, j).is_finite()))
 }

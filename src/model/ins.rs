@@ -51,6 +51,44 @@ pub type StateMat<T> = SMatrix<T, NX, NX>;
 /// An observation row.
 pub type StateRow<T> = RowSVector<T, NX>;
 
+/// Element access without a panic path, for loops whose indices stay below `n <= NX` (which
+/// the optimiser does not always prove, leaving nalgebra's bounds check and its panic in the
+/// firmware; see RELIABILITY.md, "Panic-free firmware, proved at link time"). Outside the
+/// matrix a read gives zero and a write does nothing: never the case for these callers.
+pub trait At<T> {
+    /// `self[(i, j)]`, zero outside.
+    fn at(&self, i: usize, j: usize) -> T;
+    /// `self[(i, j)] = v`, nothing outside.
+    fn set_at(&mut self, i: usize, j: usize, v: T);
+    /// `self[k]` (column-major linear index: the `k`-th entry of a vector), zero outside.
+    fn el(&self, k: usize) -> T;
+    /// `self[k] = v`, nothing outside.
+    fn set_el(&mut self, k: usize, v: T);
+}
+
+impl<T: Real, const R: usize, const C: usize> At<T> for SMatrix<T, R, C> {
+    #[inline(always)]
+    fn at(&self, i: usize, j: usize) -> T {
+        self.get((i, j)).copied().unwrap_or_else(T::zero)
+    }
+    #[inline(always)]
+    fn set_at(&mut self, i: usize, j: usize, v: T) {
+        if let Some(e) = self.get_mut((i, j)) {
+            *e = v;
+        }
+    }
+    #[inline(always)]
+    fn el(&self, k: usize) -> T {
+        self.get(k).copied().unwrap_or_else(T::zero)
+    }
+    #[inline(always)]
+    fn set_el(&mut self, k: usize, v: T) {
+        if let Some(e) = self.get_mut(k) {
+            *e = v;
+        }
+    }
+}
+
 /// Which error source a component belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -320,17 +358,17 @@ impl<T: Real> InsModel<T> {
                     return Err(ModelError::TooManyStates);
                 }
                 match driven {
-                    Some(d) => A[(d, si)] += b.c[i],
-                    None => H[si] += b.c[i],
+                    Some(d) => A.set_at(d, si, A.at(d, si) + b.c.el(i)),
+                    None => H.set_el(si, H.el(si) + b.c.el(i)),
                 }
                 for j in 0..slot.states.min(2) {
                     let sj = slot.start + j;
                     if sj >= NX {
                         return Err(ModelError::TooManyStates);
                     }
-                    A[(si, sj)] = b.a[(i, j)];
-                    Qc[(si, sj)] = b.qc[(i, j)];
-                    P0[(si, sj)] = b.p0[(i, j)];
+                    A.set_at(si, sj, b.a.at(i, j));
+                    Qc.set_at(si, sj, b.qc.at(i, j));
+                    P0.set_at(si, sj, b.p0.at(i, j));
                 }
             }
             n = n.max(slot.start + slot.states);

@@ -20,7 +20,7 @@ pub use component::{Component, ComponentKind};
 pub use discretise::Discrete;
 pub use exp_cosine::ExpCosine;
 pub use gauss_markov::GaussMarkov;
-pub use ins::{idx, InsModel, Scaling, Sensor, StateMat, StateRow, StateVec, NX};
+pub use ins::{idx, At, InsModel, Scaling, Sensor, StateMat, StateRow, StateVec, NX};
 pub use random_constant::RandomConstant;
 pub use random_walk::RandomWalk;
 pub use white::WhiteNoise;
