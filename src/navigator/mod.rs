@@ -35,8 +35,10 @@
 //! chi-square quantile with one degree of freedom) and `s >= 1` a running scale of the NIS:
 //!
 //! ```text
-//! s <- max(1, (1 - a) s + a min(NIS, g s)),   a = 1/64, over every finite innovation
+//! s <- min(S_MAX, max(1, (1 - a) s + a min(NIS, g s))),   a = 1/64, over every finite innovation
 //! ```
+//!
+//! with `S_MAX` = [`NavConfig::max_gate_scale`].
 //!
 //! A fixed threshold would shield a badly wrong model from the very data that must correct it
 //! (a model with 10x too small a sigma sees NIS ~ 100 chi-square: most observations would be
@@ -89,6 +91,12 @@ pub struct NavConfig<T> {
     /// Base outlier gate on the NIS (module documentation). `30` is the chi-square(1) quantile
     /// at `1 - 4.3e-8`: about one false rejection per 270 days at 1 Hz under a right model.
     pub gate: T,
+    /// Upper bound `S_MAX` of the gate's NIS scale `s` (module documentation); default `1e6`.
+    /// The threshold `g s` must stay finite (an infinite one lets an infinite NIS through), and
+    /// an innovation beyond about `sqrt(g S_MAX)` standard deviations (5500 by default) is never
+    /// taken, however long it persists: while it is gated the filter only predicts, `P` and so
+    /// `S` grow, and a genuine change is taken once `S` has grown to it.
+    pub max_gate_scale: T,
     /// Longest gap in the observation times bridged by missing-observation ticks. A longer gap
     /// bridges this many ticks and flags [`TIME_JUMP`]; it bounds the work of one
     /// [`push`](Navigator::push).
@@ -103,6 +111,7 @@ impl<T: Real> Default for NavConfig<T> {
         Self {
             adapt: None,
             gate: T::lit(30.0),
+            max_gate_scale: T::lit(1.0e6),
             max_bridge: 86_400,
             acf_every: 600,
         }
@@ -152,6 +161,9 @@ pub struct Navigator<T: Real> {
     p_mean: [T; 2],
     nis_scale: T,
     prev_t: Option<f64>,
+    /// A row time more than `max_bridge` steps from `prev_t`, waiting for the next row to
+    /// confirm it as the new time base ([`push`](Self::push)).
+    suspect_t: Option<f64>,
     k: u32,
     repairs: u32,
 }
@@ -166,6 +178,7 @@ impl<T: Real> Navigator<T> {
             // whole blank navigator in `.data` (30 KB of flash).
             adapt: Some(AdaptConfig::BLANK),
             gate: T::ZERO,
+            max_gate_scale: T::ZERO,
             max_bridge: 0,
             acf_every: 0,
         },
@@ -174,6 +187,7 @@ impl<T: Real> Navigator<T> {
         p_mean: [T::ZERO; 2],
         nis_scale: T::ZERO,
         prev_t: None,
+        suspect_t: None,
         k: 0,
         repairs: 0,
     };
@@ -189,8 +203,11 @@ impl<T: Real> Navigator<T> {
     /// built on the stack and moved (measured: by-value construction peaked at 94 KB of stack
     /// on the Cortex-M4, in place 18 KB; `BENCHMARKS.md`). On error it must not be ticked.
     pub fn init(&mut self, model: InsModel<T>, cfg: NavConfig<T>) -> Result<(), NavError> {
-        let gate_ok = cfg.gate.is_finite() && cfg.gate > T::one();
-        if !gate_ok || cfg.acf_every == 0 {
+        let gate_ok = cfg.gate.is_finite()
+            && cfg.gate > T::one()
+            && cfg.max_gate_scale >= T::one()
+            && (cfg.gate * cfg.max_gate_scale).is_finite();
+        if !gate_ok || cfg.acf_every == 0 || cfg.max_bridge == 0 {
             return Err(NavError::BadConfig);
         }
         let dt = model.dt;
@@ -216,6 +233,7 @@ impl<T: Real> Navigator<T> {
         self.p_mean = [T::zero(); 2];
         self.nis_scale = T::one();
         self.prev_t = None;
+        self.suspect_t = None;
         self.k = 0;
         self.repairs = 0;
         Ok(())
@@ -336,7 +354,7 @@ impl<T: Real> Navigator<T> {
         }
         let a = T::lit(1.0 / 64.0);
         let s = (T::one() - a) * self.nis_scale + a * nis.min(threshold);
-        self.nis_scale = s.max(T::one());
+        self.nis_scale = s.max(T::one()).min(self.cfg.max_gate_scale);
     }
 
     fn feed_acf(&mut self, est: &Estimates<T>) {
@@ -356,17 +374,46 @@ impl<T: Real> Navigator<T> {
     }
 
     /// One log row: bridges a gap in time with missing-observation ticks (at most
-    /// [`NavConfig::max_bridge`]), skips a row whose time does not advance, then ticks with the
-    /// row. Every tick's record goes to `sink`, followed by the parameters when they changed
-    /// and the autocorrelation identification when it ran.
+    /// [`NavConfig::max_bridge`]), skips a row whose time does not advance or is not finite,
+    /// then ticks with the row. Every tick's record goes to `sink`, followed by the parameters
+    /// when they changed and the autocorrelation identification when it ran.
+    ///
+    /// A time more than `max_bridge` steps away from the previous one, ahead or behind, is
+    /// *suspect*: one corrupted time stamp must neither make every later row look as if it
+    /// went backwards nor bridge a day of blind prediction. The row is skipped (`SKIPPED`,
+    /// `TIME_JUMP`, and `BAD_INPUT` when behind) and its time remembered; when the next row
+    /// follows it (at least half a step and at most `max_bridge` steps after it), the clock
+    /// really jumped (a long outage, a reset clock): that row becomes the new time base,
+    /// ticked with `TIME_JUMP` after `max_bridge` bridged ticks when the jump was forward. A
+    /// row that follows the old time base instead is ticked as usual and the suspect time
+    /// forgotten. The cost of a genuine jump is one row.
     pub fn push(&mut self, t: f64, z: T, sink: &mut impl TelemetrySink) {
         let dt = self.dt.as_f64();
+        let span = f64::from(self.cfg.max_bridge) * dt;
+        // Not `<= span` written as a negation: NaN is caught by `is_finite` first.
+        let far = |p: f64| (t - p).abs() > span;
+        let confirms = |c: f64| t - c >= 0.5 * dt && t - c <= span;
         let steps: f64 = match self.prev_t {
             None => 1.0,
+            Some(p) if t.is_finite() && far(p) => {
+                if self.suspect_t.is_some_and(confirms) {
+                    // Forward: bridge the most we may (the outage was at least that long);
+                    // backward: a reset clock, nothing to bridge.
+                    if t > p {
+                        f64::from(self.cfg.max_bridge) + 2.0
+                    } else {
+                        1.0
+                    }
+                } else {
+                    self.suspect_t = Some(t);
+                    0.0
+                }
+            }
             Some(p) => libm::round((t - p) / dt),
         };
-        // NaN (non-finite t) and non-advancing times are skipped, never misread.
-        let advances = steps >= 1.0;
+        // Non-finite t (NaN, +-Inf), non-advancing and suspect times are skipped, never
+        // misread.
+        let advances = steps >= 1.0 && t.is_finite();
         if !advances {
             let nan = T::lit(f64::NAN);
             let flags = time_flags(self.prev_t, t, dt) | SKIPPED;
@@ -381,6 +428,7 @@ impl<T: Real> Navigator<T> {
             ));
             return;
         }
+        self.suspect_t = None;
         let gap = steps - 1.0;
         let bridged = gap.min(f64::from(self.cfg.max_bridge)) as u32;
         let start = self.prev_t.unwrap_or(t);

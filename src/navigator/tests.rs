@@ -33,9 +33,17 @@ fn noise(k: u32) -> f32 {
 
 #[test]
 fn bad_config_is_an_error() {
-    for gate in [f32::NAN, 0.5, f32::INFINITY] {
+    let bad = [
+        (f32::NAN, 1.0e6),
+        (0.5, 1.0e6),
+        (f32::INFINITY, 1.0e6),
+        (30.0, 0.5),
+        (30.0, 1.0e38),
+    ];
+    for (gate, max_gate_scale) in bad {
         let cfg = NavConfig {
             gate,
+            max_gate_scale,
             ..NavConfig::default()
         };
         assert_eq!(
@@ -109,10 +117,28 @@ fn a_gap_longer_than_the_bridge_is_flagged() {
     let mut nav = Navigator::new(InsModel::paper(), cfg).unwrap();
     let mut sink = Collect::default();
     nav.push(0.0, 0.0, &mut sink);
+    // A real outage of 1e6 s: the first row after it is suspect (skipped), the next confirms.
     nav.push(1.0e6, 0.0, &mut sink);
-    assert_eq!(sink.records.len(), 102);
-    assert!(sink.records[101].has(TIME_JUMP));
+    assert_eq!(sink.records.len(), 2);
+    assert_eq!(sink.records[1].flags, SKIPPED | TIME_JUMP);
+    nav.push(1.0e6 + 1.0, 0.0, &mut sink);
+    assert_eq!(sink.records.len(), 103);
+    assert!(sink.records[2..102]
+        .iter()
+        .all(|r| r.has(BRIDGED | MISSING)));
+    assert_eq!(sink.records[102].flags, TIME_JUMP);
+    assert_eq!(sink.records[102].t, 1.0e6 + 1.0);
+    nav.push(1.0e6 + 2.0, 0.0, &mut sink);
+    assert_eq!(sink.records[103].flags, 0, "the new time base holds");
     assert!(nav.estimates().sigma_delta.is_finite());
+    // A clock reset backwards: the same, without bridging.
+    nav.push(5.0, 0.0, &mut sink);
+    assert_eq!(sink.records[104].flags, SKIPPED | TIME_JUMP | BAD_INPUT);
+    nav.push(6.0, 0.0, &mut sink);
+    assert_eq!(sink.records.len(), 106);
+    assert_eq!(sink.records[105].flags, TIME_JUMP | BAD_INPUT);
+    nav.push(7.0, 0.0, &mut sink);
+    assert_eq!(sink.records[106].flags, 0);
 }
 
 #[test]
@@ -167,4 +193,65 @@ fn row_flags_for_missing_infinite_and_unusable_rows() {
     let ks: Vec<u32> = sink.records.iter().map(|r| r.k).collect();
     assert_eq!(ks, [0, 1, 2, 3, 4]);
     assert!(sink.records[0].nis.is_finite() && sink.records[1].nis.is_nan());
+}
+
+#[test]
+fn one_corrupted_time_stamp_does_not_stop_the_navigator() {
+    // A row with an absurd time (a corrupted GNSS time, a clock far in the future or past)
+    // used to become the time base: every later row was skipped as going backwards (or, ahead,
+    // a day of blind prediction was bridged). Now it is skipped and the old base kept.
+    for bad in [1.0e300, f64::MAX, 1.0e17 + 10.0, -1.0e300, 0.0, 9.0e5] {
+        let cfg = NavConfig::<f32> {
+            max_bridge: 100,
+            ..NavConfig::default()
+        };
+        let mut nav = Navigator::new(InsModel::paper(), cfg).unwrap();
+        let mut sink = Collect::default();
+        // Ten rows on a clock that starts at 1000 s, one bad time, ten more rows.
+        let t0 = 1000.0;
+        for k in 1..=10u32 {
+            nav.push(t0 + f64::from(k), noise(k), &mut sink);
+        }
+        nav.push(bad, 0.0, &mut sink);
+        let glitch = sink.records.last().unwrap();
+        assert!(glitch.has(SKIPPED | TIME_JUMP), "flags {:#x}", glitch.flags);
+        assert_eq!(nav.ticks(), 10, "nothing bridged for one bad time ({bad})");
+        for k in 11..=20u32 {
+            nav.push(t0 + f64::from(k), noise(k), &mut sink);
+        }
+        assert_eq!(nav.ticks(), 20, "later rows are ticked ({bad})");
+        assert!(sink.records[sink.records.len() - 10..]
+            .iter()
+            .all(|r| r.flags == 0));
+    }
+}
+
+#[test]
+fn an_infinite_time_is_skipped_like_nan() {
+    let mut nav = Navigator::<f32>::new(InsModel::paper(), NavConfig::default()).unwrap();
+    let mut sink = Collect::default();
+    nav.push(1.0, 0.0, &mut sink);
+    nav.push(f64::INFINITY, 0.0, &mut sink);
+    nav.push(2.0, 0.0, &mut sink);
+    let flags: Vec<u16> = sink.records.iter().map(|r| r.flags).collect();
+    assert_eq!(flags, [0, BAD_INPUT | SKIPPED, 0]);
+}
+
+#[test]
+fn the_gate_threshold_stays_finite_under_a_stuck_source() {
+    // 3000 s of a source stuck at 1e18 m/s used to grow the gate scale until `g s` overflowed
+    // f32 and every observation, even an infinite NIS, passed the gate.
+    let mut nav = Navigator::<f32>::new(InsModel::paper(), NavConfig::default()).unwrap();
+    let mut sink = Collect::default();
+    for k in 1..=6000u32 {
+        nav.push(f64::from(k), 1.0e18, &mut sink);
+        assert!(nav.gate_threshold().is_finite());
+    }
+    assert!(nav.gate_threshold() <= 30.0 * 1.0e6);
+    nav.push(6001.0, 1.0e30, &mut sink);
+    assert!(sink.records.last().unwrap().has(GATED_OUTLIER));
+    assert!(
+        nav.estimates().dv.abs() < 1.0e3,
+        "the stuck value never got in"
+    );
 }
