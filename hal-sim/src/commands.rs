@@ -282,8 +282,9 @@ pub fn demo(effect: Option<&str>, seed: Option<u64>, hours: f64, out: &Path) -> 
     }
     if !d.indistinguishable_from.is_empty() {
         println!(
-            "  (indistinguishable on this data from: {})",
-            d.indistinguishable_from.join(", ")
+            "  (indistinguishable on this data from: {}; chosen by {})",
+            d.indistinguishable_from.join(", "),
+            d.chosen_by
         );
     }
     let runs = vec![

@@ -241,8 +241,9 @@ pub fn html(
         }
         if !d.indistinguishable_from.is_empty() {
             h += &format!(
-                "<p>Indistinguishable on this data from: {}</p>",
-                esc(&d.indistinguishable_from.join(", "))
+                "<p>Indistinguishable on this data from: {} (chosen by {}: the data cannot tell them apart, and the explanation under which the filter trusts its tilt least is the safe one).</p>",
+                esc(&d.indistinguishable_from.join(", ")),
+                esc(d.chosen_by)
             );
         }
         let ev = &d.evidence;

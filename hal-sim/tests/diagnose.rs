@@ -64,6 +64,44 @@ fn hidden_gyro_random_walk_is_named_and_fixed() {
     assert!(fixed / oracle <= 1.15);
 }
 
+/// Gyro white noise and an accelerometer random walk give the velocity the same dynamics: the
+/// likelihoods tie, and the tie goes to the explanation under which the filter trusts its tilt
+/// least (the gyro). Naming the accelerometer would leave a confident tilt whose error is many
+/// times the oracle's; with the gyro the tilt RMS is back within 1.15x (issue 4 bar).
+#[test]
+fn gyro_white_noise_ties_with_an_accelerometer_random_walk_and_the_tie_is_safe() {
+    let base = nominal();
+    let candidate = hidden::by_label("gyro/white").unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(44);
+    let truth = hidden::truth(&base, candidate, &mut rng).unwrap();
+    let log = sim::simulate(&truth, 43_200, 44).unwrap();
+    let d = diagnose::diagnose(&base, &without_truth(&log)).unwrap();
+    assert_eq!(
+        (d.sensor, d.effect, d.chosen_by),
+        (Some("gyro"), Some("white"), diagnose::CHOSEN_BY_TIE),
+        "{} (ties {:?})",
+        d.explanation,
+        d.indistinguishable_from
+    );
+    assert!(d
+        .indistinguishable_from
+        .iter()
+        .any(|l| l == "accel/random-walk"));
+    let rms = |m| {
+        compare::evaluate("m", m, &log)
+            .unwrap()
+            .summary
+            .tilt_rms
+            .unwrap()
+    };
+    let (oracle, fixed) = (rms(&truth), rms(&d.suggested));
+    assert!(
+        fixed / oracle <= 1.15,
+        "tilt RMS {:.2}x the oracle",
+        fixed / oracle
+    );
+}
+
 /// Coloured observation noise (a different sensor, two parameters) is named too.
 #[test]
 fn hidden_colored_observation_noise_is_named() {
