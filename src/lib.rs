@@ -3,6 +3,8 @@
 
 pub mod adapt;
 pub mod autocorr;
+#[cfg(all(target_arch = "arm", target_os = "none", feature = "defmt"))]
+pub mod defmt_frame;
 pub mod edge;
 pub mod filter;
 pub mod ident;

@@ -51,7 +51,7 @@ fn main() -> anyhow::Result<()> {
     println!("|---|---|---|---|---|---|---|");
     for case in cases {
         let (mut correct, mut tied, mut drawn) = (0, 0, 0);
-        let (mut before, mut after) = (vec![], vec![]);
+        let (mut before, mut after, mut outside) = (vec![], vec![], vec![]);
         for k in 0..MAX_DRAWS {
             if before.len() as u64 == seeds {
                 break;
@@ -64,12 +64,14 @@ fn main() -> anyhow::Result<()> {
                 None => nominal.clone(),
             };
             let log = sim::simulate(&truth, 43_200, seed)?;
-            let tilt = |name: &str, m| -> anyhow::Result<f64> {
-                Ok(compare::evaluate(name, m, &log)?
-                    .summary
-                    .tilt_rms
-                    .unwrap_or(f64::NAN))
+            let summary = |name: &str, m| -> anyhow::Result<(f64, f64)> {
+                let s = compare::evaluate(name, m, &log)?.summary;
+                Ok((
+                    s.tilt_rms.unwrap_or(f64::NAN),
+                    s.tilt_outside_3sigma.unwrap_or(f64::NAN),
+                ))
             };
+            let tilt = |name: &str, m| -> anyhow::Result<f64> { Ok(summary(name, m)?.0) };
             let oracle = tilt("oracle", &truth)?;
             let nom = tilt("nominal", &nominal)?;
             let cost = nom / oracle;
@@ -87,17 +89,37 @@ fn main() -> anyhow::Result<()> {
                     .as_ref()
                     .is_some_and(|w| d.indistinguishable_from.contains(w)))
                 as usize;
-            let fix = tilt("fixed", &d.suggested)?;
+            let (fix, fix_out) = summary("fixed", &d.suggested)?;
             before.push(cost);
             after.push(fix / oracle);
+            outside.push(fix_out);
             eprintln!(
-                "{:?} seed {seed}: named {named:?} ({}) ties {:?} before {:.2} after {:.2}",
+                "{:?} seed {seed}: named {named:?} ({}) ties {:?} before {:.2} after {:.2} (outside 3 sigma {:.3})",
                 want,
                 d.chosen_by,
                 d.indistinguishable_from,
                 cost,
-                fix / oracle
+                fix / oracle,
+                fix_out
             );
+            for l in d
+                .limits
+                .iter()
+                .filter(|l| want.as_ref().is_some_and(|w| l.candidates.contains(w)))
+            {
+                if let (Some(e), Some(t)) = (l.estimate, l.threshold) {
+                    eprintln!(
+                        "  limit: estimate {e:.3e}, nameable above {t:.3e}: {}",
+                        if e.abs() > t { "above" } else { "below" }
+                    );
+                }
+            }
+            if let Some(t) = &d.tie {
+                eprintln!(
+                    "  tie {:?} weights {:.3?} expected regret {:.2?} regret {:.2?}",
+                    t.labels, t.weights, t.expected_regret, t.regret
+                );
+            }
         }
         let kept = before.len();
         let label = case.map_or("none (adequate model)".into(), |c| LIBRARY[c].label());
@@ -107,6 +129,13 @@ fn main() -> anyhow::Result<()> {
             median(before),
             median(after),
             worst
+        );
+        // Consistency of the suggested model: the fraction of ticks whose tilt error is outside
+        // its own 3 sigma (0.27 % for a consistent Gaussian filter).
+        eprintln!(
+            "{label}: tilt outside 3 sigma after, median {:.3}, worst {:.3}",
+            median(outside.clone()),
+            outside.iter().copied().fold(f64::NAN, f64::max)
         );
     }
     Ok(())

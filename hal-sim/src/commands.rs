@@ -287,6 +287,9 @@ pub fn demo(effect: Option<&str>, seed: Option<u64>, hours: f64, out: &Path) -> 
             d.chosen_by
         );
     }
+    for l in &d.limits {
+        println!("  limit ({}): {}", l.candidates.join(" / "), l.why);
+    }
     let runs = vec![
         crate::compare::evaluate("nominal", &nominal, &rows)?,
         crate::compare::evaluate("nominal + named effect", &d.suggested, &rows)?,

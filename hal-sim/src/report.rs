@@ -241,7 +241,7 @@ pub fn html(
         }
         if !d.indistinguishable_from.is_empty() {
             h += &format!(
-                "<p>Indistinguishable on this data from: {} (chosen by {}: the data cannot tell them apart, and the explanation under which the filter trusts its tilt least is the safe one).</p>",
+                "<p>Indistinguishable on this data from: {} (chosen by {}: the data cannot tell them apart, so each was simulated as the truth and the named one loses least tilt accuracy on average over them; matrix in diagnosis.json, <code>tie</code>).</p>",
                 esc(&d.indistinguishable_from.join(", ")),
                 esc(d.chosen_by)
             );
@@ -256,6 +256,17 @@ pub fn html(
             h += &format!("<tr><td style=\"text-align:left\">{}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1}</td></tr>", c.label, c.gain, c.penalty, c.score);
         }
         h += "</table>";
+        if !d.limits.is_empty() {
+            h += "<h3>What these data cannot show</h3><ul>";
+            for l in &d.limits {
+                h += &format!(
+                    "<li><b>{}</b>: {}</li>",
+                    esc(&l.candidates.join(" / ")),
+                    esc(&l.why)
+                );
+            }
+            h += "</ul>";
+        }
     }
     h += "<h2>Before and after</h2><table><tr><th>model</th><th>log-likelihood</th><th>Ljung-Box p</th><th>ACF lags out</th><th>mean NIS</th><th>NIS windows out</th><th>tilt RMS [µrad]</th><th>outside 3σ</th></tr>";
     for r in runs {

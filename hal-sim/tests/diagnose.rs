@@ -65,8 +65,8 @@ fn hidden_gyro_random_walk_is_named_and_fixed() {
 }
 
 /// Gyro white noise and an accelerometer random walk give the velocity the same dynamics: the
-/// likelihoods tie, and the tie goes to the explanation under which the filter trusts its tilt
-/// least (the gyro). Naming the accelerometer would leave a confident tilt whose error is many
+/// likelihoods tie (equal posterior weights), and the tie goes to the least expected tilt
+/// regret (the gyro). Naming the accelerometer would leave a confident tilt whose error is many
 /// times the oracle's; with the gyro the tilt RMS is back within 1.15x (issue 4 bar).
 #[test]
 fn gyro_white_noise_ties_with_an_accelerometer_random_walk_and_the_tie_is_safe() {
@@ -87,6 +87,16 @@ fn gyro_white_noise_ties_with_an_accelerometer_random_walk_and_the_tie_is_safe()
         .indistinguishable_from
         .iter()
         .any(|l| l == "accel/random-walk"));
+    // The record explains the choice: the gyro's expected regret is the least.
+    let tie = d.tie.as_ref().unwrap();
+    let gyro = tie.labels.iter().position(|l| l == "gyro/white").unwrap();
+    assert!(
+        tie.expected_regret
+            .iter()
+            .enumerate()
+            .all(|(i, r)| i == gyro || *r > tie.expected_regret[gyro]),
+        "{tie:?}"
+    );
     let rms = |m| {
         compare::evaluate("m", m, &log)
             .unwrap()
@@ -170,10 +180,22 @@ fn diagnose_cli_writes_json_model_and_report() {
     ] {
         assert!(!j["evidence"][field].is_null(), "evidence lacks {field}");
     }
+    // The levelling limit is stated with a threshold estimated from this log (a few times
+    // g sigma_delta0 = 9.8e-4 m/s^2 for `paper`).
+    let bias_limit = j["limits"]
+        .as_array()
+        .and_then(|l| {
+            l.iter()
+                .find(|l| l["candidates"][0] == "accel/random-constant")
+        })
+        .unwrap_or_else(|| panic!("no accelerometer-bias limit: {}", j["limits"]));
+    let threshold = bias_limit["threshold"].as_f64().unwrap();
+    assert!((1e-3..2e-2).contains(&threshold), "{bias_limit}");
     let suggested = hal_sim::model_toml::load(&out.join("suggested-model.toml")).unwrap();
     assert_eq!(suggested.gyro.len(), 2);
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("<svg") && html.contains("Diagnosis") && !html.contains("src=\"http"));
+    assert!(html.contains("What these data cannot show"));
 }
 
 /// The ACF of the estimated sensor errors of the true model lies inside the model's Monte Carlo

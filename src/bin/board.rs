@@ -27,8 +27,8 @@
 //!
 //! Panics: none are expected; the handler below parks the core without formatting anything.
 //! `--features prove-no-panic` proves at link time that no panic path is linked at all (see
-//! RELIABILITY.md): the defmt logger is therefore this file's own RTT channel ([`rtt`]), which
-//! drops a re-entered frame where `defmt-rtt` panics.
+//! RELIABILITY.md): the defmt logger is therefore this file's own RTT channel ([`rtt`]) over the
+//! library's `imu_ident::defmt_frame`, which drops a re-entered frame where `defmt-rtt` panics.
 
 #![cfg_attr(all(target_arch = "arm", target_os = "none"), no_std, no_main)]
 
@@ -371,10 +371,13 @@ mod firmware {
     /// The global defmt logger: one RTT up channel named `defmt` in a `_SEGGER_RTT` control
     /// block, as `defmt-rtt` lays it out (so `probe-rs run` finds and decodes it the same way),
     /// without its panics: a frame started inside another (the logger re-entered from an
-    /// exception handler) is dropped.
+    /// exception handler) is dropped. This module is the transport (`write_all`, `flush`);
+    /// the frame handling is the library's `imu_ident::defmt_frame`, shared with the QEMU
+    /// firmware.
     mod rtt {
         use super::UnsafeCell;
         use core::sync::atomic::{AtomicU32, Ordering};
+        use imu_ident::defmt_frame;
 
         /// Up buffer size [bytes] (defmt-rtt's default).
         const BUF_SIZE: usize = 1024;
@@ -483,39 +486,11 @@ mod firmware {
         #[defmt::global_logger]
         struct Logger;
 
-        struct State {
-            /// Frames in progress: 1 while a frame is written; more when re-entered.
-            depth: UnsafeCell<u32>,
-            /// PRIMASK's active bit before the outermost `acquire`.
-            enable: UnsafeCell<bool>,
-            encoder: UnsafeCell<defmt::Encoder>,
-        }
-
-        // SAFETY: only touched with interrupts disabled (between acquire and release).
-        unsafe impl Sync for State {}
-
-        static STATE: State = State {
-            depth: UnsafeCell::new(0),
-            enable: UnsafeCell::new(false),
-            encoder: UnsafeCell::new(defmt::Encoder::new()),
-        };
-
-        // SAFETY: frames are written with interrupts disabled; nested frames are dropped.
+        // SAFETY: frames are written with interrupts disabled; nested frames are dropped
+        // (`imu_ident::defmt_frame`).
         unsafe impl defmt::Logger for Logger {
             fn acquire() {
-                let active = cortex_m::register::primask::read().is_active();
-                cortex_m::interrupt::disable();
-                // SAFETY: interrupts are disabled (single core).
-                unsafe {
-                    let depth = &mut *STATE.depth.get();
-                    *depth = depth.saturating_add(1);
-                    if *depth > 1 {
-                        // Nested: the outer frame keeps interrupts off until its release.
-                        return;
-                    }
-                    *STATE.enable.get() = active;
-                    (*STATE.encoder.get()).start_frame(write_all);
-                }
+                defmt_frame::acquire(write_all);
             }
 
             unsafe fn flush() {
@@ -529,31 +504,14 @@ mod firmware {
             }
 
             unsafe fn release() {
-                // SAFETY: interrupts are disabled since `acquire`.
-                unsafe {
-                    let depth = &mut *STATE.depth.get();
-                    match *depth {
-                        0 => {}
-                        1 => {
-                            *depth = 0;
-                            (*STATE.encoder.get()).end_frame(write_all);
-                            if *STATE.enable.get() {
-                                cortex_m::interrupt::enable();
-                            }
-                        }
-                        _ => *depth -= 1,
-                    }
-                }
+                // SAFETY: called after `acquire`, as the `Logger` contract requires.
+                unsafe { defmt_frame::release(write_all) }
             }
 
             unsafe fn write(bytes: &[u8]) {
-                // SAFETY: interrupts are disabled since `acquire`.
-                unsafe {
-                    if *STATE.depth.get() != 1 {
-                        return;
-                    }
-                    (*STATE.encoder.get()).write(bytes, write_all);
-                }
+                // SAFETY: called between `acquire` and `release`, as the `Logger` contract
+                // requires.
+                unsafe { defmt_frame::write(bytes, write_all) }
             }
         }
     }

@@ -9,8 +9,9 @@
 //! - Input (semihosting, relative to QEMU's working directory): the arguments after the program
 //!   name are the model file (written by `hal-sim qemu`: model and run options, see
 //!   [`imu_ident::model::wire`]) and the binary replay log; defaults `model.bin`, `replay.bin`.
-//! - Output: defmt frames on semihosting stdout (this file's panic-free logger): `tlm` per tick, `par` per
-//!   component at each re-identification, `acf` on schedule, then `icount` and `stack` summaries.
+//! - Output: defmt frames on semihosting stdout (this file's logger, panic-free through
+//!   `imu_ident::defmt_frame`): `tlm` per tick, `par` per component at each re-identification,
+//!   `acf` on schedule, then `icount` and `stack` summaries.
 //! - Exit: status 0 after a complete, checksum-valid log; 1 for anything else.
 //!
 //! ```text
@@ -34,14 +35,12 @@ fn main() {
 
 #[cfg(all(target_arch = "arm", target_os = "none"))]
 mod firmware {
-    use core::cell::UnsafeCell;
     use core::ffi::CStr;
 
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m::peripheral::SYST;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
-    use cortex_m_semihosting::hio::{self, HostStream};
     use cortex_m_semihosting::{nr, syscall, syscall1};
     use imu_ident::model::wire::{self, WireError};
     use imu_ident::navigator::{NavConfig, NavError, Navigator};
@@ -392,38 +391,32 @@ mod firmware {
 
     /// The global defmt logger: the encoded frames go to semihosting stdout (`:tt`), the bytes
     /// `defmt-semihosting` writes, but without its panics. A frame started while another is
-    /// being written (a logger re-entered from an exception handler) is dropped instead.
-    #[defmt::global_logger]
-    struct Logger;
+    /// being written (a logger re-entered from an exception handler) is dropped instead. This
+    /// module is the transport (`write_stdout`); the frame handling is the library's
+    /// `imu_ident::defmt_frame`, shared with the board firmware.
+    mod stdout_log {
+        use core::cell::UnsafeCell;
+        use cortex_m_semihosting::hio::{self, HostStream};
+        use imu_ident::defmt_frame;
 
-    struct LoggerState {
-        /// Frames in progress: 1 while a frame is written; more when re-entered.
-        depth: UnsafeCell<u32>,
-        /// PRIMASK's active bit before the outermost `acquire`.
-        enable: UnsafeCell<bool>,
-        encoder: UnsafeCell<defmt::Encoder>,
-        stdout: UnsafeCell<Option<HostStream>>,
-    }
+        #[defmt::global_logger]
+        struct Logger;
 
-    // SAFETY: only touched with interrupts disabled (between acquire and release).
-    unsafe impl Sync for LoggerState {}
+        /// Semihosting stdout, opened on first use by [`write_stdout`].
+        struct Stdout(UnsafeCell<Option<HostStream>>);
 
-    static LOGGER: LoggerState = LoggerState {
-        depth: UnsafeCell::new(0),
-        enable: UnsafeCell::new(false),
-        encoder: UnsafeCell::new(defmt::Encoder::new()),
-        stdout: UnsafeCell::new(None),
-    };
+        // SAFETY: only touched by `write_stdout`, with interrupts disabled (see there).
+        unsafe impl Sync for Stdout {}
 
-    impl LoggerState {
+        static STDOUT: Stdout = Stdout(UnsafeCell::new(None));
+
         /// Writes `bytes` to stdout, opening it on first use; errors are ignored (there is
-        /// nowhere to report them).
-        ///
-        /// # Safety
-        /// Interrupts disabled, no other reference to `stdout` live.
-        unsafe fn emit(stdout: *mut Option<HostStream>, bytes: &[u8]) {
-            // SAFETY: per the function's contract.
-            let stdout = unsafe { &mut *stdout };
+        /// nowhere to report them). Only the sink given to `defmt_frame`, which calls it
+        /// between `acquire` and `release` (interrupts disabled) and never for a nested frame.
+        fn write_stdout(bytes: &[u8]) {
+            // SAFETY: interrupts are disabled (single core) and the sink is not re-entered, so
+            // no other reference to `STDOUT` is live.
+            let stdout = unsafe { &mut *STDOUT.0.get() };
             if stdout.is_none() {
                 *stdout = hio::hstdout().ok();
             }
@@ -431,56 +424,25 @@ mod firmware {
                 let _ = h.write_all(bytes);
             }
         }
-    }
 
-    // SAFETY: frames are written with interrupts disabled; nested frames are dropped.
-    unsafe impl defmt::Logger for Logger {
-        fn acquire() {
-            let active = cortex_m::register::primask::read().is_active();
-            cortex_m::interrupt::disable();
-            // SAFETY: interrupts are disabled (single core).
-            unsafe {
-                let depth = &mut *LOGGER.depth.get();
-                *depth = depth.saturating_add(1);
-                if *depth > 1 {
-                    // Nested: the outer frame keeps interrupts off until its release.
-                    return;
-                }
-                *LOGGER.enable.get() = active;
-                let stdout = LOGGER.stdout.get();
-                (*LOGGER.encoder.get()).start_frame(|b| LoggerState::emit(stdout, b));
+        // SAFETY: frames are written with interrupts disabled; nested frames are dropped
+        // (`imu_ident::defmt_frame`).
+        unsafe impl defmt::Logger for Logger {
+            fn acquire() {
+                defmt_frame::acquire(write_stdout);
             }
-        }
 
-        unsafe fn flush() {}
+            unsafe fn flush() {}
 
-        unsafe fn release() {
-            // SAFETY: interrupts are disabled since `acquire`.
-            unsafe {
-                let depth = &mut *LOGGER.depth.get();
-                match *depth {
-                    0 => {}
-                    1 => {
-                        *depth = 0;
-                        let stdout = LOGGER.stdout.get();
-                        (*LOGGER.encoder.get()).end_frame(|b| LoggerState::emit(stdout, b));
-                        if *LOGGER.enable.get() {
-                            cortex_m::interrupt::enable();
-                        }
-                    }
-                    _ => *depth -= 1,
-                }
+            unsafe fn release() {
+                // SAFETY: called after `acquire`, as the `Logger` contract requires.
+                unsafe { defmt_frame::release(write_stdout) }
             }
-        }
 
-        unsafe fn write(bytes: &[u8]) {
-            // SAFETY: interrupts are disabled since `acquire`.
-            unsafe {
-                if *LOGGER.depth.get() != 1 {
-                    return;
-                }
-                let stdout = LOGGER.stdout.get();
-                (*LOGGER.encoder.get()).write(bytes, |b| LoggerState::emit(stdout, b));
+            unsafe fn write(bytes: &[u8]) {
+                // SAFETY: called between `acquire` and `release`, as the `Logger` contract
+                // requires.
+                unsafe { defmt_frame::write(bytes, write_stdout) }
             }
         }
     }

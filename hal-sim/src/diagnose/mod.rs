@@ -15,6 +15,8 @@
 
 pub mod estimate_acf;
 pub mod fit;
+pub mod limits;
+pub mod tie;
 pub mod whiteness;
 
 use crate::candidates::{Candidate, LIBRARY};
@@ -41,57 +43,8 @@ pub const NIS_WINDOW: usize = 600;
 /// [`Diagnosis::chosen_by`] when one candidate's penalised likelihood is best by [`TIE`] or more.
 pub const CHOSEN_BY_LIKELIHOOD: &str = "likelihood";
 /// [`Diagnosis::chosen_by`] when candidates are tied: the least tilt-RMS regret wins.
-pub const CHOSEN_BY_TIE: &str = "tie: least tilt regret if another tied candidate is the truth";
-/// Seed of the simulations that break a tie (the decision depends on the models only).
-const TIE_SEED: u64 = 0x7115;
-
-/// Among tied candidates (indices into `scores`), the one whose model loses least tilt accuracy
-/// when one of the others is the truth (minimax regret, judged on simulated data).
-///
-/// The data cannot tell tied candidates apart (gyro white noise and an accelerometer random
-/// walk give the velocity exactly the same dynamics, `dV'' + (g/R) dV = -g w + n`), but they
-/// place the error differently, as tilt or as accelerometer bias, and naming the wrong one
-/// costs asymmetrically (measured on hidden gyro white noise named as an accelerometer random
-/// walk: 8.8x to 74x the oracle's tilt RMS; the reverse: 0.87x to 1.41x). So each tied model
-/// `M_j` (base plus candidate j with its fitted parameters) is simulated as the truth over the
-/// log's length, every tied model `M_i` is run on it, and the regret of `i` is the largest
-/// `tilt RMS(M_i) / tilt RMS(M_j)` over `j`. The log's own truth columns are never read.
-fn tie_break(
-    model: &InsModel<f64>,
-    log: &[LogRow],
-    scores: &[(CandidateScore, Fit)],
-    tied: &[usize],
-) -> usize {
-    let models: Vec<Option<InsModel<f64>>> = tied
-        .iter()
-        .map(|&i| scores[i].1.candidate.add_to(model, &scores[i].1.params))
-        .collect();
-    let tilt = |m: &InsModel<f64>, data: &[LogRow]| -> f64 {
-        runner::run::<f64>(m, data)
-            .ok()
-            .and_then(|(est, _)| crate::summary::tilt_stats(data, &est))
-            .map(|t| t.0)
-            .unwrap_or(f64::INFINITY)
-    };
-    let mut regret = vec![1.0_f64; tied.len()];
-    for truth in models.iter() {
-        let Some(truth) = truth else { continue };
-        let Ok(data) = crate::sim::simulate(truth, log.len(), TIE_SEED) else {
-            continue;
-        };
-        let oracle = tilt(truth, &data);
-        for (i, m) in models.iter().enumerate() {
-            let r = m
-                .as_ref()
-                .map_or(f64::INFINITY, |m| tilt(m, &data) / oracle);
-            regret[i] = regret[i].max(if r.is_nan() { f64::INFINITY } else { r });
-        }
-    }
-    (0..tied.len())
-        .min_by(|&a, &b| regret[a].total_cmp(&regret[b]).then(a.cmp(&b)))
-        .map_or(0, |k| tied[k])
-}
-
+pub const CHOSEN_BY_TIE: &str =
+    "tie: least expected tilt regret over the tied candidates, weighted by their likelihood";
 /// One candidate's score.
 #[derive(Debug, Clone, Serialize)]
 pub struct CandidateScore {
@@ -159,8 +112,13 @@ pub struct Diagnosis {
     /// cannot tell them apart (e.g. gyro white noise drives the tilt as a random walk, which the
     /// velocity sees exactly as an accelerometer random walk).
     pub indistinguishable_from: Vec<String>,
+    /// How a tie was decided (weights, regret matrix); absent without a tie.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tie: Option<tie::TieBreak>,
     /// Why.
     pub evidence: Evidence,
+    /// What this observation cannot show, whatever the verdict (see [`limits`]).
+    pub limits: Vec<limits::Limit>,
     /// The input model plus the effect (the input model when adequate).
     #[serde(skip)]
     pub suggested: InsModel<f64>,
@@ -246,14 +204,15 @@ pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
     match best {
         Some((top, _)) if top.score > 0.0 => {
             // Every candidate within TIE of the best explains the data as well; among them the
-            // verdict is the one under which the filter trusts its tilt least.
+            // verdict is the one with the least expected tilt regret (see `tie`).
             let tied: Vec<usize> = (0..scores.len())
                 .filter(|&i| top.score - scores[i].0.score < TIE)
                 .collect();
-            let (pick, chosen_by) = if tied.len() > 1 {
-                (tie_break(model, log, &scores, &tied), CHOSEN_BY_TIE)
+            let (pick, chosen_by, tie) = if tied.len() > 1 {
+                let (pick, record) = tie::decide(model, log, &scores, &tied);
+                (pick, CHOSEN_BY_TIE, Some(record))
             } else {
-                (0, CHOSEN_BY_LIKELIHOOD)
+                (0, CHOSEN_BY_LIKELIHOOD, None)
             };
             let (score, f) = scores[pick].clone();
             let suggested = f.candidate.add_to(model, &f.params).unwrap_or_else(|| model.clone());
@@ -267,12 +226,14 @@ pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
             Ok(Diagnosis {
                 chosen_by,
                 indistinguishable_from: ties,
+                tie,
                 verdict: "missing-effect",
                 sensor: Some(f.candidate.sensor.name()),
                 effect: Some(f.candidate.kind.name()),
                 params: Some(score.params),
                 explanation: f.candidate.explain(&f.component),
                 evidence,
+                limits: limits::limits(model, log, n),
                 suggested,
             })
         }
@@ -283,8 +244,10 @@ pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
             effect: None,
             params: None,
             indistinguishable_from: Vec::new(),
+            tie: None,
             explanation: "no candidate effect raises the innovation likelihood by more than its complexity penalty".into(),
             evidence,
+            limits: limits::limits(model, log, n),
             suggested: model.clone(),
         }),
     }
