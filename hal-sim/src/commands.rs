@@ -106,39 +106,10 @@ fn identified_from_params(
     start: &imu_ident::model::InsModel<f64>,
     tel: &crate::navigate::Telemetry,
 ) -> imu_ident::model::InsModel<f64> {
-    use imu_ident::model::{Component, Sensor};
     let mut m = start.clone();
-    let Some(last_k) = tel.params.last().map(|p| p.k) else {
-        return m;
-    };
-    for p in tel.params.iter().filter(|p| p.k == last_k) {
-        let (tau, sigma, beta) = (f64::from(p.tau), f64::from(p.sigma), f64::from(p.beta));
-        let i = usize::from(p.component);
-        let c = match p.sensor {
-            Sensor::Accel => m.accel.get_mut(i),
-            Sensor::Gyro => m.gyro.get_mut(i),
-            Sensor::Observation => {
-                if let Some(g) = m.colored.get_mut(i) {
-                    g.tau = tau;
-                    g.sigma = sigma;
-                }
-                None
-            }
-        };
-        match c {
-            Some(Component::GaussMarkov(g)) => {
-                g.tau = tau;
-                g.sigma = sigma;
-            }
-            Some(Component::ExpCosine(e)) => {
-                e.tau = tau;
-                e.sigma = sigma;
-                e.beta = beta;
-            }
-            Some(Component::RandomWalk(r)) => r.q = sigma * sigma,
-            Some(Component::RandomConstant(r)) => r.sigma = sigma,
-            Some(Component::White(w)) => w.density = sigma,
-            None => {}
+    if let Some(last_k) = tel.params.last().map(|p| p.k) {
+        for p in tel.params.iter().filter(|p| p.k == last_k) {
+            p.apply_to(&mut m);
         }
     }
     m

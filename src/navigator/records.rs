@@ -34,6 +34,51 @@ pub struct ParamRecord {
     pub beta: f32,
 }
 
+impl ParamRecord {
+    /// Sets the parameters of the component this record describes in `m` (the inverse of
+    /// [`model_params`]: a model rebuilt from a telemetry log's last parameter records).
+    /// Returns `false`, leaving `m` unchanged, when `m` has no such component or its kind
+    /// differs from the record's.
+    pub fn apply_to<T: Real>(&self, m: &mut InsModel<T>) -> bool {
+        let v = |x: f32| T::lit(f64::from(x));
+        let (tau, sigma, beta) = (v(self.tau), v(self.sigma), v(self.beta));
+        let i = usize::from(self.component);
+        if self.sensor == Sensor::Observation {
+            return match m.colored.get_mut(i) {
+                Some(g) if self.kind == ComponentKind::GaussMarkov => {
+                    g.tau = tau;
+                    g.sigma = sigma;
+                    true
+                }
+                _ => false,
+            };
+        }
+        let comps = if self.sensor == Sensor::Accel {
+            &mut m.accel
+        } else {
+            &mut m.gyro
+        };
+        let Some(c) = comps.get_mut(i).filter(|c| c.kind() == self.kind) else {
+            return false;
+        };
+        match c {
+            Component::GaussMarkov(g) => {
+                g.tau = tau;
+                g.sigma = sigma;
+            }
+            Component::ExpCosine(e) => {
+                e.tau = tau;
+                e.sigma = sigma;
+                e.beta = beta;
+            }
+            Component::RandomWalk(r) => r.q = sigma * sigma,
+            Component::RandomConstant(r) => r.sigma = sigma,
+            Component::White(w) => w.density = sigma,
+        }
+        true
+    }
+}
+
 /// Field names of the defmt parameter frame, in order (see [`ParamRecord::log`]).
 pub const PARAM_WIRE_FIELDS: [&str; 8] =
     ["k", "t", "sensor", "comp", "kind", "tau", "sigma", "beta"];

@@ -255,3 +255,74 @@ fn the_gate_threshold_stays_finite_under_a_stuck_source() {
         "the stuck value never got in"
     );
 }
+
+/// A model with every component kind, its parameters multiplied by `f` (same structure).
+fn every_kind(f: f64) -> InsModel<f64> {
+    use crate::model::{Component, ExpCosine, GaussMarkov, RandomConstant, RandomWalk, WhiteNoise};
+    let mut m = InsModel::<f64>::paper();
+    let (a, g) = (&mut m.accel, &mut m.gyro);
+    a.push(Component::White(WhiteNoise::new(0.05 * f).unwrap()))
+        .unwrap();
+    a.push(Component::RandomWalk(
+        RandomWalk::new(4e-9 * f, 0.0).unwrap(),
+    ))
+    .unwrap();
+    g.push(Component::ExpCosine(
+        ExpCosine::new(3e-6 * f, 3600.0 * f, 0.01 / f).unwrap(),
+    ))
+    .unwrap();
+    g.push(Component::RandomConstant(
+        RandomConstant::new(3e-6 * f).unwrap(),
+    ))
+    .unwrap();
+    m.colored
+        .push(GaussMarkov::new(0.2 * f, 60.0 * f).unwrap())
+        .unwrap();
+    m
+}
+
+/// `ParamRecord::apply_to` inverts `model_params` for every kind (the host rebuilds the
+/// firmware's final model from its telemetry this way), and refuses a record whose component
+/// is missing or of another kind.
+#[test]
+fn param_records_rebuild_the_model_they_describe() {
+    let records = |m: &InsModel<f64>| {
+        let mut v = Vec::new();
+        model_params(m, 7, 7.0, |p| v.push(*p));
+        v
+    };
+    // Bitwise, so that the NaN of a kind without that parameter compares equal.
+    let bits = |v: &[ParamRecord]| -> Vec<_> {
+        v.iter()
+            .map(|p| {
+                (
+                    p.sensor,
+                    p.component,
+                    p.kind,
+                    p.tau.to_bits(),
+                    p.sigma.to_bits(),
+                    p.beta.to_bits(),
+                )
+            })
+            .collect()
+    };
+    let want = records(&every_kind(1.0));
+    let mut m = every_kind(2.5);
+    assert_ne!(bits(&records(&m)), bits(&want));
+    assert!(want.iter().all(|p| p.apply_to(&mut m)));
+    assert_eq!(bits(&records(&m)), bits(&want));
+
+    let mut paper = InsModel::<f64>::paper();
+    let before = paper.clone();
+    // Component 1 of the accelerometer does not exist in `paper`; component 0 is Gauss-Markov.
+    let missing = want
+        .iter()
+        .find(|p| p.sensor == Sensor::Accel && p.component == 1);
+    let wrong_kind = ParamRecord {
+        kind: crate::model::ComponentKind::White,
+        ..want[0]
+    };
+    assert!(!missing.unwrap().apply_to(&mut paper));
+    assert!(!wrong_kind.apply_to(&mut paper));
+    assert_eq!(paper, before);
+}
