@@ -10,6 +10,8 @@ pub mod filter;
 pub mod ident;
 pub mod model;
 pub mod navigator;
+#[cfg(all(target_arch = "arm", target_os = "none", feature = "prove-no-panic"))]
+mod panic_proof;
 pub mod real;
 pub mod replay;
 pub mod telemetry;

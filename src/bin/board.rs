@@ -524,23 +524,7 @@ mod firmware {
         park()
     }
 
-    #[cfg(feature = "prove-no-panic")]
-    extern "Rust" {
-        /// Defined nowhere: a release build with `prove-no-panic` links only if every call to
-        /// the panic handler was optimised away (see RELIABILITY.md, "Panic-free firmware,
-        /// proved at link time").
-        fn imu_ident_panic_path_is_linked() -> !;
-    }
-
-    /// With `prove-no-panic`: any panic path that survives LTO makes the link fail with an
-    /// undefined `imu_ident_panic_path_is_linked`.
-    #[cfg(feature = "prove-no-panic")]
-    #[panic_handler]
-    fn panic(_info: &core::panic::PanicInfo) -> ! {
-        // SAFETY: never executed; the symbol does not exist, so a binary that could reach this
-        // call does not link.
-        unsafe { imu_ident_panic_path_is_linked() }
-    }
+    // With `prove-no-panic` the panic handler is the library's (`imu_ident::panic_proof`).
 
     #[exception]
     unsafe fn HardFault(_frame: &ExceptionFrame) -> ! {
