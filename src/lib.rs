@@ -3,11 +3,13 @@
 
 pub mod adapt;
 pub mod autocorr;
+pub mod crc;
 #[cfg(all(target_arch = "arm", target_os = "none", feature = "defmt"))]
 pub mod defmt_frame;
 pub mod edge;
 pub mod filter;
 pub mod ident;
+pub mod linalg;
 pub mod model;
 pub mod navigator;
 #[cfg(all(target_arch = "arm", target_os = "none", feature = "prove-no-panic"))]
