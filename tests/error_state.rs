@@ -19,7 +19,7 @@ fn one_channel_model_through_the_generic_filter_equals_ins_filter() {
         let z: f64 = if k % 97 == 0 {
             f64::NAN
         } else {
-            0.03 * StandardNormal.sample(&mut rng) as f64
+            0.03 * Distribution::<f64>::sample(&StandardNormal, &mut rng)
         };
         let ia = a.step(z);
         let fb = b.step(&[z], None);

@@ -567,13 +567,7 @@ impl<T: Real> AdaptiveFilter<T> {
     /// The centre filter's estimates in SI units.
     pub fn estimates(&self) -> Estimates<T> {
         let c = self.bank.centre();
-        Estimates::from_scaled(
-            &c.state(),
-            &c.covariance(),
-            self.bank.scale(),
-            &self.accel_row,
-            &self.gyro_row,
-        )
+        Estimates::from_kalman(&c.kf, self.bank.scale(), &self.accel_row, &self.gyro_row)
     }
 }
 

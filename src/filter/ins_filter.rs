@@ -40,29 +40,44 @@ pub struct Estimates<T> {
 }
 
 impl<T: Real> Estimates<T> {
-    /// SI estimates from a scaled state `x`, its covariance `p`, the scaling `s`, and the rows
-    /// that sum each sensor's components (in physical units).
-    pub fn from_scaled(
-        x: &StateVec<T>,
-        p: &StateMat<T>,
+    /// SI estimates from a filter in scaled states, the scaling `s`, and the rows that sum each
+    /// sensor's components (in physical units). Works on the kernel's arrays over the active
+    /// block (no conversion to nalgebra on the 1 Hz path).
+    pub fn from_kalman(
+        kf: &Kalman<T, NX>,
         s: &Scaling<T>,
         accel_row: &StateRow<T>,
         gyro_row: &StateRow<T>,
     ) -> Self {
+        let n = kf.active();
+        // (row x, sqrt(row P row^T)) over the active block.
         let comb = |row: &StateRow<T>| {
-            let v = (row * p * row.transpose())[0];
-            ((row * x)[0], v.max(T::zero()).sqrt())
+            let (mut mean, mut var) = (T::zero(), T::zero());
+            for ((ri, xi), pi) in row.iter().zip(kf.x.iter()).zip(kf.P.iter()).take(n) {
+                mean += *ri * *xi;
+                let mut a = T::zero();
+                for (rj, pij) in row.iter().zip(pi.iter()).take(n) {
+                    a += *rj * *pij;
+                }
+                var += *ri * a;
+            }
+            (mean, var.max(T::zero()).sqrt())
         };
         let (da, sigma_da) = comb(accel_row);
         let (dw, sigma_dw) = comb(gyro_row);
+        let x = |i: usize| kf.x.get(i).copied().unwrap_or_else(T::zero);
+        let sd = |i: usize| {
+            let p = kf.P.get(i).and_then(|r| r.get(i)).copied();
+            p.unwrap_or_else(T::zero).max(T::zero()).sqrt()
+        };
         let (dv, dl) = (idx::DV, idx::DELTA);
         Estimates {
-            dv: x[dv] * s[dv],
-            delta: x[dl] * s[dl],
+            dv: x(dv) * s[dv],
+            delta: x(dl) * s[dl],
             da,
             dw,
-            sigma_dv: p[(dv, dv)].max(T::zero()).sqrt() * s[dv],
-            sigma_delta: p[(dl, dl)].max(T::zero()).sqrt() * s[dl],
+            sigma_dv: sd(dv) * s[dv],
+            sigma_delta: sd(dl) * s[dl],
             sigma_da,
             sigma_dw,
         }
@@ -187,13 +202,7 @@ impl<T: Real> InsFilter<T> {
 
     /// Current estimates in SI units.
     pub fn estimates(&self) -> Estimates<T> {
-        Estimates::from_scaled(
-            &self.kf.state(),
-            &self.kf.covariance(),
-            &self.scale,
-            &self.accel_row,
-            &self.gyro_row,
-        )
+        Estimates::from_kalman(&self.kf, &self.scale, &self.accel_row, &self.gyro_row)
     }
 
     /// Physical covariance `S P S`.
