@@ -13,7 +13,6 @@
 
 use hal_sim::trajectory::{Profile, TruthGen};
 use imu_ident::strapdown::{earth, Geodetic, Quat, Strapdown};
-use std::f64::consts::PI;
 
 fn start() -> Geodetic {
     Geodetic {
@@ -21,32 +20,6 @@ fn start() -> Geodetic {
         lon: 7f64.to_radians(),
         h: 300.0,
     }
-}
-
-/// A 1-h figure-eight course with climbs and descents and speed changes (aircraft banking).
-fn figure_eights(hours: f64) -> Profile {
-    let mut p = Profile::new(0.0, 0.4, 1.0)
-        .unwrap()
-        .hold(60.0)
-        .unwrap()
-        .accelerate(40.0, 40.0)
-        .unwrap();
-    while p.duration() < hours * 3600.0 - 400.0 {
-        p = p
-            .figure_eight(60.0)
-            .unwrap()
-            .climb(0.08, 60.0)
-            .unwrap()
-            .turn(PI / 2.0, 20.0)
-            .unwrap()
-            .climb(-0.08, 60.0)
-            .unwrap()
-            .accelerate(-10.0, 10.0)
-            .unwrap()
-            .accelerate(10.0, 10.0)
-            .unwrap();
-    }
-    p.accelerate(-40.0, 60.0).unwrap().hold(10.0).unwrap()
 }
 
 struct Errors {
@@ -85,7 +58,7 @@ fn run(profile: &Profile, dt: f64) -> Errors {
 
 #[test]
 fn error_free_figure_eight_hour() {
-    let p = figure_eights(1.0);
+    let p = Profile::figure_eight_course(1.0, 1.0).unwrap();
     let e1 = run(&p, 0.01);
     let e2 = run(&p, 0.005);
     for (dt, e) in [(0.01, &e1), (0.005, &e2)] {

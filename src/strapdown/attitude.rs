@@ -44,6 +44,16 @@ impl<T: Real> Quat<T> {
         }
     }
 
+    /// The same quaternion in another precision (components rounded to nearest).
+    pub fn cast<U: Real>(&self) -> Quat<U> {
+        Quat {
+            w: U::lit(self.w.as_f64()),
+            x: U::lit(self.x.as_f64()),
+            y: U::lit(self.y.as_f64()),
+            z: U::lit(self.z.as_f64()),
+        }
+    }
+
     /// The vector part.
     pub fn vector(&self) -> Vector3<T> {
         Vector3::new(self.x, self.y, self.z)

@@ -219,6 +219,25 @@ impl Profile {
         self.turn(2.0 * PI, loop_time)?.turn(-2.0 * PI, loop_time)
     }
 
+    /// A test course of about `hours`: 60 s static, accelerate to 40 m/s, then repeated
+    /// figure-eights (60-s loops), 8-% climbs and descents of 60 s, a quarter turn and a
+    /// speed dip, and a final stop; `bank` as in [`Profile::new`].
+    pub fn figure_eight_course(hours: f64, bank: f64) -> Result<Self> {
+        let mut p = Self::new(0.0, 0.4, bank)?
+            .hold(60.0)?
+            .accelerate(40.0, 40.0)?;
+        while p.duration() < hours * 3600.0 - 400.0 {
+            p = p
+                .figure_eight(60.0)?
+                .climb(0.08, 60.0)?
+                .turn(PI / 2.0, 20.0)?
+                .climb(-0.08, 60.0)?
+                .accelerate(-10.0, 10.0)?
+                .accelerate(10.0, 10.0)?;
+        }
+        p.accelerate(-40.0, 60.0)?.hold(10.0)
+    }
+
     /// The kinematics at time `t` (clamped to the profile).
     pub fn at(&self, t: f64) -> Kinematics {
         let idx = self
