@@ -74,29 +74,29 @@ fn coning_error(dt: f64, coning: bool, secs: f64) -> f64 {
     truth.conj().mul(&q).rotvec().norm()
 }
 
+/// Errors at 100 and 200 Hz without and with a correction: asserts the uncorrected error is
+/// second order (ratio ~4 on halving dt), the corrected one at least third (> 10, ~16 for
+/// fourth), and the correction's gain at 100 Hz above 20 (~1/(omega dt)^2 ~ 60 expected).
+fn assert_orders(name: &str, error: fn(f64, bool, f64) -> f64) {
+    let secs = 10.0;
+    let (u1, u2) = (error(0.01, false, secs), error(0.005, false, secs));
+    let (c1, c2) = (error(0.01, true, secs), error(0.005, true, secs));
+    std::println!("{name}: uncorrected {u1:.3e} -> {u2:.3e}, corrected {c1:.3e} -> {c2:.3e}");
+    assert!(
+        (3.5..4.5).contains(&(u1 / u2)),
+        "{name} uncorrected order {}",
+        u1 / u2
+    );
+    assert!(c1 / c2 > 10.0, "{name} corrected order {}", c1 / c2);
+    assert!(u1 / c1 > 20.0, "{name} gain {}", u1 / c1);
+}
+
 #[test]
 fn coning_correction_raises_the_order() {
     // Uncorrected, the drift rate of a cone is ~ beta^2 omega (omega dt)^2 / 12 (second order
     // in dt); the previous-sample correction leaves a fourth-order residual (Savage eq.
-    // 7.1.1.1-12 and §7.1.1.1.1). So halving dt divides the error by ~4 without and ~16 with
-    // the correction, and at 100 Hz the corrected error is smaller by ~1/(omega dt)^2 ~ 60.
-    let secs = 10.0;
-    let (u1, u2) = (
-        coning_error(0.01, false, secs),
-        coning_error(0.005, false, secs),
-    );
-    let (c1, c2) = (
-        coning_error(0.01, true, secs),
-        coning_error(0.005, true, secs),
-    );
-    std::println!("coning: uncorrected {u1:.3e} -> {u2:.3e}, corrected {c1:.3e} -> {c2:.3e}");
-    assert!(
-        (3.5..4.5).contains(&(u1 / u2)),
-        "uncorrected order {}",
-        u1 / u2
-    );
-    assert!(c1 / c2 > 10.0, "corrected order {}", c1 / c2);
-    assert!(u1 / c1 > 20.0, "gain {}", u1 / c1);
+    // 7.1.1.1-12 and §7.1.1.1.1).
+    assert_orders("coning", coning_error);
 }
 
 /// Classic sculling: roll oscillation `A sin(omega t)` about x in phase with a specific force
@@ -142,23 +142,7 @@ fn sculling_error(dt: f64, sculling: bool, secs: f64) -> f64 {
 fn sculling_correction_raises_the_order() {
     // Without the sculling term the rectified velocity is in error at second order in dt
     // (rate ~ A B (omega dt)^2 / 12, Savage §7.2.2.2.1); with it, fourth order.
-    let secs = 10.0;
-    let (u1, u2) = (
-        sculling_error(0.01, false, secs),
-        sculling_error(0.005, false, secs),
-    );
-    let (c1, c2) = (
-        sculling_error(0.01, true, secs),
-        sculling_error(0.005, true, secs),
-    );
-    std::println!("sculling: uncorrected {u1:.3e} -> {u2:.3e}, corrected {c1:.3e} -> {c2:.3e}");
-    assert!(
-        (3.5..4.5).contains(&(u1 / u2)),
-        "uncorrected order {}",
-        u1 / u2
-    );
-    assert!(c1 / c2 > 10.0, "corrected order {}", c1 / c2);
-    assert!(u1 / c1 > 20.0, "gain {}", u1 / c1);
+    assert_orders("sculling", sculling_error);
 }
 
 fn start() -> Strapdown<f64> {

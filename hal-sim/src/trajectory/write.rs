@@ -5,7 +5,7 @@ use super::errors::{ImuErrorModel, ImuErrors};
 use super::gnss::{GnssConfig, GnssFix, GnssSim};
 use super::profile::Profile;
 use super::truth::{TruthGen, TruthSample};
-use crate::output::write_atomic;
+use crate::output::write_csv;
 use anyhow::Result;
 use imu_ident::strapdown::Geodetic;
 use serde::Serialize;
@@ -84,18 +84,6 @@ impl From<&GnssFix> for GnssRow {
     }
 }
 
-/// Writes rows with a header, atomically.
-pub fn write_rows<R: Serialize>(path: &Path, rows: &[R]) -> Result<()> {
-    write_atomic(path, |w| {
-        let mut csv = csv::Writer::from_writer(w);
-        for r in rows {
-            csv.serialize(r)?;
-        }
-        csv.flush()?;
-        Ok(())
-    })
-}
-
 /// A simulated drive: the three files' rows.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Drive {
@@ -167,7 +155,7 @@ pub fn simulate_drive(
 
 /// Writes `imu.csv`, `truth.csv` and `gnss.csv` in `dir`.
 pub fn write_drive(dir: &Path, drive: &Drive) -> Result<()> {
-    write_rows(&dir.join("imu.csv"), &drive.imu)?;
-    write_rows(&dir.join("truth.csv"), &drive.truth)?;
-    write_rows(&dir.join("gnss.csv"), &drive.gnss)
+    write_csv(&dir.join("imu.csv"), &drive.imu)?;
+    write_csv(&dir.join("truth.csv"), &drive.truth)?;
+    write_csv(&dir.join("gnss.csv"), &drive.gnss)
 }
