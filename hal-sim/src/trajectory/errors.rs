@@ -70,31 +70,15 @@ impl State {
             bail!("invalid {} component: {e}", c.kind().name());
         }
         let p0 = c.block().p0;
+        let mut scalar = |(phi, qd): (f64, f64)| Self::Scalar {
+            phi,
+            sd: qd.sqrt(),
+            x: p0[(0, 0)].sqrt() * normal(rng),
+        };
         Ok(match c {
-            Component::GaussMarkov(g) => {
-                let (phi, qd) = g.discretise(dt);
-                Self::Scalar {
-                    phi,
-                    sd: qd.sqrt(),
-                    x: p0[(0, 0)].sqrt() * normal(rng),
-                }
-            }
-            Component::RandomWalk(r) => {
-                let (phi, qd) = r.discretise(dt);
-                Self::Scalar {
-                    phi,
-                    sd: qd.sqrt(),
-                    x: p0[(0, 0)].sqrt() * normal(rng),
-                }
-            }
-            Component::RandomConstant(r) => {
-                let (phi, qd) = r.discretise(dt);
-                Self::Scalar {
-                    phi,
-                    sd: qd.sqrt(),
-                    x: p0[(0, 0)].sqrt() * normal(rng),
-                }
-            }
+            Component::GaussMarkov(g) => scalar(g.discretise(dt)),
+            Component::RandomWalk(r) => scalar(r.discretise(dt)),
+            Component::RandomConstant(r) => scalar(r.discretise(dt)),
             Component::ExpCosine(e) => {
                 let x0 = Vector2::new(normal(rng), normal(rng));
                 Self::Pair {
