@@ -11,7 +11,7 @@
 //! exact one plus `dt` times the total error.
 
 use anyhow::{bail, Result};
-use imu_ident::model::Component;
+use imu_ident::model::{Component, GaussMarkov, WhiteNoise};
 use imu_ident::strapdown::Increment;
 use nalgebra::{Matrix2, SymmetricEigen, Vector2, Vector3};
 use rand::SeedableRng;
@@ -29,6 +29,32 @@ pub struct ImuErrorModel {
 }
 
 impl ImuErrorModel {
+    /// A MEMS-grade preset on every axis (the `simulate-drive` default): gyro white
+    /// 0.15 deg/sqrt(h) plus Gauss-Markov 10 deg/h over 300 s; accelerometer white
+    /// 0.1 m/s/sqrt(h) plus Gauss-Markov 0.5 mg over 300 s.
+    pub fn mems() -> Self {
+        let deg = std::f64::consts::PI / 180.0;
+        let gyro = [
+            Component::White(WhiteNoise {
+                density: 0.15 * deg / 60.0,
+            }),
+            Component::GaussMarkov(GaussMarkov {
+                sigma: 10.0 * deg / 3600.0,
+                tau: 300.0,
+            }),
+        ];
+        let accel = [
+            Component::White(WhiteNoise {
+                density: 0.1 / 60.0,
+            }),
+            Component::GaussMarkov(GaussMarkov {
+                sigma: 0.5e-3 * imu_ident::model::ins::G0,
+                tau: 300.0,
+            }),
+        ];
+        Self::same_on_all_axes(&gyro, &accel)
+    }
+
     /// The same components on all three axes of each sensor.
     pub fn same_on_all_axes(gyro: &[Component<f64>], accel: &[Component<f64>]) -> Self {
         Self {

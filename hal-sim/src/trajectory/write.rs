@@ -159,3 +159,51 @@ pub fn write_drive(dir: &Path, drive: &Drive) -> Result<()> {
     write_csv(&dir.join("truth.csv"), &drive.truth)?;
     write_csv(&dir.join("gnss.csv"), &drive.gnss)
 }
+
+/// `simulate-drive`: the figure-eight course of [`Profile::figure_eight_course`] (aircraft
+/// banking) for `hours` from 45 N 7 E, 300 m, at `rate_hz`, with the [`ImuErrorModel::mems`]
+/// errors and default 1-Hz GNSS with the given outage windows; writes the three files in `out`.
+/// Returns the numbers of IMU and GNSS rows.
+pub fn simulate_drive_files(
+    hours: f64,
+    rate_hz: f64,
+    seed: u64,
+    outages: Vec<(f64, f64)>,
+    out: &Path,
+) -> Result<(usize, usize)> {
+    if !(hours.is_finite() && hours > 0.0 && rate_hz.is_finite() && rate_hz > 0.0) {
+        anyhow::bail!("--hours and --rate must be positive");
+    }
+    let profile = Profile::figure_eight_course(hours, 1.0)?;
+    let start = Geodetic {
+        lat: 45f64.to_radians(),
+        lon: 7f64.to_radians(),
+        h: 300.0,
+    };
+    let gnss = GnssConfig {
+        outages,
+        ..GnssConfig::default()
+    };
+    let drive = simulate_drive(
+        &profile,
+        start,
+        1.0 / rate_hz,
+        &ImuErrorModel::mems(),
+        gnss,
+        seed,
+    )?;
+    write_drive(out, &drive)?;
+    Ok((drive.imu.len(), drive.gnss.len()))
+}
+
+/// Parses an outage window `START:END` [s].
+pub fn parse_outage(s: &str) -> Result<(f64, f64)> {
+    let (a, b) = s
+        .split_once(':')
+        .ok_or_else(|| anyhow::anyhow!("outage `{s}`: expected START:END in seconds"))?;
+    let (a, b): (f64, f64) = (a.trim().parse()?, b.trim().parse()?);
+    if !(a.is_finite() && b.is_finite() && b > a) {
+        anyhow::bail!("outage `{s}`: END must exceed START");
+    }
+    Ok((a, b))
+}
