@@ -387,7 +387,9 @@ impl<T: Real> Strapdown<T> {
         self.rebase_if_far()
     }
 
-    /// Advances by one IMU sample (module docs, steps 1-6). On error the state is unchanged.
+    /// Advances by one IMU sample (module docs, steps 1-6). On error the state is unchanged,
+    /// except [`StrapdownError::Polar`] from the re-basing after the step: the step is then
+    /// taken but the origin is left where it was (every later step returns `Polar`).
     pub fn step(&mut self, inc: &Increment<T>, dt: T) -> Result<(), StrapdownError> {
         if !(dt.is_finite() && dt > T::zero()) {
             return Err(StrapdownError::BadDt);
