@@ -16,5 +16,6 @@ pub mod navigator;
 mod panic_proof;
 pub mod real;
 pub mod replay;
+pub mod strapdown;
 pub mod telemetry;
 pub use real::Real;
