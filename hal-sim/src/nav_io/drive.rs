@@ -322,7 +322,7 @@ pub fn convert_imu(
 
 /// Runs the import: writes `imu.csv`, `gnss.csv` and `meta.json` into `opt.out`.
 pub fn import(opt: &DriveImport) -> Result<DriveMeta> {
-    if !(opt.g.is_finite() && opt.g > 0.0) || !opt.imu_time_offset.is_finite() {
+    if !(opt.g.is_finite() && opt.g > 0.0 && opt.imu_time_offset.is_finite()) {
         bail!("--g must be positive and --imu-time-offset finite");
     }
     let tag = read_tag(&opt.tag)?;
