@@ -29,3 +29,18 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>
 pub fn write_string(path: &Path, text: &str) -> Result<()> {
     write_atomic(path, |w| Ok(w.write_all(text.as_bytes())?))
 }
+
+/// Writes rows as a headed CSV (serde field names as the header), atomically.
+pub fn write_csv<T: serde::Serialize>(
+    path: &Path,
+    rows: impl IntoIterator<Item = T>,
+) -> Result<()> {
+    write_atomic(path, |w| {
+        let mut csv = csv::Writer::from_writer(w);
+        for r in rows {
+            csv.serialize(r)?;
+        }
+        csv.flush()?;
+        Ok(())
+    })
+}

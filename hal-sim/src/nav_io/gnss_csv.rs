@@ -5,7 +5,7 @@
 //! groups are optional, each as a group of three (all three cells filled, or all three empty or
 //! `NaN`); the columns may be absent altogether. Positions are those of the antenna.
 
-use super::table::{check_increasing, finite, read_rows, read_rows_from, triple, write_rows};
+use super::table::{check_increasing, finite, read_file, read_rows_from, split3, triple};
 use anyhow::{bail, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -91,8 +91,7 @@ fn convert(file: &str, rows: Vec<(u64, Row)>) -> Result<Vec<GnssFix>> {
 
 /// Reads a GNSS CSV; errors name the file, the line and the column.
 pub fn read_gnss_csv(path: &Path) -> Result<Vec<GnssFix>> {
-    let file = path.display().to_string();
-    convert(&file, read_rows(path, "GNSS CSV", &REQUIRED)?)
+    read_file(path, "GNSS CSV", &REQUIRED, convert)
 }
 
 /// [`read_gnss_csv`] from any reader; `file` names it in errors.
@@ -102,13 +101,12 @@ pub fn read_gnss_csv_from<R: std::io::Read>(reader: R, file: &str) -> Result<Vec
 
 /// Writes a GNSS CSV atomically, all thirteen columns; a missing group is left empty.
 pub fn write_gnss_csv(path: &Path, fixes: &[GnssFix]) -> Result<()> {
-    let split = |v: Option<[f64; 3]>| v.map_or([None; 3], |a| a.map(Some));
-    write_rows(
+    crate::output::write_csv(
         path,
         fixes.iter().map(|f| {
-            let [vn, ve, vd] = split(f.vel_ned);
-            let [sd_n, sd_e, sd_d] = split(f.sd_pos_ned);
-            let [sd_vn, sd_ve, sd_vd] = split(f.sd_vel_ned);
+            let [vn, ve, vd] = split3(f.vel_ned);
+            let [sd_n, sd_e, sd_d] = split3(f.sd_pos_ned);
+            let [sd_vn, sd_ve, sd_vd] = split3(f.sd_vel_ned);
             Row {
                 t: Some(f.t),
                 lat: Some(f.lat_deg),

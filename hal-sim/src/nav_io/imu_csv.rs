@@ -3,7 +3,7 @@
 //! data), angular rate in rad/s and specific force in m/s^2, both in the body frame
 //! forward-right-down. Columns are found by name in any order; others are ignored.
 
-use super::table::{check_increasing, finite, read_rows, read_rows_from, write_rows};
+use super::table::{check_increasing, finite, read_file, read_rows_from};
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -51,8 +51,7 @@ fn convert(file: &str, rows: Vec<(u64, Row)>) -> Result<Vec<ImuSample>> {
 /// Reads an IMU CSV. Every cell must be a finite number and `t` must increase; errors name the
 /// file, the line and the column.
 pub fn read_imu_csv(path: &Path) -> Result<Vec<ImuSample>> {
-    let file = path.display().to_string();
-    convert(&file, read_rows(path, "IMU CSV", &COLUMNS)?)
+    read_file(path, "IMU CSV", &COLUMNS, convert)
 }
 
 /// [`read_imu_csv`] from any reader; `file` names it in errors.
@@ -62,7 +61,7 @@ pub fn read_imu_csv_from<R: std::io::Read>(reader: R, file: &str) -> Result<Vec<
 
 /// Writes an IMU CSV atomically (shortest round-trip decimal form of every value).
 pub fn write_imu_csv(path: &Path, samples: &[ImuSample]) -> Result<()> {
-    write_rows(
+    crate::output::write_csv(
         path,
         samples.iter().map(|s| Row {
             t: Some(s.t),

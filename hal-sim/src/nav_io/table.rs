@@ -4,12 +4,11 @@
 
 use anyhow::{anyhow, bail, Context, Result};
 use serde::de::DeserializeOwned;
-use serde::Serialize;
 use std::io::Read;
 use std::path::Path;
 
 /// Opens `path` and reads every row as `T` (see [`read_rows_from`]).
-pub(crate) fn read_rows<T: DeserializeOwned>(
+fn read_rows<T: DeserializeOwned>(
     path: &Path,
     what: &str,
     required: &[&str],
@@ -77,16 +76,25 @@ pub(crate) fn read_rows_from<T: DeserializeOwned, R: Read>(
     Ok(rows)
 }
 
-/// Writes rows as a headed CSV, atomically.
-pub(crate) fn write_rows<T: Serialize>(path: &Path, rows: impl Iterator<Item = T>) -> Result<()> {
-    crate::output::write_atomic(path, |w| {
-        let mut csv = csv::Writer::from_writer(w);
-        for r in rows {
-            csv.serialize(r)?;
-        }
-        csv.flush()?;
-        Ok(())
-    })
+/// A format's conversion of its raw rows (with line numbers) into values; gets the file name.
+pub(crate) type Convert<T, O> = fn(&str, Vec<(u64, T)>) -> Result<O>;
+
+/// Reads `path` as rows of `T` and turns them into the format's values with `convert`.
+pub(crate) fn read_file<T: DeserializeOwned, O>(
+    path: &Path,
+    what: &str,
+    required: &[&str],
+    convert: Convert<T, O>,
+) -> Result<O> {
+    convert(
+        &path.display().to_string(),
+        read_rows(path, what, required)?,
+    )
+}
+
+/// An optional triple as three optional cells (empty cells when absent).
+pub(crate) fn split3(v: Option<[f64; 3]>) -> [Option<f64>; 3] {
+    v.map_or([None; 3], |a| a.map(Some))
 }
 
 /// A required finite value: `Err` naming the file, line and column otherwise.

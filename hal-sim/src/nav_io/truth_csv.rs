@@ -5,7 +5,7 @@
 //! [rad/s] and accelerometer bias [m/s^2] along the body axes. Position and velocity are those
 //! of the body origin.
 
-use super::table::{check_increasing, finite, read_rows, read_rows_from, triple, write_rows};
+use super::table::{check_increasing, finite, read_file, read_rows_from, split3, triple};
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -94,8 +94,7 @@ fn convert(file: &str, rows: Vec<(u64, Row)>) -> Result<Vec<TruthRow>> {
 
 /// Reads a truth CSV; errors name the file, the line and the column.
 pub fn read_truth_csv(path: &Path) -> Result<Vec<TruthRow>> {
-    let file = path.display().to_string();
-    convert(&file, read_rows(path, "truth CSV", &REQUIRED)?)
+    read_file(path, "truth CSV", &REQUIRED, convert)
 }
 
 /// [`read_truth_csv`] from any reader; `file` names it in errors.
@@ -105,12 +104,11 @@ pub fn read_truth_csv_from<R: std::io::Read>(reader: R, file: &str) -> Result<Ve
 
 /// Writes a truth CSV atomically; the bias columns are empty where a row has none.
 pub fn write_truth_csv(path: &Path, rows: &[TruthRow]) -> Result<()> {
-    let split = |v: Option<[f64; 3]>| v.map_or([None; 3], |a| a.map(Some));
-    write_rows(
+    crate::output::write_csv(
         path,
         rows.iter().map(|r| {
-            let [bg_x, bg_y, bg_z] = split(r.gyro_bias);
-            let [ba_x, ba_y, ba_z] = split(r.accel_bias);
+            let [bg_x, bg_y, bg_z] = split3(r.gyro_bias);
+            let [ba_x, ba_y, ba_z] = split3(r.accel_bias);
             Row {
                 t: Some(r.t),
                 lat: Some(r.lat_deg),
