@@ -66,7 +66,13 @@ impl OutageSpec {
     /// The outages for GNSS epochs from `t_first` to `t_last`.
     pub fn schedule(&self, t_first: f64, t_last: f64) -> Vec<Outage> {
         let stop = t_last - self.margin;
-        (0u32..)
+        // A spec built by hand with a zero or non-finite period has one outage, not endless ones.
+        let count = if self.period > 0.0 && self.period.is_finite() {
+            u32::MAX
+        } else {
+            1
+        };
+        (0u32..count)
             .map(|k| t_first + self.start + f64::from(k) * self.period)
             .take_while(|&s| s < stop && s.is_finite())
             .map(|start| Outage {
