@@ -178,3 +178,43 @@ fn import_drive_cli_writes_the_three_files() {
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(e.contains("bad.tag") && e.contains("too short"), "{e}");
 }
+
+/// RTKLIB's own solution reader (`readsolt`, through Debian rtklib's `pos2kml`, installed by
+/// scripts/install-tools.sh) reads the drive rewritten by `write_solution_pos`: every epoch,
+/// the Q flags (its `-q 1` keeps the 2189 fixes), the GPST times and the heights.
+#[test]
+fn rtklib_reads_our_solution_pos() {
+    let Some((_, _, pos)) = files() else {
+        return;
+    };
+    let have = Command::new("pos2kml").arg("-h").output().is_ok();
+    if !have {
+        let msg = "RTKLIB pos2kml not on PATH (bash scripts/install-tools.sh installs it)";
+        assert!(std::env::var("CI").as_deref() != Ok("true"), "{msg}");
+        eprintln!("SKIPPED: {msg}");
+        return;
+    }
+    let p = read_pos(&pos).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let sol = dir.path().join("solution.pos");
+    write_solution_pos(&sol, &p.epochs, "hal-sim test").unwrap();
+    let gpx = |q: &str| -> String {
+        let out = dir.path().join(format!("q{q}.gpx"));
+        let st = Command::new("pos2kml")
+            .args(["-gpx", "-tg", "-a", "-q", q, "-o"])
+            .arg(&out)
+            .arg(&sol)
+            .status()
+            .unwrap();
+        assert!(st.success());
+        std::fs::read_to_string(&out).unwrap()
+    };
+    let all = gpx("0");
+    assert_eq!(all.matches("<wpt").count(), 2197);
+    assert_eq!(gpx("1").matches("<wpt").count(), 2189);
+    // First waypoint: position, height and GPST time as written.
+    let first = &all[all.find("<wpt").unwrap()..];
+    assert!(first.starts_with("<wpt lat=\"40.096626800\" lon=\"-105.147448300\">"));
+    assert!(first.contains("<ele>1601.4740</ele>"));
+    assert!(first.contains("<time>2025-07-08T19:34:18.50Z</time>"));
+}
