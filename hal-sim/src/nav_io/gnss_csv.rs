@@ -5,7 +5,7 @@
 //! groups are optional, each as a group of three (all three cells filled, or all three empty or
 //! `NaN`); the columns may be absent altogether. Positions are those of the antenna.
 
-use super::table::{check_increasing, finite, read_file, read_rows_from, split3, triple};
+use super::table::{finite, read_file, read_from, split3, triple, Timed};
 use anyhow::{bail, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -58,45 +58,50 @@ struct Row {
     sd_vd: Option<f64>,
 }
 
-fn convert(file: &str, rows: Vec<(u64, Row)>) -> Result<Vec<GnssFix>> {
-    let mut out: Vec<GnssFix> = Vec::with_capacity(rows.len());
-    for (line, r) in rows {
-        let lat = finite(file, line, "lat", r.lat)?;
-        if lat.abs() > 90.0 {
-            bail!("{file} line {line}, column lat: {lat} is not a latitude in degrees");
-        }
-        let sd = |cols: [&str; 3], v: [Option<f64>; 3]| -> Result<Option<[f64; 3]>> {
-            let s = triple(file, line, cols, v)?;
-            if let Some(s) = s {
-                if let Some(k) = (0..3).find(|&k| s[k] < 0.0) {
-                    bail!("{file} line {line}, column {}: a standard deviation cannot be negative ({})", cols[k], s[k]);
-                }
-            }
-            Ok(s)
-        };
-        let fix = GnssFix {
-            t: finite(file, line, "t", r.t)?,
-            lat_deg: lat,
-            lon_deg: finite(file, line, "lon", r.lon)?,
-            h: finite(file, line, "h", r.h)?,
-            vel_ned: triple(file, line, ["vn", "ve", "vd"], [r.vn, r.ve, r.vd])?,
-            sd_pos_ned: sd(["sd_n", "sd_e", "sd_d"], [r.sd_n, r.sd_e, r.sd_d])?,
-            sd_vel_ned: sd(["sd_vn", "sd_ve", "sd_vd"], [r.sd_vn, r.sd_ve, r.sd_vd])?,
-        };
-        check_increasing(file, out.last().map(|p| p.t), line, fix.t)?;
-        out.push(fix);
+impl Timed for GnssFix {
+    fn time(&self) -> f64 {
+        self.t
     }
-    Ok(out)
+}
+
+fn row(file: &str, line: u64, r: Row) -> Result<GnssFix> {
+    let lat = finite(file, line, "lat", r.lat)?;
+    if lat.abs() > 90.0 {
+        bail!("{file} line {line}, column lat: {lat} is not a latitude in degrees");
+    }
+    let sd = |cols: [&str; 3], v: [Option<f64>; 3]| -> Result<Option<[f64; 3]>> {
+        let s = triple(file, line, cols, v)?;
+        if let Some(s) = s {
+            if let Some(k) = (0..3).find(|&k| s[k] < 0.0) {
+                bail!(
+                    "{file} line {line}, column {}: a standard deviation cannot be negative ({})",
+                    cols[k],
+                    s[k]
+                );
+            }
+        }
+        Ok(s)
+    };
+    let fix = GnssFix {
+        t: finite(file, line, "t", r.t)?,
+        lat_deg: lat,
+        lon_deg: finite(file, line, "lon", r.lon)?,
+        h: finite(file, line, "h", r.h)?,
+        vel_ned: triple(file, line, ["vn", "ve", "vd"], [r.vn, r.ve, r.vd])?,
+        sd_pos_ned: sd(["sd_n", "sd_e", "sd_d"], [r.sd_n, r.sd_e, r.sd_d])?,
+        sd_vel_ned: sd(["sd_vn", "sd_ve", "sd_vd"], [r.sd_vn, r.sd_ve, r.sd_vd])?,
+    };
+    Ok(fix)
 }
 
 /// Reads a GNSS CSV; errors name the file, the line and the column.
 pub fn read_gnss_csv(path: &Path) -> Result<Vec<GnssFix>> {
-    read_file(path, "GNSS CSV", &REQUIRED, convert)
+    read_file(path, "GNSS CSV", &REQUIRED, row)
 }
 
 /// [`read_gnss_csv`] from any reader; `file` names it in errors.
 pub fn read_gnss_csv_from<R: std::io::Read>(reader: R, file: &str) -> Result<Vec<GnssFix>> {
-    convert(file, read_rows_from(reader, file, &REQUIRED)?)
+    read_from(reader, file, &REQUIRED, row)
 }
 
 /// Writes a GNSS CSV atomically, all thirteen columns; a missing group is left empty.

@@ -3,7 +3,7 @@
 //! data), angular rate in rad/s and specific force in m/s^2, both in the body frame
 //! forward-right-down. Columns are found by name in any order; others are ignored.
 
-use super::table::{check_increasing, finite, read_file, read_rows_from};
+use super::table::{finite, read_file, read_from, Timed};
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -33,30 +33,31 @@ struct Row {
     az: Option<f64>,
 }
 
-fn convert(file: &str, rows: Vec<(u64, Row)>) -> Result<Vec<ImuSample>> {
-    let mut out: Vec<ImuSample> = Vec::with_capacity(rows.len());
-    for (line, r) in rows {
-        let f = |c: &str, v: Option<f64>| finite(file, line, c, v);
-        let s = ImuSample {
-            t: f("t", r.t)?,
-            gyro: [f("gx", r.gx)?, f("gy", r.gy)?, f("gz", r.gz)?],
-            accel: [f("ax", r.ax)?, f("ay", r.ay)?, f("az", r.az)?],
-        };
-        check_increasing(file, out.last().map(|p| p.t), line, s.t)?;
-        out.push(s);
+impl Timed for ImuSample {
+    fn time(&self) -> f64 {
+        self.t
     }
-    Ok(out)
+}
+
+fn row(file: &str, line: u64, r: Row) -> Result<ImuSample> {
+    let f = |c: &str, v: Option<f64>| finite(file, line, c, v);
+    let s = ImuSample {
+        t: f("t", r.t)?,
+        gyro: [f("gx", r.gx)?, f("gy", r.gy)?, f("gz", r.gz)?],
+        accel: [f("ax", r.ax)?, f("ay", r.ay)?, f("az", r.az)?],
+    };
+    Ok(s)
 }
 
 /// Reads an IMU CSV. Every cell must be a finite number and `t` must increase; errors name the
 /// file, the line and the column.
 pub fn read_imu_csv(path: &Path) -> Result<Vec<ImuSample>> {
-    read_file(path, "IMU CSV", &COLUMNS, convert)
+    read_file(path, "IMU CSV", &COLUMNS, row)
 }
 
 /// [`read_imu_csv`] from any reader; `file` names it in errors.
 pub fn read_imu_csv_from<R: std::io::Read>(reader: R, file: &str) -> Result<Vec<ImuSample>> {
-    convert(file, read_rows_from(reader, file, &COLUMNS)?)
+    read_from(reader, file, &COLUMNS, row)
 }
 
 /// Writes an IMU CSV atomically (shortest round-trip decimal form of every value).

@@ -20,7 +20,7 @@ fn read_rows<T: DeserializeOwned>(
 
 /// Reads every row of a headed CSV as `T` with its line number. `required` columns must be in
 /// the header (checked first, so a missing one is named before any row is read).
-pub(crate) fn read_rows_from<T: DeserializeOwned, R: Read>(
+fn read_rows_from<T: DeserializeOwned, R: Read>(
     reader: R,
     file: &str,
     required: &[&str],
@@ -76,20 +76,45 @@ pub(crate) fn read_rows_from<T: DeserializeOwned, R: Read>(
     Ok(rows)
 }
 
-/// A format's conversion of its raw rows (with line numbers) into values; gets the file name.
-pub(crate) type Convert<T, O> = fn(&str, Vec<(u64, T)>) -> Result<O>;
+/// A value with a time, which must increase from row to row.
+pub(crate) trait Timed {
+    /// Time [s].
+    fn time(&self) -> f64;
+}
 
-/// Reads `path` as rows of `T` and turns them into the format's values with `convert`.
-pub(crate) fn read_file<T: DeserializeOwned, O>(
+/// A format's conversion of one raw row (file name, line number, row) into its value.
+pub(crate) type RowFn<T, O> = fn(&str, u64, T) -> Result<O>;
+
+/// Converts every row and checks that the times increase strictly.
+fn convert_rows<T, O: Timed>(file: &str, rows: Vec<(u64, T)>, row: RowFn<T, O>) -> Result<Vec<O>> {
+    let mut out: Vec<O> = Vec::with_capacity(rows.len());
+    for (line, r) in rows {
+        let v = row(file, line, r)?;
+        check_increasing(file, out.last().map(Timed::time), line, v.time())?;
+        out.push(v);
+    }
+    Ok(out)
+}
+
+/// Reads `path` (a headed CSV with the `required` columns) into values, one per row.
+pub(crate) fn read_file<T: DeserializeOwned, O: Timed>(
     path: &Path,
     what: &str,
     required: &[&str],
-    convert: Convert<T, O>,
-) -> Result<O> {
-    convert(
-        &path.display().to_string(),
-        read_rows(path, what, required)?,
-    )
+    row: RowFn<T, O>,
+) -> Result<Vec<O>> {
+    let file = path.display().to_string();
+    convert_rows(&file, read_rows(path, what, required)?, row)
+}
+
+/// [`read_file`] from any reader; `file` names it in errors.
+pub(crate) fn read_from<T: DeserializeOwned, O: Timed, R: Read>(
+    reader: R,
+    file: &str,
+    required: &[&str],
+    row: RowFn<T, O>,
+) -> Result<Vec<O>> {
+    convert_rows(file, read_rows_from(reader, file, required)?, row)
 }
 
 /// An optional triple as three optional cells (empty cells when absent).
@@ -127,7 +152,7 @@ pub(crate) fn triple(
 }
 
 /// Times must be finite and strictly increasing (a filter cannot go back in time).
-pub(crate) fn check_increasing(file: &str, prev: Option<f64>, line: u64, t: f64) -> Result<()> {
+fn check_increasing(file: &str, prev: Option<f64>, line: u64, t: f64) -> Result<()> {
     if let Some(p) = prev {
         if t <= p {
             bail!("{file} line {line}, column t: time {t} does not increase (previous {p})");

@@ -5,7 +5,7 @@
 //! [rad/s] and accelerometer bias [m/s^2] along the body axes. Position and velocity are those
 //! of the body origin.
 
-use super::table::{check_increasing, finite, read_file, read_rows_from, split3, triple};
+use super::table::{finite, read_file, read_from, split3, triple, Timed};
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -62,44 +62,45 @@ struct Row {
     ba_z: Option<f64>,
 }
 
-fn convert(file: &str, rows: Vec<(u64, Row)>) -> Result<Vec<TruthRow>> {
-    let mut out: Vec<TruthRow> = Vec::with_capacity(rows.len());
-    for (line, r) in rows {
-        let f = |c: &str, v: Option<f64>| finite(file, line, c, v);
-        let row = TruthRow {
-            t: f("t", r.t)?,
-            lat_deg: f("lat", r.lat)?,
-            lon_deg: f("lon", r.lon)?,
-            h: f("h", r.h)?,
-            vel_ned: [f("vn", r.vn)?, f("ve", r.ve)?, f("vd", r.vd)?],
-            rpy_deg: [f("roll", r.roll)?, f("pitch", r.pitch)?, f("yaw", r.yaw)?],
-            gyro_bias: triple(
-                file,
-                line,
-                ["bg_x", "bg_y", "bg_z"],
-                [r.bg_x, r.bg_y, r.bg_z],
-            )?,
-            accel_bias: triple(
-                file,
-                line,
-                ["ba_x", "ba_y", "ba_z"],
-                [r.ba_x, r.ba_y, r.ba_z],
-            )?,
-        };
-        check_increasing(file, out.last().map(|p| p.t), line, row.t)?;
-        out.push(row);
+impl Timed for TruthRow {
+    fn time(&self) -> f64 {
+        self.t
     }
-    Ok(out)
+}
+
+fn row(file: &str, line: u64, r: Row) -> Result<TruthRow> {
+    let f = |c: &str, v: Option<f64>| finite(file, line, c, v);
+    let row = TruthRow {
+        t: f("t", r.t)?,
+        lat_deg: f("lat", r.lat)?,
+        lon_deg: f("lon", r.lon)?,
+        h: f("h", r.h)?,
+        vel_ned: [f("vn", r.vn)?, f("ve", r.ve)?, f("vd", r.vd)?],
+        rpy_deg: [f("roll", r.roll)?, f("pitch", r.pitch)?, f("yaw", r.yaw)?],
+        gyro_bias: triple(
+            file,
+            line,
+            ["bg_x", "bg_y", "bg_z"],
+            [r.bg_x, r.bg_y, r.bg_z],
+        )?,
+        accel_bias: triple(
+            file,
+            line,
+            ["ba_x", "ba_y", "ba_z"],
+            [r.ba_x, r.ba_y, r.ba_z],
+        )?,
+    };
+    Ok(row)
 }
 
 /// Reads a truth CSV; errors name the file, the line and the column.
 pub fn read_truth_csv(path: &Path) -> Result<Vec<TruthRow>> {
-    read_file(path, "truth CSV", &REQUIRED, convert)
+    read_file(path, "truth CSV", &REQUIRED, row)
 }
 
 /// [`read_truth_csv`] from any reader; `file` names it in errors.
 pub fn read_truth_csv_from<R: std::io::Read>(reader: R, file: &str) -> Result<Vec<TruthRow>> {
-    convert(file, read_rows_from(reader, file, &REQUIRED)?)
+    read_from(reader, file, &REQUIRED, row)
 }
 
 /// Writes a truth CSV atomically; the bias columns are empty where a row has none.
