@@ -27,7 +27,7 @@ fn main() -> anyhow::Result<()> {
             a.step(row.z);
             b.step(row.z as f32);
             repairs += b.repair() as usize;
-            not_pd += !is_positive_definite(&b.ekf().P, b.ekf().active()) as usize;
+            not_pd += !is_positive_definite(&b.kalman().P, b.kalman().active()) as usize;
             let (ea, eb) = (a.estimates(), b.estimates());
             let d = (ea.delta - eb.delta as f64).abs() / ea.sigma_delta;
             if d > worst {

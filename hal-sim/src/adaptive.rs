@@ -7,11 +7,12 @@
 use crate::log::LogRow;
 use crate::runner::{EstimateRow, RunCounts, MAX_GAP_STEPS};
 use anyhow::{anyhow, bail, Result};
-use imu_ident::adapt::params::{ParamKind, MAXP};
+use imu_ident::adapt::params::MAXP;
 use imu_ident::adapt::{AdaptConfig, AdaptiveFilter, StepStatus};
 use imu_ident::autocorr::acf_batch;
 use imu_ident::filter::{Estimates, InsFilter};
 use imu_ident::ident::{lag1_corrected, paper_eq15, sigma2, SampleAcf};
+use imu_ident::model::Quantity;
 use imu_ident::model::{Component, InsModel, Sensor};
 use imu_ident::Real;
 use serde::Serialize;
@@ -293,11 +294,6 @@ pub fn write_params_csv(path: &std::path::Path, rows: &[ParamRow]) -> Result<()>
 }
 
 /// The kind of the `i`-th identified parameter, for reports.
-pub fn kind_name(k: ParamKind) -> &'static str {
-    match k {
-        ParamKind::Sigma => "sigma",
-        ParamKind::Tau => "tau",
-        ParamKind::Q => "q",
-        ParamKind::Density => "density",
-    }
+pub fn kind_name(k: Quantity) -> &'static str {
+    k.name()
 }

@@ -1,7 +1,7 @@
 //! The `simulate` and `run` commands (the CLI in `main.rs` only parses arguments).
 
 use crate::model_toml;
-use crate::output::{write_csv, write_string};
+use crate::output::write_string;
 use crate::runner::EstimateRow;
 use crate::summary::{summarise, Summary};
 use crate::{log, scenario, sim};
@@ -26,7 +26,7 @@ pub fn simulate(scenario_spec: &str, hours: Option<f64>, seed: u64, out: &Path) 
 
 /// Writes `estimates.csv` atomically.
 pub fn write_estimates(path: &Path, rows: &[EstimateRow]) -> Result<()> {
-    write_csv(path, rows)
+    crate::output::write_csv(path, rows)
 }
 
 /// `run`: replays a log through the firmware's 1 Hz step ([`imu_ident::navigator`], in double

@@ -24,3 +24,4 @@ pub mod series;
 pub mod shared_data;
 pub mod sim;
 pub mod summary;
+pub mod trajectory;

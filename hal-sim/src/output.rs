@@ -30,11 +30,8 @@ pub fn write_string(path: &Path, text: &str) -> Result<()> {
     write_atomic(path, |w| Ok(w.write_all(text.as_bytes())?))
 }
 
-/// Writes rows as a headed CSV (serde field names as the header), atomically.
-pub fn write_csv<T: serde::Serialize>(
-    path: &Path,
-    rows: impl IntoIterator<Item = T>,
-) -> Result<()> {
+/// Writes serde rows as CSV with a header row, atomically.
+pub fn write_csv<R: serde::Serialize>(path: &Path, rows: &[R]) -> Result<()> {
     write_atomic(path, |w| {
         let mut csv = csv::Writer::from_writer(w);
         for r in rows {

@@ -106,9 +106,9 @@ pub fn read_gnss_csv_from<R: std::io::Read>(reader: R, file: &str) -> Result<Vec
 
 /// Writes a GNSS CSV atomically, all thirteen columns; a missing group is left empty.
 pub fn write_gnss_csv(path: &Path, fixes: &[GnssFix]) -> Result<()> {
-    crate::output::write_csv(
-        path,
-        fixes.iter().map(|f| {
+    let rows: Vec<Row> = fixes
+        .iter()
+        .map(|f| {
             let [vn, ve, vd] = split3(f.vel_ned);
             let [sd_n, sd_e, sd_d] = split3(f.sd_pos_ned);
             let [sd_vn, sd_ve, sd_vd] = split3(f.sd_vel_ned);
@@ -127,6 +127,7 @@ pub fn write_gnss_csv(path: &Path, fixes: &[GnssFix]) -> Result<()> {
                 sd_ve,
                 sd_vd,
             }
-        }),
-    )
+        })
+        .collect();
+    crate::output::write_csv(path, &rows)
 }

@@ -62,9 +62,9 @@ pub fn read_imu_csv_from<R: std::io::Read>(reader: R, file: &str) -> Result<Vec<
 
 /// Writes an IMU CSV atomically (shortest round-trip decimal form of every value).
 pub fn write_imu_csv(path: &Path, samples: &[ImuSample]) -> Result<()> {
-    crate::output::write_csv(
-        path,
-        samples.iter().map(|s| Row {
+    let rows: Vec<Row> = samples
+        .iter()
+        .map(|s| Row {
             t: Some(s.t),
             gx: Some(s.gyro[0]),
             gy: Some(s.gyro[1]),
@@ -72,6 +72,7 @@ pub fn write_imu_csv(path: &Path, samples: &[ImuSample]) -> Result<()> {
             ax: Some(s.accel[0]),
             ay: Some(s.accel[1]),
             az: Some(s.accel[2]),
-        }),
-    )
+        })
+        .collect();
+    crate::output::write_csv(path, &rows)
 }

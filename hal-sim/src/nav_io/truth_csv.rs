@@ -105,9 +105,9 @@ pub fn read_truth_csv_from<R: std::io::Read>(reader: R, file: &str) -> Result<Ve
 
 /// Writes a truth CSV atomically; the bias columns are empty where a row has none.
 pub fn write_truth_csv(path: &Path, rows: &[TruthRow]) -> Result<()> {
-    crate::output::write_csv(
-        path,
-        rows.iter().map(|r| {
+    let rows: Vec<Row> = rows
+        .iter()
+        .map(|r| {
             let [bg_x, bg_y, bg_z] = split3(r.gyro_bias);
             let [ba_x, ba_y, ba_z] = split3(r.accel_bias);
             Row {
@@ -128,6 +128,7 @@ pub fn write_truth_csv(path: &Path, rows: &[TruthRow]) -> Result<()> {
                 ba_y,
                 ba_z,
             }
-        }),
-    )
+        })
+        .collect();
+    crate::output::write_csv(path, &rows)
 }
