@@ -572,3 +572,30 @@ mod fuzz {
         }
     }
 }
+
+/// The contract between the trajectory simulator's writers (`hal_sim::trajectory::write`) and
+/// these readers: a short simulated drive reads back whole, with every optional group present.
+#[test]
+fn simulated_drive_files_read_back_through_nav_io() {
+    let dir = tempfile::tempdir().unwrap();
+    let (n_imu, n_gnss) = hal_sim::trajectory::write::simulate_drive_files(
+        0.02,
+        100.0,
+        1,
+        vec![(20.0, 30.0)],
+        dir.path(),
+    )
+    .unwrap();
+    let imu = read_imu_csv(&dir.path().join("imu.csv")).unwrap();
+    let truth = read_truth_csv(&dir.path().join("truth.csv")).unwrap();
+    let gnss = read_gnss_csv(&dir.path().join("gnss.csv")).unwrap();
+    assert_eq!((imu.len(), gnss.len()), (n_imu, n_gnss));
+    assert_eq!(truth.len(), n_imu + 1, "truth from t = 0, IMU from t = dt");
+    assert!(truth
+        .iter()
+        .all(|r| r.gyro_bias.is_some() && r.accel_bias.is_some()));
+    assert!(gnss
+        .iter()
+        .all(|f| f.vel_ned.is_some() && f.sd_pos_ned.is_some() && f.sd_vel_ned.is_some()));
+    assert!(!gnss.iter().any(|f| (20.0..30.0).contains(&f.t)));
+}
