@@ -117,18 +117,13 @@ pub struct OutageSummary {
     pub max: f64,
 }
 
-/// WGS84 semi-major axis [m] and first eccentricity squared.
-const A: f64 = 6_378_137.0;
-const E2: f64 = 6.694_379_990_14e-3;
-
 /// North and east offsets [m] of `(lat, lon)` from `(lat0, lon0)` [deg] at height `h`, through
-/// the meridian and transverse radii of curvature (Groves eq. 2.105-2.106); exact to first
-/// order in the offset, i.e. to ~1e-6 relative for the tens of metres scored here.
+/// the core's meridian and transverse radii of curvature (`imu_ident::strapdown::earth`, Groves
+/// eq. 2.105-2.106); exact to first order in the offset, i.e. to ~1e-6 relative for the tens of
+/// metres scored here.
 pub fn north_east(lat0: f64, lon0: f64, h: f64, lat: f64, lon: f64) -> [f64; 2] {
-    let (s, c) = lat0.to_radians().sin_cos();
-    let w = (1.0 - E2 * s * s).sqrt();
-    let r_n = A * (1.0 - E2) / (w * w * w);
-    let r_e = A / w;
+    use imu_ident::strapdown::earth::{radius_east, radius_north};
+    let phi = lat0.to_radians();
     let mut dlon = lon - lon0;
     if dlon > 180.0 {
         dlon -= 360.0;
@@ -136,8 +131,8 @@ pub fn north_east(lat0: f64, lon0: f64, h: f64, lat: f64, lon: f64) -> [f64; 2] 
         dlon += 360.0;
     }
     [
-        (lat - lat0).to_radians() * (r_n + h),
-        dlon.to_radians() * (r_e + h) * c,
+        (lat - lat0).to_radians() * (radius_north(phi) + h),
+        dlon.to_radians() * (radius_east(phi) + h) * phi.cos(),
     ]
 }
 
