@@ -7,6 +7,8 @@
 #   - QEMU for the emulated board (Debian's qemu-system-arm), through apt
 #   - `size` for the firmware sizes (Debian's binutils), through apt, unless llvm-size or size
 #     is already there
+#   - RTKLIB's command-line tools (Debian's rtklib: pos2kml reads the solution.pos files that
+#     hal-sim writes, in hal-sim/tests/nav_io_real.rs), through apt
 #
 # Needs rustup on PATH. apt runs as root here; elsewhere through sudo if it exists.
 set -euo pipefail
@@ -44,6 +46,11 @@ if command -v llvm-size >/dev/null 2>&1 || command -v size >/dev/null 2>&1; then
     echo "install-tools: size present"
 else
     packages+=(binutils)
+fi
+if command -v pos2kml >/dev/null 2>&1; then
+    echo "install-tools: RTKLIB pos2kml present"
+else
+    packages+=(rtklib)
 fi
 if [ "${#packages[@]}" -gt 0 ]; then
     sudo=""

@@ -290,14 +290,7 @@ pub fn run_acf_loop(
 
 /// Writes the parameters-over-time log as CSV (`t,sensor,component,kind,tau,sigma,beta`).
 pub fn write_params_csv(path: &std::path::Path, rows: &[ParamRow]) -> Result<()> {
-    crate::output::write_atomic(path, |w| {
-        let mut csv = csv::Writer::from_writer(w);
-        for r in rows {
-            csv.serialize(r)?;
-        }
-        csv.flush()?;
-        Ok(())
-    })
+    crate::output::write_csv(path, rows)
 }
 
 /// The kind of the `i`-th identified parameter, for reports.

@@ -13,6 +13,7 @@ pub mod identify;
 pub mod log;
 pub mod mismatch;
 pub mod model_toml;
+pub mod nav_io;
 pub mod navigate;
 pub mod output;
 pub mod qemu;

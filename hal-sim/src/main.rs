@@ -156,6 +156,43 @@ enum Command {
         #[arg(long, default_value = "out/demo")]
         out: PathBuf,
     },
+    /// Import the real RTKLIB drive (logger IMU CSV + .tag + RTKLIB .pos) into imu.csv,
+    /// gnss.csv and meta.json (README "Strapdown INS/GNSS formats").
+    ImportDrive {
+        /// Logger IMU CSV (no header: ax,ay,az [g], gx,gy,gz [deg/s], tick [ms]).
+        #[arg(long)]
+        imu: PathBuf,
+        /// Its binary time-tag file (default: the IMU path + ".tag").
+        #[arg(long)]
+        tag: Option<PathBuf>,
+        /// RTKLIB .pos solution (llh, GPST).
+        #[arg(long)]
+        pos: PathBuf,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// IMU mounting roll,pitch,yaw [deg].
+        #[arg(long, value_delimiter = ',', num_args = 3, allow_negative_numbers = true, default_values_t = [180.0, 0.0, 180.0])]
+        mount: Vec<f64>,
+        /// Misalignment roll,pitch,yaw [deg], added angle by angle to --mount.
+        #[arg(long, value_delimiter = ',', num_args = 3, allow_negative_numbers = true, default_values_t = [0.0, -6.79, 5.35])]
+        misalign: Vec<f64>,
+        /// Added to every IMU time [s] (logging delay).
+        #[arg(long, allow_negative_numbers = true, default_value_t = -0.125)]
+        imu_time_offset: f64,
+        /// 1 g [m/s^2].
+        #[arg(long, default_value_t = 9.80665)]
+        g: f64,
+        /// Keep .pos epochs with 1 <= Q <= MAX_Q (1 fix, 2 float, 5 single).
+        #[arg(long, default_value_t = 2)]
+        max_q: u8,
+        /// IMU position from the body origin, forward,right,down [m].
+        #[arg(long, value_delimiter = ',', num_args = 3, allow_negative_numbers = true, default_values_t = [0.0, 0.0, -0.65])]
+        imu_lever: Vec<f64>,
+        /// Antenna position from the body origin, forward,right,down [m].
+        #[arg(long, value_delimiter = ',', num_args = 3, allow_negative_numbers = true, default_values_t = [0.0, -0.05, -0.65])]
+        antenna_lever: Vec<f64>,
+    },
 }
 
 fn main() -> Result<()> {
@@ -266,6 +303,54 @@ fn main() -> Result<()> {
             hours,
             out,
         } => commands::demo(effect.as_deref(), seed, hours, &out)?,
+        Command::ImportDrive {
+            imu,
+            tag,
+            pos,
+            out,
+            mount,
+            misalign,
+            imu_time_offset,
+            g,
+            max_q,
+            imu_lever,
+            antenna_lever,
+        } => {
+            let tag = tag.unwrap_or_else(|| {
+                let mut p = imu.clone().into_os_string();
+                p.push(".tag");
+                p.into()
+            });
+            let three = |v: Vec<f64>, name: &str| -> Result<[f64; 3]> {
+                <[f64; 3]>::try_from(v)
+                    .map_err(|_| anyhow::anyhow!("--{name}: expected three numbers"))
+            };
+            let mut opt = hal_sim::nav_io::drive::DriveImport::drive_0708(imu, tag, pos, out);
+            opt.mount_deg = three(mount, "mount")?;
+            opt.misalign_deg = three(misalign, "misalign")?;
+            opt.imu_time_offset = imu_time_offset;
+            opt.g = g;
+            opt.max_q = max_q;
+            opt.imu_lever = three(imu_lever, "imu-lever")?;
+            opt.antenna_lever = three(antenna_lever, "antenna-lever")?;
+            let m = hal_sim::nav_io::drive::import(&opt)?;
+            println!(
+                "IMU: {} samples over {:.3} s from {} GPST ({:+.3} s after the first GNSS epoch, then {:+.3} s offset); GNSS: {} of {} epochs written ({} fixed, {} float)",
+                m.imu_samples,
+                m.imu_span,
+                m.imu_start_gpst,
+                m.imu_start_after_gnss,
+                opt.imu_time_offset,
+                m.gnss_epochs,
+                m.pos_epochs,
+                m.pos_fixed,
+                m.pos_float
+            );
+            println!(
+                "wrote {0}/imu.csv, {0}/gnss.csv, {0}/meta.json",
+                opt.out.display()
+            );
+        }
     }
     Ok(())
 }

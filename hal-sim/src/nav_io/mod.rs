@@ -1,0 +1,38 @@
+//! Host I/O of the strapdown INS/GNSS work (README "Strapdown INS/GNSS formats"): readers and
+//! writers of the pinned IMU, GNSS and truth CSV files, RTKLIB `.pos` solution files (read and
+//! written), the import of the real RTKLIB drive (`hal-sim import-drive`), the GNSS outage
+//! schedule of `--outages` and the horizontal error at the end of each outage.
+//!
+//! Time scale everywhere: GPS time in seconds since the GPS epoch, 1980-01-06 00:00:00 GPST
+//! ([`gpst`]); no leap seconds, continuous across GPS week roll-overs.
+
+pub mod drive;
+pub mod gnss_csv;
+pub mod gpst;
+pub mod imu_csv;
+pub mod outages;
+pub mod rtklib_pos;
+mod table;
+pub mod truth_csv;
+
+pub use gnss_csv::{read_gnss_csv, write_gnss_csv, GnssFix};
+pub use imu_csv::{read_imu_csv, write_imu_csv, ImuSample};
+pub use outages::{score_outages, OutageScore, OutageSpec, OutageSummary};
+pub use rtklib_pos::{read_pos, write_solution_pos, PosEpoch, PosFile};
+pub use truth_csv::{read_truth_csv, write_truth_csv, TruthRow};
+
+use anyhow::Result;
+use std::path::Path;
+
+/// Reads GNSS fixes from a GNSS CSV, or from an RTKLIB `.pos` file (by extension `.pos`),
+/// keeping the `.pos` epochs with quality `1 <= Q <= max_q` (1 fix, 2 float, ... 5 single).
+pub fn read_gnss_any(path: &Path, max_q: u8) -> Result<Vec<GnssFix>> {
+    let is_pos = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("pos"));
+    if is_pos {
+        Ok(read_pos(path)?.fixes(max_q))
+    } else {
+        read_gnss_csv(path)
+    }
+}
