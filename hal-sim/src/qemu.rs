@@ -38,7 +38,7 @@ use imu_ident::replay::{encode, encoded_len, Row};
 use imu_ident::telemetry::{Record, WIRE_FIELDS, WIRE_TAG};
 use serde::Serialize;
 
-use crate::navigate::Telemetry;
+use crate::replay::Telemetry;
 
 /// Name of the log inside QEMU's working directory.
 const LOG_NAME: &str = "replay.bin";
