@@ -29,7 +29,8 @@
 //! assert_eq!(frame.len(), FRAME_LEN);
 //! ```
 
-use crate::replay::{Crc32, Row};
+use crate::crc::Crc32;
+use crate::replay::Row;
 
 /// Two sync bytes that start every frame.
 pub const SYNC: [u8; 2] = [0xA5, 0x5A];

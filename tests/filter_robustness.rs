@@ -4,7 +4,7 @@
 //! definite.
 
 use imu_ident::filter::{is_positive_definite, InsFilter, UpdateStatus};
-use imu_ident::model::{InsModel, NX};
+use imu_ident::model::InsModel;
 use proptest::prelude::*;
 
 fn hostile() -> impl Strategy<Value = f32> {
@@ -23,13 +23,13 @@ fn hostile() -> impl Strategy<Value = f32> {
 }
 
 fn check_healthy(f: &InsFilter<f32>) {
-    let p = &f.ekf().P;
-    let n = f.ekf().active();
-    assert!(f.ekf().x.iter().all(|v| v.is_finite()));
-    assert!(is_positive_definite(p, n), "P not positive definite: {p}");
-    for i in 0..NX {
-        for j in 0..NX {
-            assert_eq!(p[(i, j)], p[(j, i)], "P not symmetric at ({i},{j})");
+    let p = &f.kalman().P;
+    let n = f.kalman().active();
+    assert!(f.kalman().x.iter().all(|v| v.is_finite()));
+    assert!(is_positive_definite(p, n), "P not positive definite: {p:?}");
+    for (i, row) in p.iter().enumerate() {
+        for (j, v) in row.iter().enumerate() {
+            assert_eq!(*v, p[j][i], "P not symmetric at ({i},{j})");
         }
     }
 }

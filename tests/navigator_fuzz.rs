@@ -311,7 +311,7 @@ fn check_state(
         }
     }
     prop_assert!(
-        is_positive_definite(&p, n),
+        is_positive_definite(&imu_ident::linalg::from_mat(&p), n),
         "P not positive definite: {}",
         p
     );
@@ -630,7 +630,7 @@ fn open_gate_nav() -> Navigator<f32> {
 fn assert_pd(nav: &Navigator<f32>, k: u32) {
     let (p, n) = nav.covariance_scaled();
     assert!(
-        is_positive_definite(&p, n),
+        is_positive_definite(&imu_ident::linalg::from_mat(&p), n),
         "tick {k}: covariance not positive definite: {p}"
     );
 }

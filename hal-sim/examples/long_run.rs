@@ -31,7 +31,9 @@ fn main() -> anyhow::Result<()> {
             b.push(t0 + row.t, row.z as f32, &mut |r: &Record| {
                 repairs += usize::from(r.has(P_REPAIRED));
             });
+            // P is symmetric: the column-major array is P itself.
             let (p, n) = b.covariance_scaled();
+            let p: [[f32; 8]; 8] = p.into();
             not_pd += !is_positive_definite(&p, n) as usize;
             let (ea, eb) = (a.estimates(), b.estimates());
             let d = (ea.delta - eb.delta as f64).abs() / ea.sigma_delta;

@@ -8,11 +8,12 @@ use crate::log::LogRow;
 use crate::records::{EstimateRow, ParamRow, RunCounts};
 use crate::replay;
 use anyhow::{anyhow, Result};
-use imu_ident::adapt::params::{ParamKind, MAXP};
+use imu_ident::adapt::params::MAXP;
 use imu_ident::adapt::AdaptConfig;
 use imu_ident::autocorr::acf_batch;
 use imu_ident::filter::InsFilter;
 use imu_ident::ident::{lag1_corrected, paper_eq15, sigma2, SampleAcf};
+use imu_ident::model::Quantity;
 use imu_ident::model::{Component, InsModel, Sensor};
 use imu_ident::Real;
 
@@ -194,11 +195,6 @@ pub fn run_acf_loop(
 }
 
 /// The kind of the `i`-th identified parameter, for reports.
-pub fn kind_name(k: ParamKind) -> &'static str {
-    match k {
-        ParamKind::Sigma => "sigma",
-        ParamKind::Tau => "tau",
-        ParamKind::Q => "q",
-        ParamKind::Density => "density",
-    }
+pub fn kind_name(k: Quantity) -> &'static str {
+    k.name()
 }

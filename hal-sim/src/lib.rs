@@ -23,3 +23,4 @@ pub mod series;
 pub mod shared_data;
 pub mod sim;
 pub mod summary;
+pub mod trajectory;

@@ -29,6 +29,24 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Simulate a strapdown drive (figure-eights, climbs): imu.csv, truth.csv, gnss.csv.
+    SimulateDrive {
+        /// Duration [h].
+        #[arg(long, default_value_t = 1.0)]
+        hours: f64,
+        /// IMU rate [Hz].
+        #[arg(long, default_value_t = 100.0)]
+        rate: f64,
+        /// RNG seed (sensor errors; GNSS noise uses seed + 1).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// GNSS outage window START:END [s] (repeatable).
+        #[arg(long, value_parser = hal_sim::trajectory::write::parse_outage)]
+        outage: Vec<(f64, f64)>,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Run the filter over a log with a model; writes estimates.csv and summary.json.
     Run {
         /// Log CSV (columns t, z; optional truth).
@@ -151,6 +169,17 @@ fn main() -> Result<()> {
         } => {
             let n = commands::simulate(&scenario, hours, seed, &out)?;
             eprintln!("wrote {n} rows to {}", out.display());
+        }
+        Command::SimulateDrive {
+            hours,
+            rate,
+            seed,
+            outage,
+            out,
+        } => {
+            let (n, g) =
+                hal_sim::trajectory::write::simulate_drive_files(hours, rate, seed, outage, &out)?;
+            eprintln!("wrote {n} IMU rows and {g} GNSS fixes to {}", out.display());
         }
         Command::Run {
             log,

@@ -29,3 +29,15 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>
 pub fn write_string(path: &Path, text: &str) -> Result<()> {
     write_atomic(path, |w| Ok(w.write_all(text.as_bytes())?))
 }
+
+/// Writes serde rows as CSV with a header row, atomically.
+pub fn write_csv<R: serde::Serialize>(path: &Path, rows: &[R]) -> Result<()> {
+    write_atomic(path, |w| {
+        let mut csv = csv::Writer::from_writer(w);
+        for r in rows {
+            csv.serialize(r)?;
+        }
+        csv.flush()?;
+        Ok(())
+    })
+}

@@ -32,10 +32,10 @@ use anyhow::{anyhow, bail, Context, Result};
 use defmt_decoder::{DecodeError, Frame, Table};
 use defmt_parser::Fragment;
 use imu_ident::model::{wire, ComponentKind, InsModel, Sensor};
-use imu_ident::navigator::records::{ACF_WIRE_TAG, PARAM_WIRE_FIELDS, PARAM_WIRE_TAG};
 use imu_ident::navigator::{AcfRecord, ParamRecord};
 use imu_ident::replay::{encode, encoded_len, Row};
 use imu_ident::telemetry::{Record, WIRE_FIELDS, WIRE_TAG};
+use imu_ident::telemetry::{ACF_WIRE_TAG, PARAM_WIRE_FIELDS, PARAM_WIRE_TAG};
 use serde::Serialize;
 
 use crate::replay::Telemetry;

@@ -6,7 +6,7 @@
 //!
 //! This module depends on no other module of the crate but [`crate::output`].
 
-use crate::output::write_atomic;
+use crate::output::write_csv;
 use anyhow::Result;
 use imu_ident::telemetry::{
     Record, BRIDGED, GATED_OUTLIER, MISSING, P_REPAIRED, SKIPPED, TIME_JUMP,
@@ -190,18 +190,6 @@ pub struct AcfRow {
     pub sensor: &'static str,
     pub tau: f64,
     pub sigma: f64,
-}
-
-/// Writes serialisable rows as a CSV file with a header, atomically.
-pub fn write_csv<R: Serialize>(path: &Path, rows: &[R]) -> Result<()> {
-    write_atomic(path, |w| {
-        let mut csv = csv::Writer::from_writer(w);
-        for r in rows {
-            csv.serialize(r)?;
-        }
-        csv.flush()?;
-        Ok(())
-    })
 }
 
 /// Writes `estimates.csv` atomically.

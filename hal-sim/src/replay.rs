@@ -24,9 +24,9 @@ use imu_ident::telemetry::{Record, TelemetrySink, BRIDGED, SKIPPED};
 use imu_ident::Real;
 
 use crate::log::LogRow;
+use crate::output::write_csv;
 use crate::records::{
-    write_csv, write_estimates, write_params_csv, AcfRow, EstimateRow, LogLikelihood, ParamRow,
-    RunCounts,
+    write_estimates, write_params_csv, AcfRow, EstimateRow, LogLikelihood, ParamRow, RunCounts,
 };
 
 /// Everything a run of the step reports: per-tick records, parameters at each

@@ -18,7 +18,7 @@ fn f32_tracks_f64_over_12_hours_on_paper() {
         f64f.step(row.z);
         f32f.step(row.z as f32);
         assert!(
-            f32f.ekf().is_healthy(),
+            f32f.kalman().is_healthy(),
             "f32 P lost positive definiteness at t = {}",
             row.t
         );

@@ -22,35 +22,30 @@
 //! the sensitivity equations of a Kalman filter would propagate), at the cost of one filter per
 //! perturbation instead of `n x p` sensitivity states.
 //!
-//! Members are small filters that loop over the `n` active states only (4 for the paper model,
-//! out of `NX = 8`): the full-size [`Ekf`](crate::filter::Ekf) would do 8 times the work in the
-//! covariance product. Their covariance update is the scalar-observation form `P - a a^T / S`,
-//! `a = P H^T`, symmetrised by construction.
+//! Members run the crate's one Kalman kernel ([`Kalman`]), which loops over the `n` active
+//! states only (4 for the paper model, out of `NX = 8`).
 
 // Small fixed-size matrix code reads best with explicit indices (they mirror the equations).
 #![allow(clippy::needless_range_loop)]
 
-use crate::adapt::disc::discretise_model;
-use crate::adapt::mat::{self, Arr, Vec8};
 use crate::adapt::params::{apply, Specs, MAXP};
 use crate::adapt::AdaptError;
+use crate::filter::{Innovation, Kalman, UpdateStatus};
+use crate::linalg::{from_mat, from_vec, is_positive_definite, zeros, Arr};
 use crate::model::{InsModel, Scaling, StateMat, StateVec, NX};
 use crate::Real;
 
 /// Number of bank members: the centre and two per parameter.
 pub const MEMBERS: usize = 2 * MAXP + 1;
 
-/// One filter of the bank (scaled states; only the leading `n` states are used). Row-major
-/// arrays and the slice kernels of [`mat`](crate::adapt::mat) keep the hot loop free of bounds
-/// checks.
+/// One filter of the bank: the crate's [`Kalman`] kernel in scaled states with its own
+/// `(Phi, Qd)`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Member<T: Real> {
-    /// State estimate.
-    pub x: Vec8<T>,
-    /// Error covariance (row-major).
-    pub p: Arr<T>,
-    phi: Arr<T>,
-    qd: Arr<T>,
+    /// The filter (estimate and covariance; only the leading `n` states are used).
+    pub kf: Kalman<T, NX>,
+    phi: Arr<T, NX>,
+    qd: Arr<T, NX>,
 }
 
 /// The innovation of one member at one step.
@@ -66,16 +61,15 @@ pub struct MemberInnovation<T> {
 impl<T: Real> Member<T> {
     /// All zeros (a compile-time value: see [`Bank::BLANK`]).
     pub const BLANK: Self = Self {
-        x: [T::ZERO; NX],
-        p: [[T::ZERO; NX]; NX],
+        kf: Kalman::BLANK,
         phi: [[T::ZERO; NX]; NX],
         qd: [[T::ZERO; NX]; NX],
     };
 
-    /// Zero state, covariance `p0`, identity transition, no process noise (in place).
-    pub(crate) fn reset(&mut self, p0: &Arr<T>) {
-        self.x = [T::zero(); NX];
-        self.p = *p0;
+    /// Zero state, covariance `p0` over `n` states, identity transition, no process noise
+    /// (in place).
+    pub(crate) fn reset(&mut self, p0: &Arr<T, NX>, n: usize) {
+        self.kf.reset(p0, n);
         for (i, row) in self.phi.iter_mut().enumerate() {
             for (j, v) in row.iter_mut().enumerate() {
                 *v = if i == j { T::one() } else { T::zero() };
@@ -86,95 +80,35 @@ impl<T: Real> Member<T> {
         }
     }
 
-    /// `x = Phi x`, `P = (Phi P) Phi^T + Qd` over the leading `n` states: `n^2` multiply-adds
-    /// for the state, `n^3 + n^2 (n+1)/2` for the covariance (16 + 64 + 40 at `n = 4`).
-    /// Dispatched to a kernel with `n` as a compile-time constant, so that the dot products are
-    /// unrolled (measured with callgrind: ~3x fewer instructions than a run-time `n` loop).
-    pub(crate) fn predict(&mut self, n: usize) {
-        let (x, p, phi, qd) = (&mut self.x, &mut self.p, &self.phi, &self.qd);
-        match n {
-            0 | 1 => mat::predict_c::<T, 1>(x, p, phi, qd),
-            2 => mat::predict_c::<T, 2>(x, p, phi, qd),
-            3 => mat::predict_c::<T, 3>(x, p, phi, qd),
-            4 => mat::predict_c::<T, 4>(x, p, phi, qd),
-            5 => mat::predict_c::<T, 5>(x, p, phi, qd),
-            6 => mat::predict_c::<T, 6>(x, p, phi, qd),
-            7 => mat::predict_c::<T, 7>(x, p, phi, qd),
-            _ => mat::predict_c::<T, NX>(x, p, phi, qd),
-        }
+    /// Time update with the member's own `(Phi, Qd)`.
+    pub(crate) fn predict(&mut self) {
+        self.kf.predict(&self.phi, &self.qd);
     }
 
-    /// Scalar update with `z` (finite), row `h`, noise variance `r`; returns `(nu, S)` or `None`
-    /// (nothing changed) if `S` is not finite and positive. `P - a a^T / S` with `a = P H^T`
-    /// (Joseph's form reduces to this for the optimal gain of a scalar observation):
-    /// `n^2 + n (n+1)/2 + 3n` multiply-adds.
-    pub(crate) fn update(
-        &mut self,
-        n: usize,
-        z: T,
-        h: &Vec8<T>,
-        r: T,
-    ) -> Option<MemberInnovation<T>> {
-        let (x, p) = (&mut self.x, &mut self.p);
-        let out = match n {
-            0 | 1 => mat::update_c::<T, 1>(x, p, h, z, r),
-            2 => mat::update_c::<T, 2>(x, p, h, z, r),
-            3 => mat::update_c::<T, 3>(x, p, h, z, r),
-            4 => mat::update_c::<T, 4>(x, p, h, z, r),
-            5 => mat::update_c::<T, 5>(x, p, h, z, r),
-            6 => mat::update_c::<T, 6>(x, p, h, z, r),
-            7 => mat::update_c::<T, 7>(x, p, h, z, r),
-            _ => mat::update_c::<T, NX>(x, p, h, z, r),
-        };
-        out.map(|(nu, s)| MemberInnovation { nu, s })
+    /// Scalar update with `z`, row `h`, noise variance `r` and an optional gate on the NIS.
+    pub(crate) fn update(&mut self, z: T, h: &[T; NX], r: T, gate: Option<T>) -> Innovation<T> {
+        self.kf.update(z, h, r, gate)
     }
 
     /// Sets the transition and process noise.
-    pub(crate) fn set_system(&mut self, phi: &Arr<T>, qd: &Arr<T>) {
+    pub(crate) fn set_system(&mut self, phi: &Arr<T, NX>, qd: &Arr<T, NX>) {
         self.phi = *phi;
         self.qd = *qd;
     }
 
     /// The state estimate as an nalgebra vector.
     pub fn state(&self) -> StateVec<T> {
-        mat::to_vec(&self.x)
+        self.kf.state()
     }
 
     /// The covariance as an nalgebra matrix.
     pub fn covariance(&self) -> StateMat<T> {
-        mat::to_mat(&self.p)
+        self.kf.covariance()
     }
 
     /// Log-likelihood of one innovation, `-1/2 (ln S + nu^2 / S)`.
     pub fn loglik(i: &MemberInnovation<T>) -> T {
         -T::lit(0.5) * (i.s.ln() + i.nu * i.nu / i.s)
-    }
-
-    /// The innovation `z - H x` and its variance `H P H^T + r` without updating (for the outlier
-    /// gate, which must decide before any member uses `z`).
-    pub(crate) fn innovation(&self, n: usize, z: T, h: &Vec8<T>, r: T) -> MemberInnovation<T> {
-        let n = n.min(NX);
-        let (mut hx, mut s) = (T::zero(), r);
-        for i in 0..n {
-            hx += h[i] * self.x[i];
-            let mut a = T::zero();
-            for j in 0..n {
-                a += self.p[i][j] * h[j];
-            }
-            s += h[i] * a;
-        }
-        MemberInnovation { nu: z - hx, s }
-    }
-
-    /// Cheap health test: finite state, finite positive diagonal of `P`.
-    pub(crate) fn healthy(&self, n: usize) -> bool {
-        let mut ok = true;
-        for i in 0..n.min(NX) {
-            let d = self.p[i][i];
-            // `d > 0` is false for NaN; `is_finite` rejects +inf.
-            ok &= d > T::zero() && d.is_finite() && self.x[i].is_finite();
-        }
-        ok
     }
 }
 
@@ -209,8 +143,8 @@ impl<T: Real> Default for Information<T> {
 #[derive(Debug, Clone)]
 pub struct Bank<T: Real> {
     members: [Member<T>; MEMBERS],
-    p0: Arr<T>,
-    h: Vec8<T>,
+    p0: Arr<T, NX>,
+    h: [T; NX],
     r: T,
     n: usize,
     np: usize,
@@ -277,13 +211,11 @@ impl<T: Real> Bank<T> {
     pub fn init(&mut self, model: &InsModel<T>, specs: &Specs, step: T) -> Result<(), AdaptError> {
         let scale = model.scaling().map_err(AdaptError::Model)?;
         let sys = model.continuous(&scale).map_err(AdaptError::Model)?;
-        let p0 = mat::from_mat(&sys.P0);
+        let p0 = from_mat(&sys.P0);
         for m in self.members.iter_mut() {
-            m.reset(&p0);
+            m.reset(&p0, sys.n);
         }
-        for (hi, v) in self.h.iter_mut().zip(sys.H.iter()) {
-            *hi = *v;
-        }
+        self.h = from_vec(&sys.H);
         self.p0 = p0;
         self.r = model.sigma_v * model.sigma_v;
         self.n = sys.n;
@@ -325,26 +257,30 @@ impl<T: Real> Bank<T> {
     }
 
     /// The initial covariance.
-    pub fn p0(&self) -> &Arr<T> {
+    pub fn p0(&self) -> &Arr<T, NX> {
         &self.p0
     }
 
     /// The observation row and noise variance.
-    pub fn observation(&self) -> (&Vec8<T>, T) {
+    pub fn observation(&self) -> (&[T; NX], T) {
         (&self.h, self.r)
     }
 
     /// Copies `x, P` into every member (after a jump to another parameter point).
-    pub fn reset_states(&mut self, x: &Vec8<T>, p: &Arr<T>) {
+    pub fn reset_states(&mut self, x: &[T; NX], p: &Arr<T, NX>) {
         for m in self.members.iter_mut() {
-            m.x = *x;
-            m.p = *p;
+            m.kf.x = *x;
+            m.kf.P = *p;
         }
     }
 
     /// `(Phi, Qd)` of member `m` for the centre `theta`: member `2i+1` at `+h e_i`, `2i+2` at
     /// `-h e_i`.
-    fn member_system(&self, m: usize, theta: &[T; MAXP]) -> Result<(Arr<T>, Arr<T>), AdaptError> {
+    fn member_system(
+        &self,
+        m: usize,
+        theta: &[T; MAXP],
+    ) -> Result<(Arr<T, NX>, Arr<T, NX>), AdaptError> {
         let mut th = *theta;
         if m > 0 {
             let i = (m - 1) / 2;
@@ -354,15 +290,17 @@ impl<T: Real> Bank<T> {
             }
         }
         let model = apply(&self.base, &self.specs, &th).ok_or(AdaptError::BadParameter)?;
-        discretise_model(&model, &self.scale).map_err(AdaptError::Model)
+        model
+            .discretise_block(&self.scale)
+            .map_err(AdaptError::Model)
     }
 
     /// Re-discretises every member for the centre `theta` at once, keeping each member's `x`
     /// and `P`. On error nothing is changed. (At start-up and on a jump to a probe; the
     /// Gauss-Newton moves use [`request_theta`](Self::request_theta).)
     pub fn set_theta(&mut self, theta: &[T; MAXP]) -> Result<(), AdaptError> {
-        let mut disc: [(Arr<T>, Arr<T>); MEMBERS] =
-            core::array::from_fn(|_| (mat::zeros(), mat::zeros()));
+        let mut disc: [(Arr<T, NX>, Arr<T, NX>); MEMBERS] =
+            core::array::from_fn(|_| (zeros(), zeros()));
         for (m, d) in disc.iter_mut().enumerate().take(2 * self.np + 1) {
             *d = self.member_system(m, theta)?;
         }
@@ -423,39 +361,33 @@ impl<T: Real> Bank<T> {
         let mut centre = None;
         let mut gated = None;
         let mut z = z;
-        if let (Some(c), Some(g)) = (self.members.first_mut(), gate) {
-            c.predict(self.n);
-            if z.is_finite() {
-                let i = c.innovation(self.n, z, &self.h, self.r);
-                // Only a NIS within the gate passes (NaN fails, S <= 0 is left to the update).
-                // `nu^2 / S <= g`, as the fixed filter tests it: `nu^2 <= g S` let an infinite
-                // `nu^2` through when `g S` overflowed too (issue 7 fuzz).
-                let within = i.nu * i.nu / i.s <= g;
-                if i.s > T::zero() && i.s.is_finite() && !within {
-                    gated = Some(i);
-                    z = T::lit(f64::NAN);
-                }
-            }
-        }
         let mut all = z.is_finite() && !self.moving();
         for (m, (mem, out)) in self.members.iter_mut().zip(inn.iter_mut()).enumerate() {
             if m >= used {
                 break;
             }
-            // The centre was already predicted when a gate was given.
-            if m > 0 || gate.is_none() {
-                mem.predict(self.n);
-            }
-            if z.is_finite() {
-                match mem.update(self.n, z, &self.h, self.r) {
-                    Some(i) => {
-                        *out = i;
-                        if m == 0 {
-                            centre = Some(i);
-                        }
+            mem.predict();
+            // The gate is decided on the centre (member 0) before any other member sees `z`.
+            let g = if m == 0 { gate } else { None };
+            let i = mem.update(z, &self.h, self.r, g);
+            let mi = MemberInnovation {
+                nu: i.innovation,
+                s: i.variance,
+            };
+            match i.status {
+                UpdateStatus::Updated => {
+                    *out = mi;
+                    if m == 0 {
+                        centre = Some(mi);
                     }
-                    None => all = false,
                 }
+                UpdateStatus::Gated => {
+                    gated = Some(mi);
+                    z = T::lit(f64::NAN);
+                    all = false;
+                }
+                UpdateStatus::BadInnovationVariance => all = false,
+                UpdateStatus::Missing => {}
             }
         }
         self.repair(used);
@@ -510,20 +442,20 @@ impl<T: Real> Bank<T> {
     /// keep the cheap diagonal test.
     fn repair(&mut self, used: usize) {
         let n = self.n;
-        let c = &self.members[0];
-        if !c.healthy(n) || !mat::positive_definite(&c.p, n) {
+        let c = &self.members[0].kf;
+        if !c.diagonal_healthy() || !is_positive_definite(&c.P, n) {
             for m in self.members.iter_mut() {
-                m.x = [T::zero(); NX];
-                m.p = self.p0;
+                m.kf.x = [T::zero(); NX];
+                m.kf.P = self.p0;
             }
             self.repairs = self.repairs.saturating_add(1);
             return;
         }
-        let (x0, p0) = (self.members[0].x, self.members[0].p);
+        let (x0, p0) = (self.members[0].kf.x, self.members[0].kf.P);
         for m in self.members.iter_mut().take(used).skip(1) {
-            if !m.healthy(n) {
-                m.x = x0;
-                m.p = p0;
+            if !m.kf.diagonal_healthy() {
+                m.kf.x = x0;
+                m.kf.P = p0;
                 self.repairs = self.repairs.saturating_add(1);
             }
         }

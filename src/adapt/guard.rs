@@ -4,72 +4,12 @@
 // Small fixed-size matrix code reads best with explicit indices (they mirror the equations).
 #![allow(clippy::needless_range_loop)]
 
-use crate::adapt::params::{ParamKind, Specs, MAXP};
+use crate::adapt::params::{Specs, MAXP};
+use crate::model::Quantity;
 use crate::Real;
 
 /// A `MAXP x MAXP` matrix (only the leading `p x p` block is used).
-pub type Mat<T> = [[T; MAXP]; MAXP];
-
-/// Cholesky factor `L` (lower) of the leading `p x p` block of `a`; `None` if a pivot is not
-/// finite and positive.
-pub fn cholesky<T: Real>(a: &Mat<T>, p: usize) -> Option<Mat<T>> {
-    let p = p.min(MAXP);
-    let mut l = [[T::zero(); MAXP]; MAXP];
-    for j in 0..p {
-        let mut d = a[j][j];
-        for k in 0..j {
-            d -= l[j][k] * l[j][k];
-        }
-        if !(d.is_finite() && d > T::zero()) {
-            return None;
-        }
-        let djj = d.sqrt();
-        l[j][j] = djj;
-        for i in (j + 1)..p {
-            let mut s = a[i][j];
-            for k in 0..j {
-                s -= l[i][k] * l[j][k];
-            }
-            l[i][j] = s / djj;
-        }
-    }
-    Some(l)
-}
-
-/// Solves `L L^T x = b` over the leading `p` entries.
-pub fn chol_solve<T: Real>(l: &Mat<T>, b: &[T; MAXP], p: usize) -> [T; MAXP] {
-    let p = p.min(MAXP);
-    let mut y = [T::zero(); MAXP];
-    for i in 0..p {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= l[i][k] * y[k];
-        }
-        y[i] = s / l[i][i];
-    }
-    let mut x = [T::zero(); MAXP];
-    for i in (0..p).rev() {
-        let mut s = y[i];
-        for k in (i + 1)..p {
-            s -= l[k][i] * x[k];
-        }
-        x[i] = s / l[i][i];
-    }
-    x
-}
-
-/// Diagonal of `A^-1` from its Cholesky factor (the variances of the estimates when `A` is a
-/// Fisher information): column by column, `e_i^T A^-1 e_i`.
-pub fn inverse_diagonal<T: Real>(l: &Mat<T>, p: usize) -> [T; MAXP] {
-    let p = p.min(MAXP);
-    let mut out = [T::zero(); MAXP];
-    for (i, o) in out.iter_mut().enumerate().take(p) {
-        let mut e = [T::zero(); MAXP];
-        e[i] = T::one();
-        *o = chol_solve(l, &e, p)[i];
-    }
-    out
-}
+pub type Mat<T> = crate::linalg::Arr<T, MAXP>;
 
 /// Lower and upper bounds of each `theta_i` (natural logarithms).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -97,7 +37,7 @@ impl<T: Real> Bounds<T> {
         let dec = spread * T::ln_10();
         for (i, s) in specs.iter().enumerate().take(MAXP) {
             let (l, u) = match s.kind {
-                ParamKind::Tau => (dt.ln(), tau_max.ln()),
+                Quantity::Tau => (dt.ln(), tau_max.ln()),
                 _ => (theta0[i] - dec, theta0[i] + dec),
             };
             lo[i] = l + h;
@@ -148,21 +88,6 @@ pub fn limit_step<T: Real>(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn solve_and_inverse_diagonal() {
-        let mut a = [[0.0f64; MAXP]; MAXP];
-        a[0] = [4.0, 2.0, 0.0, 0.0];
-        a[1] = [2.0, 3.0, 0.0, 0.0];
-        let l = cholesky(&a, 2).unwrap();
-        let x = chol_solve(&l, &[2.0, 1.0, 0.0, 0.0], 2);
-        assert!((4.0 * x[0] + 2.0 * x[1] - 2.0).abs() < 1e-12);
-        assert!((2.0 * x[0] + 3.0 * x[1] - 1.0).abs() < 1e-12);
-        let d = inverse_diagonal(&l, 2);
-        assert!((d[0] - 3.0 / 8.0).abs() < 1e-12 && (d[1] - 0.5).abs() < 1e-12);
-        a[1][1] = -1.0;
-        assert!(cholesky(&a, 2).is_none());
-    }
 
     #[test]
     fn step_limits() {

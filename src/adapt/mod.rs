@@ -31,17 +31,16 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod bank;
-pub mod disc;
 pub mod guard;
-pub mod mat;
 pub mod params;
 pub mod probes;
 
 use crate::filter::Estimates;
+use crate::linalg::{chol_solve, cholesky, inverse_diagonal, is_positive_definite};
 use crate::model::{InsModel, ModelError, Sensor, StateRow, NX};
 use crate::Real;
 use bank::{Bank, Information, MemberInnovation};
-use guard::{chol_solve, cholesky, inverse_diagonal, limit_step, Bounds, Mat};
+use guard::{limit_step, Bounds, Mat};
 use params::{apply, specs, theta_of, Specs, MAXP};
 use probes::Probes;
 
@@ -400,7 +399,7 @@ impl<T: Real> AdaptiveFilter<T> {
             // diagonal only) is broken and cannot win: the centre would copy its `P`.
             let n = self.bank.active();
             let valid = |w: &probes::Winner<T>| {
-                w.gain.is_finite() && w.gain > margin && mat::positive_definite(&w.p, n)
+                w.gain.is_finite() && w.gain > margin && is_positive_definite(&w.p, n)
             };
             if let Some(w) = best.filter(valid) {
                 // At once, not staggered like the Gauss-Newton moves: measured, staggering the
@@ -568,13 +567,7 @@ impl<T: Real> AdaptiveFilter<T> {
     /// The centre filter's estimates in SI units.
     pub fn estimates(&self) -> Estimates<T> {
         let c = self.bank.centre();
-        Estimates::from_scaled(
-            &c.state(),
-            &c.covariance(),
-            self.bank.scale(),
-            &self.accel_row,
-            &self.gyro_row,
-        )
+        Estimates::from_kalman(&c.kf, self.bank.scale(), &self.accel_row, &self.gyro_row)
     }
 }
 

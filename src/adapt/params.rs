@@ -5,37 +5,16 @@
 //! a relative perturbation `exp(h)`, the Fisher information is dimensionless, and a rate limit of
 //! `ln 2` means "at most a factor two per update" whatever the units.
 //!
-//! Which quantities are identified follows from the model's component kinds, accelerometer first,
-//! then gyro, in component order, until [`MAXP`] parameters are taken:
-//!
-//! | kind | parameters |
-//! |---|---|
-//! | Gauss-Markov | `ln sigma`, `ln tau` |
-//! | exponential-cosine | `ln sigma`, `ln tau` (`beta` kept) |
-//! | random walk | `ln q` |
-//! | white noise | `ln density` |
-//! | random constant | none (a constant has no noise to identify) |
+//! Which quantities are identified follows from the model's component kinds (the kind table,
+//! [`ComponentKind::identified`](crate::model::ComponentKind::identified)), accelerometer first,
+//! then gyro, in component order, until [`MAXP`] parameters are taken.
 
-use crate::model::{Component, InsModel, Sensor};
+use crate::model::{Component, InsModel, Quantity, Sensor};
 use crate::Real;
 use heapless::Vec;
 
 /// Largest number of identified parameters (the bank runs `2 MAXP + 1` filters).
 pub const MAXP: usize = 4;
-
-/// What one entry of `theta` is the logarithm of.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ParamKind {
-    /// Stationary standard deviation (Gauss-Markov, exponential-cosine).
-    Sigma,
-    /// Correlation time `tau = 1/alpha` [s].
-    Tau,
-    /// Random-walk intensity `q`.
-    Q,
-    /// White-noise density.
-    Density,
-}
 
 /// One identified parameter: which component of which sensor, and which of its quantities.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -46,7 +25,7 @@ pub struct ParamSpec {
     /// The component's index in that sensor's list.
     pub index: u8,
     /// The quantity.
-    pub kind: ParamKind,
+    pub kind: Quantity,
 }
 
 /// The list of identified parameters of a model.
@@ -58,14 +37,7 @@ pub fn specs<T: Real>(model: &InsModel<T>) -> Specs {
     let sensors = [(Sensor::Accel, &model.accel), (Sensor::Gyro, &model.gyro)];
     for (sensor, comps) in sensors {
         for (i, c) in comps.iter().enumerate() {
-            let kinds: &[ParamKind] = match c {
-                Component::GaussMarkov(_) | Component::ExpCosine(_) => {
-                    &[ParamKind::Sigma, ParamKind::Tau]
-                }
-                Component::RandomWalk(_) => &[ParamKind::Q],
-                Component::White(_) => &[ParamKind::Density],
-                Component::RandomConstant(_) => &[],
-            };
+            let kinds = c.kind().identified();
             for &kind in kinds {
                 let index = u8::try_from(i).unwrap_or(u8::MAX);
                 // A full list simply stops taking parameters: the rest stay fixed.
@@ -100,15 +72,7 @@ pub fn value<T: Real>(model: &InsModel<T>, spec: &ParamSpec) -> Option<T> {
         Sensor::Gyro => model.gyro.get(i),
         Sensor::Observation => None,
     }?;
-    match (c, spec.kind) {
-        (Component::GaussMarkov(g), ParamKind::Sigma) => Some(g.sigma),
-        (Component::GaussMarkov(g), ParamKind::Tau) => Some(g.tau),
-        (Component::ExpCosine(e), ParamKind::Sigma) => Some(e.sigma),
-        (Component::ExpCosine(e), ParamKind::Tau) => Some(e.tau),
-        (Component::RandomWalk(r), ParamKind::Q) => Some(r.q),
-        (Component::White(w), ParamKind::Density) => Some(w.density),
-        _ => None,
-    }
+    c.get(spec.kind)
 }
 
 /// `theta` of `model` for `specs` (natural logarithms; unused entries zero).
@@ -130,14 +94,8 @@ pub fn apply<T: Real>(base: &InsModel<T>, specs: &Specs, theta: &[T; MAXP]) -> O
             return None;
         }
         let c = component_mut(&mut m, s)?;
-        match (c, s.kind) {
-            (Component::GaussMarkov(g), ParamKind::Sigma) => g.sigma = v,
-            (Component::GaussMarkov(g), ParamKind::Tau) => g.tau = v,
-            (Component::ExpCosine(e), ParamKind::Sigma) => e.sigma = v,
-            (Component::ExpCosine(e), ParamKind::Tau) => e.tau = v,
-            (Component::RandomWalk(r), ParamKind::Q) => r.q = v,
-            (Component::White(w), ParamKind::Density) => w.density = v,
-            _ => return None,
+        if !c.set(s.kind, v) {
+            return None;
         }
     }
     Some(m)
@@ -152,7 +110,7 @@ mod tests {
         let m = InsModel::<f64>::paper();
         let s = specs(&m);
         assert_eq!(s.len(), 4);
-        assert_eq!(s[1].kind, ParamKind::Tau);
+        assert_eq!(s[1].kind, Quantity::Tau);
         assert_eq!(s[2].sensor, Sensor::Gyro);
         let th = theta_of(&m, &s);
         assert!((th[1] - 100f64.ln()).abs() < 1e-12);

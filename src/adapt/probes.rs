@@ -21,12 +21,13 @@
 //! the centre by the margin.
 
 use crate::adapt::bank::{Member, MemberInnovation};
-use crate::adapt::disc::discretise_model;
 use crate::adapt::guard::Bounds;
-use crate::adapt::mat::{Arr, Vec8};
-use crate::adapt::params::{apply, ParamKind, Specs, MAXP};
+use crate::adapt::params::{apply, Specs, MAXP};
 use crate::adapt::AdaptError;
-use crate::model::{InsModel, Scaling};
+use crate::filter::UpdateStatus;
+use crate::linalg::Arr;
+use crate::model::Quantity;
+use crate::model::{InsModel, Scaling, NX};
 use crate::Real;
 
 /// Largest number of probes: two rings (multipliers `M` and `M^2`) of `3^2 - 1` each.
@@ -55,9 +56,9 @@ pub struct Winner<T: Real> {
     /// Its parameters.
     pub theta: [T; MAXP],
     /// Its state estimate (scaled states).
-    pub x: Vec8<T>,
+    pub x: [T; NX],
     /// Its covariance (row-major).
-    pub p: Arr<T>,
+    pub p: Arr<T, NX>,
     /// Its log-likelihood advantage over the centre in the epoch [nats].
     pub gain: T,
 }
@@ -79,22 +80,22 @@ impl<T: Real> Probes<T> {
     };
 
     /// Probes for `specs` with multiplier `m` (> 1) on the correlation times.
-    pub fn new(specs: &Specs, m: T, p0: &Arr<T>) -> Self {
+    pub fn new(specs: &Specs, m: T, p0: &Arr<T, NX>) -> Self {
         let mut p = Self::BLANK;
         p.init(specs, m, p0);
         p
     }
 
     /// [`new`](Self::new) in place (no copy of the probe filters on the stack).
-    pub fn init(&mut self, specs: &Specs, m: T, p0: &Arr<T>) {
+    pub fn init(&mut self, specs: &Specs, m: T, p0: &Arr<T, NX>) {
         let mut pairs = [(0usize, 0usize); 2];
         let mut npairs = 0;
         for (i, s) in specs.iter().enumerate() {
-            if s.kind != ParamKind::Tau || npairs >= 2 {
+            if s.kind != Quantity::Tau || npairs >= 2 {
                 continue;
             }
             let sig = specs.iter().position(|o| {
-                o.kind == ParamKind::Sigma && o.sensor == s.sensor && o.index == s.index
+                o.kind == Quantity::Sigma && o.sensor == s.sensor && o.index == s.index
             });
             if let Some(j) = sig {
                 pairs[npairs] = (i, j);
@@ -116,7 +117,8 @@ impl<T: Real> Probes<T> {
             }
         }
         for mem in self.members.iter_mut() {
-            mem.reset(p0);
+            // Each probe takes the centre's filter (and its active size) when it is readied.
+            mem.reset(p0, 0);
         }
         self.theta = [[T::zero(); MAXP]; PROBES];
         self.ll = [T::zero(); PROBES];
@@ -180,23 +182,22 @@ impl<T: Real> Probes<T> {
         &mut self,
         z: T,
         centre: (&Member<T>, Option<MemberInnovation<T>>),
-        obs: (&Vec8<T>, T, usize),
+        obs: (&[T; NX], T, usize),
         base: &InsModel<T>,
         specs: &Specs,
         scale: &Scaling<T>,
         warmup: u32,
     ) -> Result<(), AdaptError> {
-        let (h, r, n) = obs;
+        let (h, r, _) = obs;
         if self.ready < self.count {
             let j = self.ready;
             self.ready += 1;
             let th = self.theta.get(j).ok_or(AdaptError::BadParameter)?;
             let model = apply(base, specs, th).ok_or(AdaptError::BadParameter)?;
-            let (phi, qd) = discretise_model(&model, scale).map_err(AdaptError::Model)?;
+            let (phi, qd) = model.discretise_block(scale).map_err(AdaptError::Model)?;
             if let Some(m) = self.members.get_mut(j) {
                 m.set_system(&phi, &qd);
-                m.x = centre.0.x;
-                m.p = centre.0.p;
+                m.kf = centre.0.kf.clone();
             }
         }
         self.age = self.age.saturating_add(1);
@@ -212,18 +213,20 @@ impl<T: Real> Probes<T> {
             .zip(self.ll.iter_mut())
             .take(self.ready)
         {
-            m.predict(n);
+            m.predict();
             if z.is_finite() {
-                match m.update(n, z, h, r) {
-                    Some(i) if all => *ll += Member::loglik(&i),
-                    Some(_) => {}
+                let i = m.update(z, h, r, None);
+                match i.status {
+                    UpdateStatus::Updated if all => *ll += i.loglik(),
+                    UpdateStatus::Updated | UpdateStatus::Missing => {}
                     // A broken probe can never win.
-                    None => *ll = T::lit(-1e30),
+                    UpdateStatus::Gated | UpdateStatus::BadInnovationVariance => {
+                        *ll = T::lit(-1e30)
+                    }
                 }
             }
-            if !m.healthy(n) {
-                m.x = centre.0.x;
-                m.p = centre.0.p;
+            if !m.kf.diagonal_healthy() {
+                m.kf = centre.0.kf.clone();
                 *ll = T::lit(-1e30);
             }
         }
@@ -244,8 +247,8 @@ impl<T: Real> Probes<T> {
         let m = self.members.get(j)?;
         Some(Winner {
             theta: *self.theta.get(j)?,
-            x: m.x,
-            p: m.p,
+            x: m.kf.x,
+            p: m.kf.P,
             gain,
         })
     }

@@ -1,5 +1,5 @@
-//! The INS error filter: an [`InsModel`] discretised exactly and run by an [`Ekf`] in scaled
-//! states, with estimates reported back in SI units.
+//! The INS error filter: an [`InsModel`] discretised exactly and run by the [`Kalman`] kernel
+//! in scaled states, with estimates reported back in SI units.
 //!
 //! ```
 //! use imu_ident::filter::InsFilter;
@@ -12,11 +12,10 @@
 //! assert!(e.sigma_dv < 0.03 && e.sigma_delta > 0.0);
 //! ```
 
-use crate::filter::ekf::{Ekf, Innovation};
+use crate::filter::kalman::{Innovation, Kalman};
+use crate::linalg::{from_mat, from_vec, Arr};
 use crate::model::ins::Continuous;
-use crate::model::{
-    idx, Discrete, InsModel, ModelError, Scaling, Sensor, StateMat, StateRow, StateVec,
-};
+use crate::model::{idx, InsModel, ModelError, Scaling, Sensor, StateMat, StateRow, StateVec, NX};
 use crate::Real;
 
 /// Estimates and their standard deviations, in SI units.
@@ -41,29 +40,44 @@ pub struct Estimates<T> {
 }
 
 impl<T: Real> Estimates<T> {
-    /// SI estimates from a scaled state `x`, its covariance `p`, the scaling `s`, and the rows
-    /// that sum each sensor's components (in physical units).
-    pub fn from_scaled(
-        x: &StateVec<T>,
-        p: &StateMat<T>,
+    /// SI estimates from a filter in scaled states, the scaling `s`, and the rows that sum each
+    /// sensor's components (in physical units). Works on the kernel's arrays over the active
+    /// block (no conversion to nalgebra on the 1 Hz path).
+    pub fn from_kalman(
+        kf: &Kalman<T, NX>,
         s: &Scaling<T>,
         accel_row: &StateRow<T>,
         gyro_row: &StateRow<T>,
     ) -> Self {
+        let n = kf.active();
+        // (row x, sqrt(row P row^T)) over the active block.
         let comb = |row: &StateRow<T>| {
-            let v = (row * p * row.transpose())[0];
-            ((row * x)[0], v.max(T::zero()).sqrt())
+            let (mut mean, mut var) = (T::zero(), T::zero());
+            for ((ri, xi), pi) in row.iter().zip(kf.x.iter()).zip(kf.P.iter()).take(n) {
+                mean += *ri * *xi;
+                let mut a = T::zero();
+                for (rj, pij) in row.iter().zip(pi.iter()).take(n) {
+                    a += *rj * *pij;
+                }
+                var += *ri * a;
+            }
+            (mean, var.max(T::zero()).sqrt())
         };
         let (da, sigma_da) = comb(accel_row);
         let (dw, sigma_dw) = comb(gyro_row);
+        let x = |i: usize| kf.x.get(i).copied().unwrap_or_else(T::zero);
+        let sd = |i: usize| {
+            let p = kf.P.get(i).and_then(|r| r.get(i)).copied();
+            p.unwrap_or_else(T::zero).max(T::zero()).sqrt()
+        };
         let (dv, dl) = (idx::DV, idx::DELTA);
         Estimates {
-            dv: x[dv] * s[dv],
-            delta: x[dl] * s[dl],
+            dv: x(dv) * s[dv],
+            delta: x(dl) * s[dl],
             da,
             dw,
-            sigma_dv: p[(dv, dv)].max(T::zero()).sqrt() * s[dv],
-            sigma_delta: p[(dl, dl)].max(T::zero()).sqrt() * s[dl],
+            sigma_dv: sd(dv) * s[dv],
+            sigma_delta: sd(dl) * s[dl],
             sigma_da,
             sigma_dw,
         }
@@ -76,10 +90,14 @@ pub struct InsFilter<T: Real> {
     model: InsModel<T>,
     scale: Scaling<T>,
     sys: Continuous<T>,
-    disc: Discrete<T>,
+    /// `(Phi, Qd)` over the active states (row-major, the kernel's form).
+    phi: Arr<T, NX>,
+    qd: Arr<T, NX>,
+    h: [T; NX],
+    p0: Arr<T, NX>,
     accel_row: StateRow<T>,
     gyro_row: StateRow<T>,
-    ekf: Ekf<T>,
+    kf: Kalman<T, NX>,
     gate: Option<T>,
 }
 
@@ -88,18 +106,23 @@ impl<T: Real> InsFilter<T> {
     /// starts from a zero estimate with the model's initial covariance.
     pub fn new(model: InsModel<T>) -> Result<Self, ModelError> {
         let scale = model.scaling()?;
-        let (sys, disc) = model.discretise(&scale)?;
+        let sys = model.continuous(&scale)?;
+        let (phi, qd) = model.discretise_block(&scale)?;
         let accel_row = model.output_row(Sensor::Accel, &scale)?;
         let gyro_row = model.output_row(Sensor::Gyro, &scale)?;
-        let ekf = Ekf::new(StateVec::zeros(), sys.P0, sys.n);
+        let p0 = from_mat(&sys.P0);
+        let kf = Kalman::new(&p0, sys.n);
         Ok(Self {
             model,
             scale,
+            h: from_vec(&sys.H),
             sys,
-            disc,
+            phi,
+            qd,
+            p0,
             accel_row,
             gyro_row,
-            ekf,
+            kf,
             gate: None,
         })
     }
@@ -111,11 +134,15 @@ impl<T: Real> InsFilter<T> {
         if model.layout()? != self.model.layout()? {
             return Err(ModelError::TooManyStates);
         }
-        let (sys, disc) = model.discretise(&self.scale)?;
+        let sys = model.continuous(&self.scale)?;
+        let (phi, qd) = model.discretise_block(&self.scale)?;
         self.accel_row = model.output_row(Sensor::Accel, &self.scale)?;
         self.gyro_row = model.output_row(Sensor::Gyro, &self.scale)?;
+        self.h = from_vec(&sys.H);
+        self.p0 = from_mat(&sys.P0);
         self.sys = sys;
-        self.disc = disc;
+        self.phi = phi;
+        self.qd = qd;
         self.model = model;
         Ok(())
     }
@@ -135,9 +162,9 @@ impl<T: Real> InsFilter<T> {
         &self.scale
     }
 
-    /// The underlying filter, in scaled states.
-    pub fn ekf(&self) -> &Ekf<T> {
-        &self.ekf
+    /// The underlying Kalman filter, in scaled states.
+    pub fn kalman(&self) -> &Kalman<T, NX> {
+        &self.kf
     }
 
     /// The continuous system, in scaled states.
@@ -145,20 +172,20 @@ impl<T: Real> InsFilter<T> {
         &self.sys
     }
 
-    /// The discrete system, in scaled states.
-    pub fn discrete(&self) -> &Discrete<T> {
-        &self.disc
+    /// The discrete system `(Phi, Qd)` over the active states, in scaled states.
+    pub fn discrete(&self) -> (&Arr<T, NX>, &Arr<T, NX>) {
+        (&self.phi, &self.qd)
     }
 
     /// Propagates one step `dt`.
     pub fn predict(&mut self) {
-        self.ekf.predict(&self.disc.Phi, &self.disc.Qd);
+        self.kf.predict(&self.phi, &self.qd);
     }
 
     /// Uses one velocity observation `z` [m/s] (NaN: missing).
     pub fn update(&mut self, z: T) -> Innovation<T> {
         let r = self.model.sigma_v * self.model.sigma_v;
-        self.ekf.update(z, &self.sys.H, r, self.gate)
+        self.kf.update(z, &self.h, r, self.gate)
     }
 
     /// One filter cycle: predict to the observation time, then update.
@@ -170,28 +197,22 @@ impl<T: Real> InsFilter<T> {
     /// Repairs `P` if it lost positive definiteness (reset to the initial covariance).
     /// Returns true if a repair was made.
     pub fn repair(&mut self) -> bool {
-        self.ekf.repair(&self.sys.P0)
+        self.kf.repair(&self.p0)
     }
 
     /// Current estimates in SI units.
     pub fn estimates(&self) -> Estimates<T> {
-        Estimates::from_scaled(
-            &self.ekf.x,
-            &self.ekf.P,
-            &self.scale,
-            &self.accel_row,
-            &self.gyro_row,
-        )
+        Estimates::from_kalman(&self.kf, &self.scale, &self.accel_row, &self.gyro_row)
     }
 
     /// Physical covariance `S P S`.
     pub fn covariance_si(&self) -> StateMat<T> {
         let s = StateMat::from_diagonal(&self.scale);
-        s * self.ekf.P * s
+        s * self.kf.covariance() * s
     }
 
     /// Physical state estimate `S x`.
     pub fn state_si(&self) -> StateVec<T> {
-        self.ekf.x.component_mul(&self.scale)
+        self.kf.state().component_mul(&self.scale)
     }
 }

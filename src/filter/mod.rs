@@ -1,7 +1,11 @@
-//! The fixed-size Kalman filter ([`Ekf`]) and the INS error filter built on it ([`InsFilter`]).
+//! The one Kalman kernel ([`Kalman`]) and the one-channel INS error filter built on it
+//! ([`InsFilter`]).
 
-pub mod ekf;
+pub mod error_state;
 pub mod ins_filter;
+pub mod kalman;
 
-pub use ekf::{is_positive_definite, Ekf, Innovation, UpdateStatus};
+pub use crate::linalg::is_positive_definite;
+pub use error_state::{AxisStatus, ErrorStateFilter, Fused};
 pub use ins_filter::{Estimates, InsFilter};
+pub use kalman::{Innovation, Kalman, UpdateStatus};

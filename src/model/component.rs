@@ -8,7 +8,29 @@ use crate::model::{ExpCosine, GaussMarkov, ModelError, RandomConstant, RandomWal
 use crate::Real;
 use nalgebra::{Matrix2, RowVector2};
 
-/// The kinds a sensor error may be built from; the names match the model-TOML `kind` field.
+/// The kinds a sensor error may be built from: the crate's one table of component kinds. The
+/// model TOML, the binary model file, the telemetry records, the identification bank and the
+/// reports all read kinds, names, codes and parameters from here.
+///
+/// | kind | name | code | quantities (file order) | identified online | telemetry `(tau, sigma, beta)` |
+/// |---|---|---|---|---|---|
+/// | Gauss-Markov | `gauss-markov` | 0 | sigma, tau | sigma, tau | tau, sigma, - |
+/// | exponential-cosine | `exp-cosine` | 1 | sigma, tau, beta | sigma, tau | tau, sigma, beta |
+/// | random walk | `random-walk` | 2 | q, sigma0 | q | -, sqrt(q), - |
+/// | random constant | `random-constant` | 3 | sigma | - | -, sigma, - |
+/// | white noise | `white` | 4 | density | density | -, density, - |
+///
+/// ```
+/// use imu_ident::model::{Component, ComponentKind, GaussMarkov, Quantity};
+/// for k in ComponentKind::ALL {
+///     assert_eq!(ComponentKind::from_code(k.code()), Some(k));
+///     assert_eq!(ComponentKind::from_name(k.name()), Some(k));
+/// }
+/// let mut c = Component::GaussMarkov(GaussMarkov { sigma: 1e-3, tau: 100.0 });
+/// assert!(c.set(Quantity::Tau, 50.0));
+/// assert_eq!(c.get(Quantity::Tau), Some(50.0));
+/// assert_eq!(c.get(Quantity::Beta), None);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ComponentKind {
@@ -24,7 +46,48 @@ pub enum ComponentKind {
     White,
 }
 
+/// A named parameter of a component.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Quantity {
+    /// Stationary standard deviation (Gauss-Markov, exponential-cosine, random constant).
+    Sigma,
+    /// Correlation time `tau = 1/alpha` [s].
+    Tau,
+    /// Oscillation frequency `beta` [rad/s] (exponential-cosine).
+    Beta,
+    /// Random-walk intensity `q` [unit^2/s].
+    Q,
+    /// Initial standard deviation of a random walk.
+    Sigma0,
+    /// White-noise density [unit sqrt(s)].
+    Density,
+}
+
+impl Quantity {
+    /// The model-TOML spelling.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Sigma => "sigma",
+            Self::Tau => "tau",
+            Self::Beta => "beta",
+            Self::Q => "q",
+            Self::Sigma0 => "sigma0",
+            Self::Density => "density",
+        }
+    }
+}
+
 impl ComponentKind {
+    /// Every kind, in code order.
+    pub const ALL: [Self; 5] = [
+        Self::GaussMarkov,
+        Self::ExpCosine,
+        Self::RandomWalk,
+        Self::RandomConstant,
+        Self::White,
+    ];
+
     /// The model-TOML spelling of the kind.
     pub const fn name(self) -> &'static str {
         match self {
@@ -35,6 +98,85 @@ impl ComponentKind {
             Self::White => "white",
         }
     }
+
+    /// The kind spelled `name` in a model TOML.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// Code of the kind in the binary model file and the telemetry frames.
+    pub const fn code(self) -> u8 {
+        match self {
+            Self::GaussMarkov => 0,
+            Self::ExpCosine => 1,
+            Self::RandomWalk => 2,
+            Self::RandomConstant => 3,
+            Self::White => 4,
+        }
+    }
+
+    /// The kind of a code.
+    pub fn from_code(code: u8) -> Option<Self> {
+        Self::ALL.get(usize::from(code)).copied()
+    }
+
+    /// The quantities that define a component of this kind, in file order.
+    pub const fn quantities(self) -> &'static [Quantity] {
+        match self {
+            Self::GaussMarkov => &[Quantity::Sigma, Quantity::Tau],
+            Self::ExpCosine => &[Quantity::Sigma, Quantity::Tau, Quantity::Beta],
+            Self::RandomWalk => &[Quantity::Q, Quantity::Sigma0],
+            Self::RandomConstant => &[Quantity::Sigma],
+            Self::White => &[Quantity::Density],
+        }
+    }
+
+    /// The quantities the online identification estimates (in the logarithm), in `theta`
+    /// order. A random constant has no intensity to identify; beta is held (issue 13).
+    pub const fn identified(self) -> &'static [Quantity] {
+        match self {
+            Self::GaussMarkov | Self::ExpCosine => &[Quantity::Sigma, Quantity::Tau],
+            Self::RandomWalk => &[Quantity::Q],
+            Self::White => &[Quantity::Density],
+            Self::RandomConstant => &[],
+        }
+    }
+
+    /// A component of this kind from its quantities in file order (missing ones zero). Not
+    /// validated: the filter validates when it is built.
+    pub fn with_quantities<T: Real>(self, v: &[T]) -> Component<T> {
+        let g = |i: usize| v.get(i).copied().unwrap_or_else(T::zero);
+        match self {
+            Self::GaussMarkov => Component::GaussMarkov(GaussMarkov {
+                sigma: g(0),
+                tau: g(1),
+            }),
+            Self::ExpCosine => Component::ExpCosine(ExpCosine {
+                sigma: g(0),
+                tau: g(1),
+                beta: g(2),
+            }),
+            Self::RandomWalk => Component::RandomWalk(RandomWalk {
+                q: g(0),
+                sigma0: g(1),
+            }),
+            Self::RandomConstant => Component::RandomConstant(RandomConstant { sigma: g(0) }),
+            Self::White => Component::White(WhiteNoise { density: g(0) }),
+        }
+    }
+}
+
+/// The telemetry summary of a component: correlation time, a standard deviation (the stationary
+/// one, `sqrt(q)` for a random walk, the density for white noise) and beta; `None` where the
+/// kind has no such quantity.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Summary<T> {
+    /// Correlation time [s].
+    pub tau: Option<T>,
+    /// Standard deviation (see above).
+    pub sigma: Option<T>,
+    /// Oscillation frequency [rad/s].
+    pub beta: Option<T>,
 }
 
 /// One component of a sensor error.
@@ -68,6 +210,76 @@ pub struct Block<T: Real> {
 }
 
 impl<T: Real> Component<T> {
+    /// The value of quantity `q`, `None` if this kind has no such quantity.
+    pub fn get(&self, q: Quantity) -> Option<T> {
+        match (*self, q) {
+            (Self::GaussMarkov(g), Quantity::Sigma) => Some(g.sigma),
+            (Self::GaussMarkov(g), Quantity::Tau) => Some(g.tau),
+            (Self::ExpCosine(e), Quantity::Sigma) => Some(e.sigma),
+            (Self::ExpCosine(e), Quantity::Tau) => Some(e.tau),
+            (Self::ExpCosine(e), Quantity::Beta) => Some(e.beta),
+            (Self::RandomWalk(r), Quantity::Q) => Some(r.q),
+            (Self::RandomWalk(r), Quantity::Sigma0) => Some(r.sigma0),
+            (Self::RandomConstant(r), Quantity::Sigma) => Some(r.sigma),
+            (Self::White(w), Quantity::Density) => Some(w.density),
+            _ => None,
+        }
+    }
+
+    /// Sets quantity `q`; false (nothing changed) if this kind has no such quantity.
+    pub fn set(&mut self, q: Quantity, v: T) -> bool {
+        let slot = match (self, q) {
+            (Self::GaussMarkov(g), Quantity::Sigma) => &mut g.sigma,
+            (Self::GaussMarkov(g), Quantity::Tau) => &mut g.tau,
+            (Self::ExpCosine(e), Quantity::Sigma) => &mut e.sigma,
+            (Self::ExpCosine(e), Quantity::Tau) => &mut e.tau,
+            (Self::ExpCosine(e), Quantity::Beta) => &mut e.beta,
+            (Self::RandomWalk(r), Quantity::Q) => &mut r.q,
+            (Self::RandomWalk(r), Quantity::Sigma0) => &mut r.sigma0,
+            (Self::RandomConstant(r), Quantity::Sigma) => &mut r.sigma,
+            (Self::White(w), Quantity::Density) => &mut w.density,
+            _ => return false,
+        };
+        *slot = v;
+        true
+    }
+
+    /// The telemetry summary `(tau, sigma, beta)` (see [`Summary`]).
+    pub fn summary(&self) -> Summary<T> {
+        let sigma = match *self {
+            Self::RandomWalk(r) => Some(r.q.max(T::zero()).sqrt()),
+            Self::White(w) => Some(w.density),
+            _ => self.get(Quantity::Sigma),
+        };
+        Summary {
+            tau: self.get(Quantity::Tau),
+            sigma,
+            beta: self.get(Quantity::Beta),
+        }
+    }
+
+    /// Sets the quantities a telemetry summary carries (the inverse of [`summary`]; a random
+    /// walk's `q` becomes `sigma^2`). Absent entries are left as they are.
+    ///
+    /// [`summary`]: Self::summary
+    pub fn set_summary(&mut self, s: &Summary<T>) {
+        if let Some(t) = s.tau {
+            self.set(Quantity::Tau, t);
+        }
+        if let Some(b) = s.beta {
+            self.set(Quantity::Beta, b);
+        }
+        if let Some(v) = s.sigma {
+            match self {
+                Self::RandomWalk(r) => r.q = v * v,
+                Self::White(w) => w.density = v,
+                _ => {
+                    self.set(Quantity::Sigma, v);
+                }
+            }
+        }
+    }
+
     /// The same component in another precision.
     pub fn cast<U: Real>(&self) -> Component<U> {
         let c = |x: T| U::lit(x.as_f64());

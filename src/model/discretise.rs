@@ -6,7 +6,9 @@
 //!
 //! nalgebra's `Matrix::exp` needs `std`, and the firmware re-discretises whenever the
 //! identified parameters change, so this is a fixed-size scaling-and-squaring evaluation that
-//! needs only `NX x NX` products (no `2NX` Van Loan block matrix):
+//! needs only `N x N` products (no `2N` Van Loan block matrix), over the leading `n` active
+//! states only (`n^3` multiply-adds per product instead of `N^3`; inactive rows and columns of
+//! `A` and `Qc` are zero, so the block result is exact):
 //!
 //! 1. choose `h = dt / 2^s` with `||A h||_1 <= 1/4`;
 //! 2. Taylor series at `h`: `Phi_h = sum (A h)^k / k!`, and, because the integrand
@@ -16,20 +18,24 @@
 //!
 //! With `||A h|| <= 1/4` the series terms shrink at least as `(1/2)^k / k!`, so [`taylor_order`]
 //! terms put the truncation error below the working precision's epsilon. The result is checked
-//! against an independent 2NX Van Loan exponential and a 1 ms fine-step reference in the tests.
+//! against an independent 2N Van Loan exponential and a 1 ms fine-step reference in the tests.
+//!
+//! This is the crate's one discretisation: [`discretise_block`] on row-major arrays (the
+//! filters' form) and [`discretise`] on nalgebra matrices (all states active) share it.
 
-use crate::model::ins::{StateMat, NX};
+use crate::linalg::{axpy, from_mat, mul, mul_t_sym, to_mat, transpose, zeros, Arr};
 use crate::model::ModelError;
 use crate::Real;
+use nalgebra::SMatrix;
 
 /// A discrete-time transition and its process-noise covariance.
 #[allow(non_snake_case)]
 #[derive(Debug, Clone, PartialEq)]
-pub struct Discrete<T: Real> {
+pub struct Discrete<T: Real, const N: usize> {
     /// Transition matrix `Phi = exp(A dt)`.
-    pub Phi: StateMat<T>,
+    pub Phi: SMatrix<T, N, N>,
     /// Process-noise covariance `Qd`.
-    pub Qd: StateMat<T>,
+    pub Qd: SMatrix<T, N, N>,
 }
 
 /// Largest number of halvings (`2^40` covers `||A dt||` up to 2.7e11).
@@ -45,35 +51,49 @@ pub fn taylor_order<T: Real>() -> usize {
     }
 }
 
-/// Maximum absolute column sum.
-fn norm1<T: Real>(m: &StateMat<T>) -> T {
-    let mut best = T::zero();
-    for j in 0..NX {
-        let mut s = T::zero();
-        for i in 0..NX {
-            s += m[(i, j)].abs();
-        }
-        best = best.max(s);
-    }
-    best
+/// Exact `(Phi, Qd)` of the continuous system `(A, Qc)` over `dt`, all `N` states active.
+#[allow(non_snake_case)]
+pub fn discretise<T: Real, const N: usize>(
+    A: &SMatrix<T, N, N>,
+    Qc: &SMatrix<T, N, N>,
+    dt: T,
+) -> Result<Discrete<T, N>, ModelError> {
+    let (phi, qd) = discretise_block(&from_mat(A), &from_mat(Qc), dt, N)?;
+    Ok(Discrete {
+        Phi: to_mat(&phi),
+        Qd: to_mat(&qd),
+    })
 }
 
-/// Exact `(Phi, Qd)` of the continuous system `(A, Qc)` over `dt`.
+/// `Phi = exp(A dt)` and `Qd = int_0^dt exp(A s) Qc exp(A^T s) ds` over the leading `n` states,
+/// as row-major arrays `(Phi, Qd)` (zero outside the block).
 #[allow(non_snake_case)]
-pub fn discretise<T: Real>(
-    A: &StateMat<T>,
-    Qc: &StateMat<T>,
+pub fn discretise_block<T: Real, const N: usize>(
+    A: &Arr<T, N>,
+    Qc: &Arr<T, N>,
     dt: T,
-) -> Result<Discrete<T>, ModelError> {
+    n: usize,
+) -> Result<(Arr<T, N>, Arr<T, N>), ModelError> {
+    let n = n.min(N);
     if !(dt.is_finite() && dt > T::zero()) {
         return Err(ModelError::BadDt);
     }
-    let norm = norm1(A) * dt;
-    if !(norm.is_finite() && norm1(Qc).is_finite()) {
+    // Largest absolute column sum of each block (the 1-norm).
+    let mut col = [T::zero(); N];
+    let mut qcol = [T::zero(); N];
+    for (ra, rq) in A.iter().zip(Qc.iter()).take(n) {
+        for (((c, q), x), y) in col.iter_mut().zip(qcol.iter_mut()).zip(ra).zip(rq).take(n) {
+            *c += x.abs();
+            *q += y.abs();
+        }
+    }
+    let norm = col.iter().fold(T::zero(), |m, v| m.max(*v));
+    let qnorm = qcol.iter().fold(T::zero(), |m, v| m.max(*v));
+    let mut scaled = norm * dt;
+    if !(scaled.is_finite() && qnorm.is_finite()) {
         return Err(ModelError::NonFinite);
     }
     let mut s = 0u32;
-    let mut scaled = norm;
     while scaled > T::lit(0.25) {
         if s >= MAX_SQUARINGS {
             return Err(ModelError::NonFinite);
@@ -81,32 +101,62 @@ pub fn discretise<T: Real>(
         scaled *= T::lit(0.5);
         s += 1;
     }
-    let h = dt / T::lit(libm::exp2(s as f64));
-    let Ah = A * h;
+    let h = dt / T::lit(libm::exp2(f64::from(s)));
     let order = taylor_order::<T>();
-
-    // Phi_h by Horner: I + Ah (I + Ah/2 (I + Ah/3 (...))).
-    let eye = StateMat::<T>::identity();
-    let mut phi = eye;
+    let mut ah = *A;
+    for row in ah.iter_mut().take(n) {
+        for v in row.iter_mut().take(n) {
+            *v *= h;
+        }
+    }
+    // Phi_h = I + Ah (I + Ah/2 (I + Ah/3 (...))) (Horner).
+    let mut phi = zeros();
+    for (i, row) in phi.iter_mut().enumerate().take(n) {
+        row[i] = T::one();
+    }
     for k in (1..=order).rev() {
-        phi = eye + (Ah * phi) / T::lit(k as f64);
+        let inv_k = T::one() / T::lit(k as f64);
+        let m = mul(&ah, &phi, n);
+        for (i, (pr, mr)) in phi.iter_mut().zip(m.iter()).enumerate().take(n) {
+            for (j, (p, v)) in pr.iter_mut().zip(mr.iter()).enumerate().take(n) {
+                *p = *v * inv_k + if i == j { T::one() } else { T::zero() };
+            }
+        }
     }
-
-    // Q_h = sum_k C_k h^{k+1}/(k+1)!, accumulated with coefficient c = h^{k+1}/(k+1)!.
-    let mut c_k = *Qc;
+    // Q_h = sum_k C_k h^{k+1} / (k+1)!, C_0 = Qc, C_k = A C_{k-1} + (A C_{k-1})^T.
+    let mut c = *Qc;
     let mut coef = h;
-    let mut q = c_k * coef;
+    let mut q = zeros();
+    add_scaled(&mut q, &c, coef, n);
     for k in 1..=order {
-        let ac = A * c_k;
-        c_k = ac + ac.transpose();
+        let ac = mul(A, &c, n);
+        let act = transpose(&ac);
+        for ((cr, ar), tr) in c.iter_mut().zip(ac.iter()).zip(act.iter()).take(n) {
+            for ((v, x), y) in cr.iter_mut().zip(ar.iter()).zip(tr.iter()).take(n) {
+                *v = *x + *y;
+            }
+        }
         coef = coef * h / T::lit((k + 1) as f64);
-        q += c_k * coef;
+        add_scaled(&mut q, &c, coef, n);
     }
-
     for _ in 0..s {
-        q = phi * q * phi.transpose() + q;
-        phi = phi * phi;
+        let pq = mul(&phi, &q, n);
+        q = mul_t_sym(&pq, &phi, &q, n);
+        phi = mul(&phi, &phi, n);
     }
-    let q = (q + q.transpose()) * T::lit(0.5);
-    Ok(Discrete { Phi: phi, Qd: q })
+    // Symmetrise (the series is symmetric term by term; this removes rounding asymmetry).
+    let qt = transpose(&q);
+    for (qr, tr) in q.iter_mut().zip(qt.iter()).take(n) {
+        for (v, t) in qr.iter_mut().zip(tr.iter()).take(n) {
+            *v = (*v + *t) * T::lit(0.5);
+        }
+    }
+    Ok((phi, q))
+}
+
+/// `q += k c` over the leading block.
+fn add_scaled<T: Real, const N: usize>(q: &mut Arr<T, N>, c: &Arr<T, N>, k: T, n: usize) {
+    for (qr, cr) in q.iter_mut().zip(c.iter()).take(n) {
+        axpy(qr, k, cr, n);
+    }
 }

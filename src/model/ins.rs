@@ -17,7 +17,8 @@
 //! precision away from underflow in products such as `P_dw^2` (about 1e-25 in SI units) and the
 //! Van Loan series terms. Powers of two make the scaling itself exact.
 
-use crate::model::discretise::{discretise, Discrete};
+use crate::linalg::{from_mat, Arr, At};
+use crate::model::discretise::{discretise, discretise_block, Discrete};
 use crate::model::{Component, GaussMarkov, ModelError};
 use crate::Real;
 use heapless::Vec;
@@ -50,44 +51,6 @@ pub type StateVec<T> = SVector<T, NX>;
 pub type StateMat<T> = SMatrix<T, NX, NX>;
 /// An observation row.
 pub type StateRow<T> = RowSVector<T, NX>;
-
-/// Element access without a panic path, for loops whose indices stay below `n <= NX` (which
-/// the optimiser does not always prove, leaving nalgebra's bounds check and its panic in the
-/// firmware; see RELIABILITY.md, "Panic-free firmware, proved at link time"). Outside the
-/// matrix a read gives zero and a write does nothing: never the case for these callers.
-pub trait At<T> {
-    /// `self[(i, j)]`, zero outside.
-    fn at(&self, i: usize, j: usize) -> T;
-    /// `self[(i, j)] = v`, nothing outside.
-    fn set_at(&mut self, i: usize, j: usize, v: T);
-    /// `self[k]` (column-major linear index: the `k`-th entry of a vector), zero outside.
-    fn el(&self, k: usize) -> T;
-    /// `self[k] = v`, nothing outside.
-    fn set_el(&mut self, k: usize, v: T);
-}
-
-impl<T: Real, const R: usize, const C: usize> At<T> for SMatrix<T, R, C> {
-    #[inline(always)]
-    fn at(&self, i: usize, j: usize) -> T {
-        self.get((i, j)).copied().unwrap_or_else(T::zero)
-    }
-    #[inline(always)]
-    fn set_at(&mut self, i: usize, j: usize, v: T) {
-        if let Some(e) = self.get_mut((i, j)) {
-            *e = v;
-        }
-    }
-    #[inline(always)]
-    fn el(&self, k: usize) -> T {
-        self.get(k).copied().unwrap_or_else(T::zero)
-    }
-    #[inline(always)]
-    fn set_el(&mut self, k: usize, v: T) {
-        if let Some(e) = self.get_mut(k) {
-            *e = v;
-        }
-    }
-}
 
 /// Which error source a component belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -390,10 +353,20 @@ impl<T: Real> InsModel<T> {
     pub fn discretise(
         &self,
         scale: &Scaling<T>,
-    ) -> Result<(Continuous<T>, Discrete<T>), ModelError> {
+    ) -> Result<(Continuous<T>, Discrete<T, NX>), ModelError> {
         let c = self.continuous(scale)?;
         let d = discretise(&c.A, &c.Qc, self.dt)?;
         Ok((c, d))
+    }
+
+    /// The same discretisation over the active states only, as the filters' row-major arrays
+    /// `(Phi, Qd)` (what the fixed filter and every identification-bank member run on).
+    pub fn discretise_block(
+        &self,
+        scale: &Scaling<T>,
+    ) -> Result<(Arr<T, NX>, Arr<T, NX>), ModelError> {
+        let c = self.continuous(scale)?;
+        discretise_block(&from_mat(&c.A), &from_mat(&c.Qc), self.dt, c.n)
     }
 
     /// Row that extracts one sensor's total error (sum over its components) from the scaled
@@ -428,4 +401,55 @@ pub fn pow2_near<T: Real>(x: T) -> T {
     }
     let e = libm::round(libm::log2(x.as_f64())).clamp(-120.0, 120.0);
     T::lit(libm::exp2(e))
+}
+
+impl<T: Real> crate::model::ErrorModel<T, NX, 1> for InsModel<T> {
+    fn dt(&self) -> T {
+        self.dt
+    }
+
+    fn scaling(&self) -> Result<[T; NX], ModelError> {
+        InsModel::scaling(self).map(|s| crate::linalg::from_vec(&s.transpose()))
+    }
+
+    #[allow(non_snake_case)]
+    fn system(
+        &self,
+        scale: &[T; NX],
+    ) -> Result<crate::model::ContinuousSystem<T, NX, 1>, ModelError> {
+        let c = self.continuous(&crate::linalg::to_vec(scale))?;
+        Ok(crate::model::ContinuousSystem {
+            A: from_mat(&c.A),
+            Qc: from_mat(&c.Qc),
+            P0: from_mat(&c.P0),
+            H: [crate::linalg::from_vec(&c.H)],
+            R: [self.sigma_v * self.sigma_v],
+            n: c.n,
+        })
+    }
+
+    fn blocks(&self, f: &mut dyn FnMut(crate::model::StateBlock)) {
+        let nav = |name, start| crate::model::StateBlock {
+            name,
+            start,
+            width: 1,
+            component: None,
+        };
+        f(nav("vel", idx::DV as u8));
+        f(nav("tilt", idx::DELTA as u8));
+        if let Ok(layout) = self.layout() {
+            for slot in layout.iter().filter(|s| s.states > 0) {
+                f(crate::model::StateBlock {
+                    name: slot.sensor.name(),
+                    start: slot.start as u8,
+                    width: slot.states as u8,
+                    component: self.component(slot).map(|c| c.kind()),
+                });
+            }
+        }
+    }
+
+    fn same_layout(&self, other: &Self) -> bool {
+        matches!((self.layout(), other.layout()), (Ok(a), Ok(b)) if a == b)
+    }
 }

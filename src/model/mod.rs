@@ -8,6 +8,7 @@
 
 pub mod component;
 pub mod discretise;
+pub mod error_model;
 pub mod exp_cosine;
 pub mod gauss_markov;
 pub mod ins;
@@ -16,11 +17,12 @@ pub mod random_walk;
 pub mod white;
 pub mod wire;
 
-pub use component::{Component, ComponentKind};
+pub use component::{Component, ComponentKind, Quantity, Summary};
 pub use discretise::Discrete;
+pub use error_model::{ContinuousSystem, ErrorModel, StateBlock};
 pub use exp_cosine::ExpCosine;
 pub use gauss_markov::GaussMarkov;
-pub use ins::{idx, At, InsModel, Scaling, Sensor, StateMat, StateRow, StateVec, NX};
+pub use ins::{idx, InsModel, Scaling, Sensor, StateMat, StateRow, StateVec, NX};
 pub use random_constant::RandomConstant;
 pub use random_walk::RandomWalk;
 pub use white::WhiteNoise;

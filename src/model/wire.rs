@@ -14,7 +14,7 @@
 //!
 //! Component fields `a, b, c`: Gauss-Markov `sigma, tau, 0`; exponential-cosine
 //! `sigma, tau, beta`; random walk `q, sigma0, 0`; random constant `sigma, 0, 0`; white `density, 0, 0`.
-//! Kinds are coded as in [`kind_code`](crate::navigator::records::kind_code).
+//! Kinds are coded as in the kind table, [`ComponentKind::code`].
 //!
 //! ```
 //! use imu_ident::model::wire::{decode, encode, MAX_LEN};
@@ -27,12 +27,8 @@
 //! ```
 
 use super::ins::{MAX_COLORED, MAX_COMPONENTS};
-use super::{
-    Component, ComponentKind, ExpCosine, GaussMarkov, InsModel, RandomConstant, RandomWalk,
-    WhiteNoise,
-};
-use crate::navigator::records::kind_code;
-use crate::replay::Crc32;
+use super::{Component, ComponentKind, GaussMarkov, InsModel};
+use crate::crc::Crc32;
 use crate::Real;
 
 /// First four bytes.
@@ -86,16 +82,14 @@ impl Out<'_> {
     }
 }
 
+/// The kind code and the quantities of `c` in file order (the kind table), padded with zeros.
 fn fields(c: &Component<f64>) -> (u8, [f64; 3]) {
-    let k = kind_code(c.kind());
-    let v = match c {
-        Component::GaussMarkov(g) => [g.sigma, g.tau, 0.0],
-        Component::ExpCosine(e) => [e.sigma, e.tau, e.beta],
-        Component::RandomWalk(r) => [r.q, r.sigma0, 0.0],
-        Component::RandomConstant(r) => [r.sigma, 0.0, 0.0],
-        Component::White(w) => [w.density, 0.0, 0.0],
-    };
-    (k, v)
+    let kind = c.kind();
+    let mut v = [0.0; 3];
+    for (o, q) in v.iter_mut().zip(kind.quantities()) {
+        *o = c.get(*q).unwrap_or(0.0);
+    }
+    (kind.code(), v)
 }
 
 /// Writes `model` with the option `adapt` into `out`; returns the number of bytes.
@@ -150,24 +144,8 @@ impl In<'_> {
 }
 
 fn component<T: Real>(kind: u8, a: T, b: T, c: T) -> Result<Component<T>, WireError> {
-    let k = [
-        ComponentKind::GaussMarkov,
-        ComponentKind::ExpCosine,
-        ComponentKind::RandomWalk,
-        ComponentKind::RandomConstant,
-        ComponentKind::White,
-    ];
-    Ok(match k.get(usize::from(kind)).ok_or(WireError::BadField)? {
-        ComponentKind::GaussMarkov => Component::GaussMarkov(GaussMarkov { sigma: a, tau: b }),
-        ComponentKind::ExpCosine => Component::ExpCosine(ExpCosine {
-            sigma: a,
-            tau: b,
-            beta: c,
-        }),
-        ComponentKind::RandomWalk => Component::RandomWalk(RandomWalk { q: a, sigma0: b }),
-        ComponentKind::RandomConstant => Component::RandomConstant(RandomConstant { sigma: a }),
-        ComponentKind::White => Component::White(WhiteNoise { density: a }),
-    })
+    let kind = ComponentKind::from_code(kind).ok_or(WireError::BadField)?;
+    Ok(kind.with_quantities(&[a, b, c]))
 }
 
 /// Reads a model (in precision `T`) and its `adapt` option. Values are not validated here: the
@@ -219,6 +197,7 @@ pub fn decode<T: Real>(bytes: &[u8]) -> Result<(InsModel<T>, bool), WireError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::{ExpCosine, RandomConstant, RandomWalk, WhiteNoise};
 
     #[test]
     fn round_trip_with_every_kind_and_corruption_detected() {

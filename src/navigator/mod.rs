@@ -49,9 +49,9 @@
 // The engine enum holds either filter by value (no heap); its size is the adaptive one.
 #![allow(clippy::large_enum_variant)]
 
-pub mod records;
+mod acf;
 
-pub use records::{model_params, AcfRecord, ParamRecord};
+pub use crate::telemetry::{model_params, AcfRecord, ParamRecord};
 
 use crate::adapt::{AdaptConfig, AdaptError, AdaptiveFilter, StepStatus};
 use crate::autocorr::Autocorrelator;
@@ -274,7 +274,7 @@ impl<T: Real> Navigator<T> {
     /// states (the leading block; the rest is zero).
     pub fn covariance_scaled(&self) -> (StateMat<T>, usize) {
         match &self.engine {
-            Engine::Fixed(f) => (f.ekf().P, f.ekf().active()),
+            Engine::Fixed(f) => (f.kalman().covariance(), f.kalman().active()),
             Engine::Adaptive(a) => (a.centre().covariance(), a.active()),
         }
     }
@@ -464,7 +464,7 @@ impl<T: Real> Navigator<T> {
     pub fn acf_identify(&self, sensor: Sensor, k: u32, t: f64) -> AcfRecord {
         let i = usize::from(sensor == Sensor::Gyro);
         let (acf, pm) = (&self.acf[i], self.p_mean[i]);
-        records::acf_record(acf, pm, self.dt, sensor, k, t)
+        acf::acf_record(acf, pm, self.dt, sensor, k, t)
     }
 }
 

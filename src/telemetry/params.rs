@@ -1,10 +1,8 @@
-//! The records a [`Navigator`](super::Navigator) sends besides the per-tick
-//! [`Record`](crate::telemetry::Record): the model's parameters at each re-identification, and
-//! the paper's autocorrelation identification of the estimates.
+//! The records the 1 Hz step sends besides the per-tick [`Record`](super::Record): the model's
+//! parameters at each re-identification, and the paper's autocorrelation identification of the
+//! estimates.
 
-use super::EstimateAcf;
-use crate::ident::{lag1_corrected, sigma2, SampleAcf};
-use crate::model::{Component, ComponentKind, InsModel, Sensor};
+use crate::model::{ComponentKind, InsModel, Sensor, Summary};
 use crate::Real;
 
 /// One component of the model in use, sent at each re-identification (and at the first tick).
@@ -40,14 +38,13 @@ impl ParamRecord {
     /// Returns `false`, leaving `m` unchanged, when `m` has no such component or its kind
     /// differs from the record's.
     pub fn apply_to<T: Real>(&self, m: &mut InsModel<T>) -> bool {
-        let v = |x: f32| T::lit(f64::from(x));
-        let (tau, sigma, beta) = (v(self.tau), v(self.sigma), v(self.beta));
+        let v = |x: f32| x.is_finite().then(|| T::lit(f64::from(x)));
         let i = usize::from(self.component);
         if self.sensor == Sensor::Observation {
             return match m.colored.get_mut(i) {
                 Some(g) if self.kind == ComponentKind::GaussMarkov => {
-                    g.tau = tau;
-                    g.sigma = sigma;
+                    g.tau = T::lit(f64::from(self.tau));
+                    g.sigma = T::lit(f64::from(self.sigma));
                     true
                 }
                 _ => false,
@@ -61,20 +58,11 @@ impl ParamRecord {
         let Some(c) = comps.get_mut(i).filter(|c| c.kind() == self.kind) else {
             return false;
         };
-        match c {
-            Component::GaussMarkov(g) => {
-                g.tau = tau;
-                g.sigma = sigma;
-            }
-            Component::ExpCosine(e) => {
-                e.tau = tau;
-                e.sigma = sigma;
-                e.beta = beta;
-            }
-            Component::RandomWalk(r) => r.q = sigma * sigma,
-            Component::RandomConstant(r) => r.sigma = sigma,
-            Component::White(w) => w.density = sigma,
-        }
+        c.set_summary(&Summary {
+            tau: v(self.tau),
+            sigma: v(self.sigma),
+            beta: v(self.beta),
+        });
         true
     }
 }
@@ -114,17 +102,6 @@ pub const fn sensor_code(s: Sensor) -> u8 {
     }
 }
 
-/// Wire code of a component kind (its position in the model-TOML list of kinds).
-pub const fn kind_code(k: ComponentKind) -> u8 {
-    match k {
-        ComponentKind::GaussMarkov => 0,
-        ComponentKind::ExpCosine => 1,
-        ComponentKind::RandomWalk => 2,
-        ComponentKind::RandomConstant => 3,
-        ComponentKind::White => 4,
-    }
-}
-
 impl ParamRecord {
     /// Writes the record as one flat defmt frame (fields as in [`PARAM_WIRE_FIELDS`]; sensor
     /// and kind as their wire codes).
@@ -136,7 +113,7 @@ impl ParamRecord {
             self.t,
             sensor_code(self.sensor),
             self.component,
-            kind_code(self.kind),
+            self.kind.code(),
             self.tau,
             self.sigma,
             self.beta
@@ -166,22 +143,17 @@ pub fn model_params<T: Real>(m: &InsModel<T>, k: u32, t: f64, mut out: impl FnMu
     let nan = f32::NAN;
     for (sensor, comps) in [(Sensor::Accel, &m.accel), (Sensor::Gyro, &m.gyro)] {
         for (i, c) in comps.iter().enumerate() {
-            let (tau, sigma, beta) = match c {
-                Component::GaussMarkov(g) => (f(g.tau), f(g.sigma), nan),
-                Component::ExpCosine(e) => (f(e.tau), f(e.sigma), f(e.beta)),
-                Component::RandomConstant(r) => (nan, f(r.sigma), nan),
-                Component::RandomWalk(r) => (nan, f(r.q.sqrt()), nan),
-                Component::White(w) => (nan, f(w.density), nan),
-            };
+            let s = c.summary();
+            let g = |x: Option<T>| x.map_or(nan, f);
             out(&ParamRecord {
                 k,
                 t,
                 sensor,
                 component: i as u8,
                 kind: c.kind(),
-                tau,
-                sigma,
-                beta,
+                tau: g(s.tau),
+                sigma: g(s.sigma),
+                beta: g(s.beta),
             });
         }
     }
@@ -197,35 +169,4 @@ pub fn model_params<T: Real>(m: &InsModel<T>, k: u32, t: f64, mut out: impl FnMu
             beta: nan,
         });
     }
-}
-
-/// The identification of one sensor from its estimate autocorrelator and mean variance.
-pub(super) fn acf_record<T: Real>(
-    acf: &EstimateAcf<T>,
-    p_mean: T,
-    dt: T,
-    sensor: Sensor,
-    k: u32,
-    t: f64,
-) -> AcfRecord {
-    let mut r = [T::zero(); 2];
-    let mut out = AcfRecord {
-        k,
-        t,
-        sensor,
-        tau: f32::NAN,
-        sigma: f32::NAN,
-    };
-    // Only a full window: a partial one after start-up would report the transient.
-    if !acf.is_full() || acf.acf(&mut r).is_err() {
-        return out;
-    }
-    let n = acf.len() as u32;
-    if let Ok(a) = SampleAcf::new(&r, dt, n).and_then(|s| lag1_corrected(&s)) {
-        out.tau = (T::one() / a.alpha).as_f64() as f32;
-    }
-    if let Ok(v) = sigma2(r[0], p_mean) {
-        out.sigma = v.corrected.max(T::zero()).sqrt().as_f64() as f32;
-    }
-    out
 }

@@ -17,8 +17,14 @@
 //! Precision: time stays `f64` (an `f32` has a 1 s spacing at 1e7 s); everything else is `f32`,
 //! which is what the single-precision firmware computes and halves the bytes on the wire.
 
+pub mod params;
+
+pub use params::{
+    model_params, sensor_code, AcfRecord, ParamRecord, ACF_WIRE_TAG, PARAM_WIRE_FIELDS,
+    PARAM_WIRE_TAG,
+};
+
 use crate::filter::{Estimates, UpdateStatus};
-pub use crate::navigator::{AcfRecord, ParamRecord};
 use crate::Real;
 
 /// The observation was missing (NaN or infinite): the filter only predicted.

@@ -1,0 +1,257 @@
+//! A Kalman filter of any [`ErrorModel`]: exact discretisation, the one Kalman kernel, and
+//! vector observations fused as sequential scalar updates after a vector chi-square gate, with
+//! per-axis flags.
+//!
+//! ```
+//! use imu_ident::filter::{AxisStatus, ErrorStateFilter};
+//! use imu_ident::model::{InsModel, NX};
+//! let mut f = ErrorStateFilter::<f64, InsModel<f64>, NX, 1>::new(InsModel::paper()).unwrap();
+//! let fused = f.step(&[0.01], Some(30.0));
+//! assert_eq!(fused.axes[0], AxisStatus::Used);
+//! assert!(!fused.gated);
+//! let fused = f.step(&[f64::NAN], Some(30.0));
+//! assert_eq!(fused.axes[0], AxisStatus::Missing);
+//! ```
+//!
+//! # The vector gate
+//!
+//! With the `m` finite axes of an observation, `nu` their innovations and
+//! `S = H P H^T + R` (`m x m`, before any update), the NIS `nu^T S^-1 nu` is chi-square with `m`
+//! degrees of freedom under the model. The whole observation is withheld when it exceeds the
+//! gate for `m` degrees of freedom (the caller passes the quantile: `gate(m)`), so that a fault
+//! in one axis (a GNSS multipath jump in the north position) does not leak in through the
+//! others. Then the axes are fused one by one: the result equals the vector update for
+//! independent axes (diagonal `R`), and each scalar update is Joseph-form.
+
+use crate::filter::kalman::{Kalman, UpdateStatus};
+use crate::linalg::{cholesky, Arr};
+use crate::model::discretise::discretise_block;
+use crate::model::{ContinuousSystem, ErrorModel, ModelError};
+use crate::Real;
+use core::marker::PhantomData;
+
+/// What happened to one axis of a vector observation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum AxisStatus {
+    /// The axis was used.
+    Used,
+    /// The axis was NaN or infinite: missing.
+    Missing,
+    /// The vector gate rejected the observation: the axis was not used.
+    Gated,
+    /// The axis's innovation variance was not positive and finite: not used.
+    BadVariance,
+}
+
+/// The result of fusing one vector observation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Fused<T, const Z: usize> {
+    /// Per-axis status.
+    pub axes: [AxisStatus; Z],
+    /// Per-axis innovation `nu_i = z_i - H_i x` before the update (NaN when missing).
+    pub innovation: [T; Z],
+    /// Per-axis innovation variance `S_ii` before the update.
+    pub variance: [T; Z],
+    /// The vector NIS `nu^T S^-1 nu` over the finite axes (NaN if none or if `S` is not
+    /// positive definite).
+    pub nis: T,
+    /// Number of finite axes (the degrees of freedom of `nis`).
+    pub dof: usize,
+    /// The gate rejected the observation.
+    pub gated: bool,
+}
+
+/// A Kalman filter of an [`ErrorModel`] with `N` states and `Z` observation axes.
+#[derive(Debug, Clone)]
+pub struct ErrorStateFilter<T: Real, M, const N: usize, const Z: usize> {
+    model: M,
+    scale: [T; N],
+    sys: ContinuousSystem<T, N, Z>,
+    phi: Arr<T, N>,
+    qd: Arr<T, N>,
+    kf: Kalman<T, N>,
+    _t: PhantomData<T>,
+}
+
+impl<T: Real, M: ErrorModel<T, N, Z>, const N: usize, const Z: usize> ErrorStateFilter<T, M, N, Z> {
+    /// Validates `model`, chooses the scaling, discretises, and starts from a zero estimate
+    /// with the model's initial covariance.
+    pub fn new(model: M) -> Result<Self, ModelError> {
+        let scale = model.scaling()?;
+        let sys = model.system(&scale)?;
+        let (phi, qd) = discretise_block(&sys.A, &sys.Qc, model.dt(), sys.n)?;
+        let kf = Kalman::new(&sys.P0, sys.n);
+        Ok(Self {
+            model,
+            scale,
+            sys,
+            phi,
+            qd,
+            kf,
+            _t: PhantomData,
+        })
+    }
+
+    /// Replaces the model, keeping the estimate, covariance and scaling; the new model must
+    /// have the same layout ([`ModelError::TooManyStates`] otherwise, nothing changed).
+    pub fn set_model(&mut self, model: M) -> Result<(), ModelError> {
+        if !self.model.same_layout(&model) {
+            return Err(ModelError::TooManyStates);
+        }
+        let sys = model.system(&self.scale)?;
+        let (phi, qd) = discretise_block(&sys.A, &sys.Qc, model.dt(), sys.n)?;
+        self.sys = sys;
+        self.phi = phi;
+        self.qd = qd;
+        self.model = model;
+        Ok(())
+    }
+
+    /// The model in use.
+    pub fn model(&self) -> &M {
+        &self.model
+    }
+
+    /// The state scaling `S`.
+    pub fn scale(&self) -> &[T; N] {
+        &self.scale
+    }
+
+    /// The Kalman filter, in scaled states.
+    pub fn kalman(&self) -> &Kalman<T, N> {
+        &self.kf
+    }
+
+    /// The continuous system, in scaled states.
+    pub fn system(&self) -> &ContinuousSystem<T, N, Z> {
+        &self.sys
+    }
+
+    /// Propagates one step.
+    pub fn predict(&mut self) {
+        self.kf.predict(&self.phi, &self.qd);
+    }
+
+    /// Fuses the vector observation `z` (non-finite axes missing) after the vector gate
+    /// `gate(m)` on the NIS of its `m` finite axes (`None`: no gate).
+    pub fn update(&mut self, z: &[T; Z], gate: Option<&dyn Fn(usize) -> T>) -> Fused<T, Z> {
+        let nan = T::lit(f64::NAN);
+        let mut out = Fused {
+            axes: [AxisStatus::Missing; Z],
+            innovation: [nan; Z],
+            variance: [nan; Z],
+            nis: nan,
+            dof: 0,
+            gated: false,
+        };
+        // Innovations and their joint covariance over the finite axes, before any update.
+        let mut nu = [T::zero(); Z];
+        let mut s = [[T::zero(); Z]; Z];
+        let mut idx = [0usize; Z];
+        let mut m = 0;
+        for (i, zi) in z.iter().enumerate() {
+            let (v, var) = self.kf.innovation(*zi, &self.sys.H[i], self.sys.R[i]);
+            out.variance[i] = var;
+            if zi.is_finite() {
+                out.innovation[i] = v;
+                if let (Some(slot), Some(n)) = (idx.get_mut(m), nu.get_mut(m)) {
+                    *slot = i;
+                    *n = v;
+                    m += 1;
+                }
+            }
+        }
+        out.dof = m;
+        let n = self.kf.active();
+        for a in 0..m {
+            for b in 0..m {
+                let (ia, ib) = (idx[a], idx[b]);
+                let mut v = if ia == ib { self.sys.R[ia] } else { T::zero() };
+                // H_a P H_b^T over the active block.
+                for (k, hk) in self.sys.H[ia].iter().enumerate().take(n) {
+                    let mut ph = T::zero();
+                    for (l, hl) in self.sys.H[ib].iter().enumerate().take(n) {
+                        ph += self.kf.P[k][l] * *hl;
+                    }
+                    v += *hk * ph;
+                }
+                s[a][b] = v;
+            }
+        }
+        if m > 0 {
+            if let Some(l) = cholesky(&s, m) {
+                // nu^T S^-1 nu = |L^-1 nu|^2 (forward substitution).
+                let mut y = [T::zero(); Z];
+                let mut nis = T::zero();
+                for a in 0..m {
+                    let mut v = nu[a];
+                    for b in 0..a {
+                        v -= l[a][b] * y[b];
+                    }
+                    y[a] = v / l[a][a];
+                    nis += y[a] * y[a];
+                }
+                out.nis = nis;
+            }
+            if let Some(g) = gate {
+                // A NaN NIS (S not positive definite) fails the gate too.
+                let within = out.nis <= g(m);
+                if !within {
+                    out.gated = true;
+                    for &i in idx.iter().take(m) {
+                        out.axes[i] = AxisStatus::Gated;
+                    }
+                    return out;
+                }
+            }
+        }
+        for (i, zi) in z.iter().enumerate() {
+            if !zi.is_finite() {
+                continue;
+            }
+            let r = self.kf.update(*zi, &self.sys.H[i], self.sys.R[i], None);
+            out.axes[i] = match r.status {
+                UpdateStatus::Updated => AxisStatus::Used,
+                UpdateStatus::Missing => AxisStatus::Missing,
+                UpdateStatus::Gated => AxisStatus::Gated,
+                UpdateStatus::BadInnovationVariance => AxisStatus::BadVariance,
+            };
+        }
+        out
+    }
+
+    /// One cycle: predict, then fuse `z`.
+    pub fn step(&mut self, z: &[T; Z], gate: Option<T>) -> Fused<T, Z> {
+        self.predict();
+        match gate {
+            // One fixed threshold whatever the number of finite axes.
+            Some(g) => self.update(z, Some(&move |_| g)),
+            None => self.update(z, None),
+        }
+    }
+
+    /// Repairs `P` if it lost positive definiteness (reset to the initial covariance).
+    pub fn repair(&mut self) -> bool {
+        self.kf.repair(&self.sys.P0)
+    }
+
+    /// Physical state estimate `S x`.
+    pub fn state_si(&self) -> [T; N] {
+        let mut x = self.kf.x;
+        for (v, s) in x.iter_mut().zip(self.scale.iter()) {
+            *v *= *s;
+        }
+        x
+    }
+
+    /// Physical standard deviation of each state, `sqrt(P_ii) S_i`.
+    pub fn sigma_si(&self) -> [T; N] {
+        let mut out = [T::zero(); N];
+        for (i, (o, s)) in out.iter_mut().zip(self.scale.iter()).enumerate() {
+            let p = self.kf.P.get(i).and_then(|r| r.get(i)).copied();
+            *o = p.unwrap_or_else(T::zero).max(T::zero()).sqrt() * *s;
+        }
+        out
+    }
+}

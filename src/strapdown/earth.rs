@@ -1,0 +1,145 @@
+//! The WGS-84 Earth model of the NED mechanisation: radii of curvature, normal gravity, Earth
+//! rate and transport rate (Groves, *Principles of GNSS, Inertial and Multisensor Integrated
+//! Navigation Systems*, 2nd ed., §2.4 and §2.4.7; NIMA TR8350.2 for the constants).
+//!
+//! Every function is generic over [`Real`]: the host evaluates them in `f64`, the firmware in
+//! `f32` (the geodetic origin of [`Strapdown`](super::Strapdown) is evaluated in `f64` on both).
+//!
+//! Gravity is the normal (ellipsoidal) gravity along the local down axis only: its north
+//! component (below 1e-8 g below 10 km, Groves eq. 2.140) is neglected here *and* in the
+//! simulator of hal-sim, which calls these same functions.
+//!
+//! ```
+//! use imu_ident::strapdown::earth;
+//! // Somigliana at the equator and pole gives the defining values back.
+//! assert!((earth::normal_gravity(0.0f64, 0.0) - earth::GAMMA_E).abs() < 1e-12);
+//! let pole = core::f64::consts::FRAC_PI_2;
+//! assert!((earth::normal_gravity(pole, 0.0f64) - earth::GAMMA_P).abs() < 1e-9);
+//! ```
+
+use crate::Real;
+use nalgebra::Vector3;
+
+/// Semi-major axis `a` [m].
+pub const A: f64 = 6_378_137.0;
+/// Flattening `f`.
+pub const F: f64 = 1.0 / 298.257_223_563;
+/// Semi-minor axis `b = a (1 - f)` [m].
+pub const B: f64 = A * (1.0 - F);
+/// First eccentricity squared `e^2 = f (2 - f)`.
+pub const E2: f64 = F * (2.0 - F);
+/// Earth rotation rate `omega_ie` [rad/s].
+pub const OMEGA_IE: f64 = 7.292_115e-5;
+/// Earth gravitational constant `mu = GM` [m^3/s^2].
+pub const GM: f64 = 3.986_004_418e14;
+/// Normal gravity at the equator [m/s^2].
+pub const GAMMA_E: f64 = 9.780_325_335_9;
+/// Normal gravity at the poles [m/s^2].
+pub const GAMMA_P: f64 = 9.832_184_937_8;
+
+/// `1 - e^2 sin^2(lat)`, the common factor of the radii.
+fn one_minus_e2_sin2<T: Real>(lat: T) -> T {
+    let s = lat.sin();
+    T::one() - T::lit(E2) * s * s
+}
+
+/// Meridian (north-south) radius of curvature `R_N = a (1 - e^2) / (1 - e^2 sin^2 L)^(3/2)`
+/// (Groves eq. 2.105) [m].
+pub fn radius_north<T: Real>(lat: T) -> T {
+    let d = one_minus_e2_sin2(lat);
+    T::lit(A * (1.0 - E2)) / (d * d.sqrt())
+}
+
+/// Transverse (east-west) radius of curvature `R_E = a / sqrt(1 - e^2 sin^2 L)`
+/// (Groves eq. 2.106) [m].
+pub fn radius_east<T: Real>(lat: T) -> T {
+    T::lit(A) / one_minus_e2_sin2(lat).sqrt()
+}
+
+/// Normal gravity on the ellipsoid by Somigliana's closed form (Groves eq. 2.134):
+/// `gamma_0(L) = gamma_e (1 + k sin^2 L) / sqrt(1 - e^2 sin^2 L)`, `k = b gamma_p / (a gamma_e) - 1`;
+/// then the free-air height correction to second order (Groves eq. 2.139):
+/// `gamma(L, h) = gamma_0(L) [1 - 2/a (1 + f + omega^2 a^2 b / mu) h + 3 h^2 / a^2]` [m/s^2].
+pub fn normal_gravity<T: Real>(lat: T, h: T) -> T {
+    const K: f64 = B * GAMMA_P / (A * GAMMA_E) - 1.0;
+    const M: f64 = OMEGA_IE * OMEGA_IE * A * A * B / GM;
+    let s = lat.sin();
+    let g0 = T::lit(GAMMA_E) * (T::one() + T::lit(K) * s * s) / one_minus_e2_sin2(lat).sqrt();
+    let lin = T::lit(2.0 / A * (1.0 + F + M));
+    let quad = T::lit(3.0 / (A * A));
+    g0 * (T::one() - lin * h + quad * h * h)
+}
+
+/// Gravity vector in NED, `g^n = (0, 0, gamma(L, h))` (down positive).
+pub fn gravity_ned<T: Real>(lat: T, h: T) -> Vector3<T> {
+    Vector3::new(T::zero(), T::zero(), normal_gravity(lat, h))
+}
+
+/// Earth rate resolved in NED, `omega_ie^n = omega_ie (cos L, 0, -sin L)` (Groves eq. 2.123)
+/// [rad/s].
+pub fn earth_rate_ned<T: Real>(lat: T) -> Vector3<T> {
+    let w = T::lit(OMEGA_IE);
+    Vector3::new(w * lat.cos(), T::zero(), -w * lat.sin())
+}
+
+/// Transport rate (rotation of NED over the Earth) from the NED velocity and position
+/// (Groves eq. 5.44):
+/// `omega_en^n = (v_E / (R_E + h), -v_N / (R_N + h), -v_E tan L / (R_E + h))` [rad/s].
+pub fn transport_rate_ned<T: Real>(v: &Vector3<T>, lat: T, h: T) -> Vector3<T> {
+    let re = radius_east(lat) + h;
+    let rn = radius_north(lat) + h;
+    Vector3::new(v.y / re, -v.x / rn, -v.y * lat.tan() / re)
+}
+
+/// Rates of the curvilinear position `(L', lambda', h')` from the NED velocity
+/// (Groves eq. 2.111): `L' = v_N / (R_N + h)`, `lambda' = v_E / ((R_E + h) cos L)`, `h' = -v_D`.
+pub fn geodetic_rates<T: Real>(v: &Vector3<T>, lat: T, h: T) -> Vector3<T> {
+    let re = radius_east(lat) + h;
+    let rn = radius_north(lat) + h;
+    Vector3::new(v.x / rn, v.y / (re * lat.cos()), -v.z)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gravity_matches_published_values() {
+        // WGS-84 defining normal gravity at the equator and at the poles (NIMA TR8350.2 §4).
+        assert!((normal_gravity(0.0f64, 0.0) - 9.780_325_335_9).abs() < 1e-9);
+        let pole = core::f64::consts::FRAC_PI_2;
+        assert!((normal_gravity(pole, 0.0f64) - 9.832_184_937_8).abs() < 1e-9);
+        assert!((normal_gravity(-pole, 0.0f64) - 9.832_184_937_8).abs() < 1e-9);
+        // Free-air gradient: the conventional -0.3086 mGal/m (Groves §2.4.7) within 1 %.
+        let l = 45f64.to_radians();
+        let grad = (normal_gravity(l, 100.0f64) - normal_gravity(l, 0.0f64)) / 100.0;
+        assert!((grad + 3.086e-6).abs() < 0.03e-6, "{grad}");
+        // f32 agrees to its precision.
+        assert!(
+            (f64::from(normal_gravity(0.7f32, 300.0)) - normal_gravity(0.7, 300.0)).abs() < 2e-6
+        );
+    }
+
+    #[test]
+    fn radii_at_equator_and_pole() {
+        assert!((radius_east(0.0f64) - A).abs() < 1e-6);
+        assert!((radius_north(0.0f64) - A * (1.0 - E2)).abs() < 1e-6);
+        let pole = core::f64::consts::FRAC_PI_2;
+        // At the pole both radii equal a^2 / b.
+        assert!((radius_north(pole) - A * A / B).abs() < 1e-6);
+        assert!((radius_east(pole) - A * A / B).abs() < 1e-6);
+    }
+
+    #[test]
+    fn rates_signs() {
+        let w = earth_rate_ned(0.5f64);
+        assert!(w.x > 0.0 && w.z < 0.0 && (w.norm() - OMEGA_IE).abs() < 1e-18);
+        // Moving north tilts NED about -east; moving east about +north and (north hemisphere) -down.
+        let t = transport_rate_ned(&Vector3::new(10.0, 0.0, 0.0), 0.5f64, 0.0);
+        assert!(t.y < 0.0 && t.x == 0.0);
+        let t = transport_rate_ned(&Vector3::new(0.0, 10.0, 0.0), 0.5f64, 0.0);
+        assert!(t.x > 0.0 && t.z < 0.0);
+        let r = geodetic_rates(&Vector3::new(0.0, 0.0, -2.0), 0.5f64, 0.0);
+        assert_eq!(r.z, 2.0);
+    }
+}
