@@ -12,7 +12,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use hal_sim::adaptive::{self, gm_params, run_acf_loop, tilt_window, AcfVariant};
-use hal_sim::{mismatch, runner, scenario, sim};
+use hal_sim::{mismatch, replay, scenario, sim};
 use imu_ident::adapt::AdaptConfig;
 use imu_ident::model::{InsModel, Sensor};
 use std::time::Instant;
@@ -133,7 +133,7 @@ fn main() -> anyhow::Result<()> {
             let mut steps = 0usize;
             for seed in 0..seeds {
                 let log = sim::simulate(&truth, STEPS, 1000 + seed)?;
-                let (oracle, _) = runner::run::<f64>(&truth, &log)?;
+                let (oracle, _) = replay::estimates::<f64>(&truth, &log)?;
                 let (orms, _) = tilt_window(&log, &oracle, T0, T1).unwrap_or((f64::NAN, 0.0));
                 let (est, model, crb): (_, InsModel<f64>, _) = match method {
                     "rgn" => {
@@ -144,7 +144,7 @@ fn main() -> anyhow::Result<()> {
                         };
                         if trace {
                             let ll = |m: &InsModel<f64>| -> f64 {
-                                let (e, _) = runner::run::<f64>(m, &log).unwrap();
+                                let (e, _) = replay::estimates::<f64>(m, &log).unwrap();
                                 e.iter()
                                     .map(|r| -0.5 * (r.innovation_var.ln() + r.nis))
                                     .sum()
@@ -193,7 +193,7 @@ fn main() -> anyhow::Result<()> {
                         (e, m, None)
                     }
                     _ => {
-                        let (e, _) = runner::run::<f64>(&start, &log)?;
+                        let (e, _) = replay::estimates::<f64>(&start, &log)?;
                         (e, start.clone(), None)
                     }
                 };
@@ -266,8 +266,8 @@ fn cost(truth: &InsModel<f64>, cfg: AdaptConfig<f64>) -> anyhow::Result<()> {
         }
         Ok(best)
     };
-    let plain = time(&|| runner::run::<f64>(truth, &log).map(|_| ()))?;
-    let plain32 = time(&|| runner::run::<f32>(truth, &log).map(|_| ()))?;
+    let plain = time(&|| replay::estimates::<f64>(truth, &log).map(|_| ()))?;
+    let plain32 = time(&|| replay::estimates::<f32>(truth, &log).map(|_| ()))?;
     let a64 = time(&|| adaptive::run::<f64>(&start, &log, cfg).map(|_| ()))?;
     let a32 = time(&|| adaptive::run::<f32>(&start, &log, cfg).map(|_| ()))?;
     println!("| filter | ns/step (host, incl. estimate rows) |");
@@ -281,39 +281,25 @@ fn cost(truth: &InsModel<f64>, cfg: AdaptConfig<f64>) -> anyhow::Result<()> {
         std::mem::size_of::<imu_ident::adapt::AdaptiveFilter<f32>>(),
         std::mem::size_of::<imu_ident::adapt::AdaptiveFilter<f64>>()
     );
-    // Per-step host time of the bare f32 loop (no estimate rows): mean, 99.9 % and worst step.
-    let cfg32 = AdaptConfig::<f32> {
-        block: cfg.block,
-        h: cfg.h as f32,
-        window: cfg.window as f32,
-        damping: cfg.damping as f32,
-        hysteresis: cfg.hysteresis as f32,
-        max_step: cfg.max_step as f32,
-        tau_max: cfg.tau_max as f32,
-        spread: cfg.spread as f32,
-        move_discount: cfg.move_discount as f32,
-        probe_factor: cfg.probe_factor as f32,
-        epoch: cfg.epoch,
-        warmup: cfg.warmup,
-        margin: cfg.margin as f32,
-        first_margin: cfg.first_margin as f32,
-        hold_first_epoch: cfg.hold_first_epoch,
-        search_until_settled: cfg.search_until_settled,
-        adapt: cfg.adapt,
-    };
-    let mut f = imu_ident::adapt::AdaptiveFilter::<f32>::new(start.cast(), cfg32)
-        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    // Per-row host time of the f32 step identifying online (`Navigator::push`, no estimate
+    // rows): mean, 99.9 % and worst row.
+    let mut f = replay::navigator::<f32>(&start, Some(&cfg))?;
     let mut ns: Vec<f64> = Vec::with_capacity(log.len());
     for r in &log {
         let t = Instant::now();
-        let rep = f.step(r.z as f32);
+        f.push(
+            r.t,
+            r.z as f32,
+            &mut |rec: &imu_ident::telemetry::Record| {
+                std::hint::black_box(rec);
+            },
+        );
         ns.push(t.elapsed().as_nanos() as f64);
-        std::hint::black_box(rep);
     }
     let mean = ns.iter().sum::<f64>() / ns.len() as f64;
     ns.sort_by(|a, b| a.total_cmp(b));
     println!(
-        "bare f32 step: mean {mean:.0} ns, median {:.0}, 99.9 % {:.0}, worst {:.0} ns",
+        "f32 step (push): mean {mean:.0} ns, median {:.0}, 99.9 % {:.0}, worst {:.0} ns",
         ns[ns.len() / 2],
         ns[ns.len() * 999 / 1000],
         ns[ns.len() - 1]
@@ -409,12 +395,12 @@ fn track(truth: &InsModel<f64>, seeds: u64, cfg: AdaptConfig<f64>) -> anyhow::Re
             r.t += 6.0 * 3600.0;
         }
         log.extend(second);
-        let (oracle, _) = runner::run::<f64>(&b, &log)?;
+        let (oracle, _) = replay::estimates::<f64>(&b, &log)?;
         let (orms, oout) = tilt_window(&log, &oracle, t0, t1).unwrap_or((f64::NAN, 0.0));
         o_out.push(oout * 100.0);
         let r = adaptive::run::<f64>(truth, &log, cfg)?;
         let (arms, aout) = tilt_window(&log, &r.estimates, t0, t1).unwrap_or((f64::NAN, 1.0));
-        let (fixed, _) = runner::run::<f64>(truth, &log)?;
+        let (fixed, _) = replay::estimates::<f64>(truth, &log)?;
         let (frms, fout) = tilt_window(&log, &fixed, t0, t1).unwrap_or((f64::NAN, 1.0));
         ra.push(arms / orms);
         rf.push(frms / orms);

@@ -4,8 +4,9 @@
 //!
 //! `cargo run --release -p hal-sim --example long_run [-- STEPS]`
 
-use hal_sim::{scenario, sim};
-use imu_ident::filter::{is_positive_definite, InsFilter};
+use hal_sim::{replay, scenario, sim};
+use imu_ident::filter::is_positive_definite;
+use imu_ident::telemetry::{Record, P_REPAIRED};
 
 fn main() -> anyhow::Result<()> {
     let steps: usize = std::env::args()
@@ -13,8 +14,8 @@ fn main() -> anyhow::Result<()> {
         .and_then(|s| s.parse().ok())
         .unwrap_or(10_000_000);
     let model = scenario::load("paper")?.to_core()?;
-    let mut a = InsFilter::<f64>::new(model.clone())?;
-    let mut b = InsFilter::<f32>::new(model.cast())?;
+    let mut a = replay::navigator::<f64>(&model, None)?;
+    let mut b = replay::navigator::<f32>(&model, None)?;
     let chunk = 43_200;
     let (mut worst, mut worst_t, mut not_pd, mut repairs) = (0.0f64, 0usize, 0usize, 0usize);
     let mut done = 0;
@@ -23,11 +24,17 @@ fn main() -> anyhow::Result<()> {
         // Independent 12-h truth segments, continued by the same filters.
         let log = sim::simulate(&model, chunk.min(steps - done), seed)?;
         seed += 1;
+        // Segment times continue the clock of the previous segments.
+        let t0 = done as f64 * model.dt;
         for row in &log {
-            a.step(row.z);
-            b.step(row.z as f32);
-            repairs += b.repair() as usize;
-            not_pd += !is_positive_definite(&b.kalman().P, b.kalman().active()) as usize;
+            a.push(t0 + row.t, row.z, &mut |_: &Record| {});
+            b.push(t0 + row.t, row.z as f32, &mut |r: &Record| {
+                repairs += usize::from(r.has(P_REPAIRED));
+            });
+            // P is symmetric: the column-major array is P itself.
+            let (p, n) = b.covariance_scaled();
+            let p: [[f32; 8]; 8] = p.into();
+            not_pd += !is_positive_definite(&p, n) as usize;
             let (ea, eb) = (a.estimates(), b.estimates());
             let d = (ea.delta - eb.delta as f64).abs() / ea.sigma_delta;
             if d > worst {

@@ -3,8 +3,8 @@
 //!
 //! `cargo run --release -p hal-sim --example paper_bench`
 
-use hal_sim::{mismatch, runner, scenario, sim, summary};
-use imu_ident::filter::InsFilter;
+use hal_sim::{mismatch, replay, scenario, sim, summary};
+use imu_ident::telemetry::Record;
 use std::time::Instant;
 
 fn median(v: Vec<f64>) -> f64 {
@@ -30,7 +30,7 @@ fn main() -> anyhow::Result<()> {
         let model = mismatch::scaled(&truth, k, k);
         let (mut rms, mut out, mut nis) = (vec![], vec![], vec![]);
         for log in &logs {
-            let (est, counts) = runner::run::<f64>(&model, log)?;
+            let (est, counts) = replay::estimates::<f64>(&model, log)?;
             let s = summary::summarise(log, &est, counts);
             rms.push(s.tilt_rms.unwrap_or(f64::NAN));
             out.push(s.tilt_outside_3sigma.unwrap_or(f64::NAN));
@@ -52,33 +52,32 @@ fn main() -> anyhow::Result<()> {
     // f32 against f64 on the same observations, every step of every seed.
     let mut worst = 0.0f64;
     for log in &logs {
-        let mut a = InsFilter::<f64>::new(truth.clone())?;
-        let mut b = InsFilter::<f32>::new(truth.cast())?;
+        let mut a = replay::navigator::<f64>(&truth, None)?;
+        let mut b = replay::navigator::<f32>(&truth, None)?;
+        let mut nop = |_: &Record| {};
         for row in log {
-            a.step(row.z);
-            b.step(row.z as f32);
+            a.push(row.t, row.z, &mut nop);
+            b.push(row.t, row.z as f32, &mut nop);
             let (ea, eb) = (a.estimates(), b.estimates());
             worst = worst.max((ea.delta - eb.delta as f64).abs() / ea.sigma_delta);
         }
     }
     println!("\nlargest |delta_f32 - delta_f64| / sigma_delta over 20 x 43200 steps: {worst:.2e}");
 
-    // Host throughput of one filter step (predict + Joseph update), median of 7 repeats.
+    // Host throughput of the step (`Navigator::push` through the replay driver: predict,
+    // Joseph update, gate, estimate autocorrelators), median of 7 repeats.
     for (label, f32_mode) in [("f64", false), ("f32", true)] {
         let mut rates = vec![];
         for _ in 0..7 {
             let t0 = Instant::now();
             let mut acc = 0.0;
+            let mut sink = |r: &Record| acc += f64::from(r.nis);
             if f32_mode {
-                let mut f = InsFilter::<f32>::new(truth.cast())?;
-                for row in &logs[0] {
-                    acc += f.step(row.z as f32).nis as f64;
-                }
+                let mut f = replay::navigator::<f32>(&truth, None)?;
+                replay::drive(&mut f, &logs[0], &mut sink);
             } else {
-                let mut f = InsFilter::<f64>::new(truth.clone())?;
-                for row in &logs[0] {
-                    acc += f.step(row.z).nis;
-                }
+                let mut f = replay::navigator::<f64>(&truth, None)?;
+                replay::drive(&mut f, &logs[0], &mut sink);
             }
             std::hint::black_box(acc);
             rates.push(steps as f64 / t0.elapsed().as_secs_f64());

@@ -2,7 +2,7 @@
 
 use crate::model_toml;
 use crate::output::write_string;
-use crate::runner::EstimateRow;
+use crate::replay::{self, Telemetry};
 use crate::summary::{summarise, Summary};
 use crate::{log, scenario, sim};
 use anyhow::{anyhow, Context, Result};
@@ -24,11 +24,6 @@ pub fn simulate(scenario_spec: &str, hours: Option<f64>, seed: u64, out: &Path) 
     Ok(steps)
 }
 
-/// Writes `estimates.csv` atomically.
-pub fn write_estimates(path: &Path, rows: &[EstimateRow]) -> Result<()> {
-    crate::output::write_csv(path, rows)
-}
-
 /// `run`: replays a log through the firmware's 1 Hz step ([`imu_ident::navigator`], in double
 /// precision); writes `estimates.csv`, `params.csv`, `acf.csv` and `summary.json` into `out`.
 /// With `adapt`, the step identifies the noise model online, starting from the given model;
@@ -43,8 +38,10 @@ pub fn run(
     let model = model_toml::load(model_path)?;
     let rows = log::read(log_path)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let (tel, end) = crate::navigate::run::<f64>(&model, adapt, &rows)?;
-    write_run(out, &rows, &tel, adapt.then_some(&end))
+    let cfg = imu_ident::adapt::AdaptConfig::default();
+    let r = replay::run::<f64>(&model, adapt.then_some(&cfg), &rows)?;
+    let end = r.end_model()?;
+    write_run(out, &rows, &r.telemetry, adapt.then_some(&end))
 }
 
 /// `qemu`: runs the firmware ELF under QEMU on the log with the model; writes the files of
@@ -97,7 +94,7 @@ pub fn qemu(
 /// The model with the last reported parameters (what the firmware ended with).
 fn identified_from_params(
     start: &imu_ident::model::InsModel<f64>,
-    tel: &crate::navigate::Telemetry,
+    tel: &Telemetry,
 ) -> imu_ident::model::InsModel<f64> {
     let mut m = start.clone();
     if let Some(last_k) = tel.params.last().map(|p| p.k) {
@@ -112,7 +109,7 @@ fn identified_from_params(
 pub fn write_run(
     out: &Path,
     rows: &[log::LogRow],
-    tel: &crate::navigate::Telemetry,
+    tel: &Telemetry,
     identified: Option<&imu_ident::model::InsModel<f64>>,
 ) -> Result<serde_json::Value> {
     tel.write(out)?;

@@ -5,7 +5,8 @@ use crate::diagnose::estimate_acf::{self, EstimateAcf};
 use crate::diagnose::whiteness::{nis_windows, whiteness, NisWindow, Whiteness};
 use crate::diagnose::{NIS_WINDOW, WHITENESS_LAGS};
 use crate::log::LogRow;
-use crate::runner::{self, EstimateRow};
+use crate::records::EstimateRow;
+use crate::replay;
 use crate::summary::{summarise, Summary};
 use anyhow::Result;
 use imu_ident::model::InsModel;
@@ -37,8 +38,9 @@ pub struct ModelRun {
 
 /// Runs `model` on `log` and collects every comparison metric.
 pub fn evaluate(name: &str, model: &InsModel<f64>, log: &[LogRow]) -> Result<ModelRun> {
-    let (est, counts) = runner::run::<f64>(model, log)?;
-    let (ll, _) = runner::log_likelihood(model, log)?;
+    let tel = replay::run::<f64>(model, None, log)?.telemetry;
+    let (est, counts) = (tel.estimate_rows(), tel.counts());
+    let (ll, _) = tel.log_likelihood();
     let (windows, band, failed) = nis_windows(&est, NIS_WINDOW);
     Ok(ModelRun {
         name: name.to_string(),

@@ -8,9 +8,9 @@
 
 use crate::log::LogRow;
 use crate::output::write_string;
+use crate::records::EstimateRow;
 use crate::report::line_chart;
-use crate::runner::EstimateRow;
-use crate::{adaptive, mismatch, runner, scenario, sim};
+use crate::{adaptive, mismatch, replay, scenario, sim};
 use anyhow::{anyhow, Context, Result};
 use imu_ident::adapt::AdaptConfig;
 use imu_ident::autocorr::acf_batch;
@@ -45,7 +45,7 @@ pub fn write(out: &Path, seed: u64) -> Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
 
     // Fig. 3 on the oracle filter's gyro-drift estimates.
-    let (est, _) = runner::run::<f64>(&truth, &log)?;
+    let (est, _) = replay::estimates::<f64>(&truth, &log)?;
     let dw: Vec<f64> = est.iter().map(|e| e.dw_hat).collect();
     let mut r = vec![0.0; LAGS + 1];
     acf_batch(&dw, &mut r).map_err(|e| anyhow!("ACF: {e:?}"))?;
@@ -94,7 +94,7 @@ pub fn write(out: &Path, seed: u64) -> Result<()> {
 
     // Fig. 4 and 5: the 0.1x model, fixed and adaptive.
     let wrong = mismatch::scaled(&truth, 0.1, 0.1);
-    let (est4, _) = runner::run::<f64>(&wrong, &log)?;
+    let (est4, _) = replay::estimates::<f64>(&wrong, &log)?;
     let svg = line_chart(
         "Fig. 4: EKF with drift and diffusion 0.1x",
         "t [h]",

@@ -38,7 +38,7 @@ use imu_ident::telemetry::{Record, WIRE_FIELDS, WIRE_TAG};
 use imu_ident::telemetry::{ACF_WIRE_TAG, PARAM_WIRE_FIELDS, PARAM_WIRE_TAG};
 use serde::Serialize;
 
-use crate::navigate::Telemetry;
+use crate::replay::Telemetry;
 
 /// Name of the log inside QEMU's working directory.
 const LOG_NAME: &str = "replay.bin";

@@ -5,7 +5,7 @@
 //! fraction of steps where `|true_delta - delta_hat| > 3 sigma_delta`.
 
 use crate::log::LogRow;
-use crate::runner::{EstimateRow, RunCounts};
+use crate::records::{EstimateRow, RunCounts};
 use serde::Serialize;
 
 /// The summary written to `summary.json`.

@@ -5,7 +5,7 @@
 
 use hal_sim::adaptive::{self, gm_params, tilt_window, AdaptiveRun};
 use hal_sim::log::LogRow;
-use hal_sim::{mismatch, runner, scenario, sim};
+use hal_sim::{mismatch, records, replay, scenario, sim};
 use imu_ident::adapt::AdaptConfig;
 use imu_ident::model::{InsModel, Sensor};
 
@@ -35,7 +35,7 @@ fn median3(mut v: [f64; 3]) -> f64 {
 
 /// (tilt RMS / oracle RMS, fraction outside 3 sigma) over hours 8-12, and the run.
 fn run(log: &[LogRow], start: &InsModel<f64>) -> (f64, f64, AdaptiveRun) {
-    let (oracle, _) = runner::run::<f64>(&truth(), log).unwrap();
+    let (oracle, _) = replay::estimates::<f64>(&truth(), log).unwrap();
     let (orms, _) = tilt_window(log, &oracle, T0, T1).unwrap();
     let r = adaptive::run::<f64>(start, log, AdaptConfig::default()).unwrap();
     let (rms, out) = tilt_window(log, &r.estimates, T0, T1).unwrap();
@@ -196,7 +196,7 @@ fn missing_observations_and_gaps() {
     assert!(!r.params.is_empty());
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("params.csv");
-    adaptive::write_params_csv(&path, &r.params).unwrap();
+    records::write_params_csv(&path, &r.params).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(text.starts_with("t,sensor,component,kind,tau,sigma,beta"));
 }

@@ -1,7 +1,7 @@
 //! The paper's experiment (METHOD.md §5) on the `paper` scenario, 12 h: the filter with the true
 //! model is consistent; with drift and diffusion 10x too small it diverges (Fig. 4 effect).
 
-use hal_sim::{mismatch, runner, scenario, sim, summary};
+use hal_sim::{mismatch, replay, scenario, sim, summary};
 
 const STEPS: usize = 12 * 3600;
 
@@ -9,7 +9,7 @@ fn run(model_scale: f64, seed: u64) -> summary::Summary {
     let truth = scenario::load("paper").unwrap().to_core().unwrap();
     let log = sim::simulate(&truth, STEPS, seed).unwrap();
     let model = mismatch::scaled(&truth, model_scale, model_scale);
-    let (est, counts) = runner::run::<f64>(&model, &log).unwrap();
+    let (est, counts) = replay::estimates::<f64>(&model, &log).unwrap();
     summary::summarise(&log, &est, counts)
 }
 

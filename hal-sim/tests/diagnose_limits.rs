@@ -12,7 +12,7 @@
 
 use hal_sim::diagnose::{fit, limits};
 use hal_sim::log::LogRow;
-use hal_sim::runner::log_likelihood;
+use hal_sim::replay::log_likelihood;
 use hal_sim::{hidden, scenario, sim};
 
 #[test]

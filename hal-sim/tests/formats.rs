@@ -122,7 +122,7 @@ fn simulate_and_run_write_the_documented_files() {
     let est = std::fs::read_to_string(out.join("estimates.csv")).unwrap();
     assert_eq!(
         est.lines().next().unwrap(),
-        "t,dv_hat,delta_hat,da_hat,dw_hat,sigma_dv,sigma_delta,sigma_da,sigma_dw,innovation,innovation_var,nis"
+        "t,dv_hat,delta_hat,da_hat,dw_hat,sigma_dv,sigma_delta,sigma_da,sigma_dw,innovation,innovation_var,nis,flags"
     );
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
@@ -156,7 +156,8 @@ fn cli_reports_bad_input_with_nonzero_exit() {
     );
 }
 
-/// Gaps are predicted through and counted; rows whose time goes back are skipped and counted.
+/// Gaps are bridged by ticks without an observation (written and counted as missing); rows
+/// whose time goes back are skipped and counted.
 #[test]
 fn gaps_and_backward_time_are_flagged() {
     let model = model_toml::load(std::path::Path::new(concat!(
@@ -169,15 +170,24 @@ fn gaps_and_backward_time_are_flagged() {
         "g.csv",
     )
     .unwrap();
-    let (est, counts) = hal_sim::runner::run::<f64>(&model, &rows).unwrap();
+    let (est, counts) = hal_sim::replay::estimates::<f64>(&model, &rows).unwrap();
+    // Ticks: 1, 2, bridged 3..=9 (7), 10, 11 (NaN), 12; the row at 9 is skipped.
     assert_eq!(
         (
             counts.steps,
+            counts.rows,
+            counts.bridged,
             counts.gaps,
             counts.skipped_time,
             counts.missing
         ),
-        (5, 1, 1, 1)
+        (12, 5, 7, 1, 1, 8)
     );
-    assert_eq!(est.len(), 5);
+    assert_eq!(est.len(), 12);
+    let bridged: Vec<f64> = est.iter().filter(|e| e.is_bridged()).map(|e| e.t).collect();
+    assert_eq!(bridged, (3..=9).map(f64::from).collect::<Vec<_>>());
+    assert!(est
+        .iter()
+        .filter(|e| e.is_bridged())
+        .all(|e| e.nis.is_nan()));
 }

@@ -8,8 +8,8 @@
 use std::path::PathBuf;
 
 use hal_sim::log::LogRow;
-use hal_sim::navigate::Telemetry;
 use hal_sim::qemu::{encode_log, encode_model, run_firmware, run_firmware_bytes, QemuConfig};
+use hal_sim::replay::Telemetry;
 use imu_ident::model::InsModel;
 use imu_ident::telemetry::{BRIDGED, MISSING};
 use rand::SeedableRng;
@@ -76,9 +76,10 @@ fn host_run(model: &InsModel<f64>, adapt: bool, log: &[(f64, f64)]) -> Telemetry
             truth: None,
         })
         .collect();
-    hal_sim::navigate::run::<f64>(model, adapt, &rows)
+    let cfg = imu_ident::adapt::AdaptConfig::default();
+    hal_sim::replay::run::<f64>(model, adapt.then_some(&cfg), &rows)
         .unwrap_or_else(|e| panic!("{e:#}"))
-        .0
+        .telemetry
 }
 
 fn same_f32(a: f32, b: f32) -> bool {

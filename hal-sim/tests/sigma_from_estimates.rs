@@ -7,7 +7,7 @@
 //! gyro), i.e. half that for sigma; over 20 seeds the mean's standard error is 0.008 and 0.026.
 //! A 5 % bias bound is then 6 and 2 standard errors.
 
-use hal_sim::{runner, scenario, sim};
+use hal_sim::{replay, scenario, sim};
 use imu_ident::autocorr::acf_batch;
 use imu_ident::ident::sigma2;
 
@@ -19,7 +19,7 @@ fn sigma_from_filter_estimates_is_unbiased_with_p_added() {
     let seeds = 20;
     for seed in 0..seeds {
         let log = sim::simulate(&truth, 43_200, 9000 + seed).unwrap();
-        let (est, _) = runner::run::<f64>(&truth, &log).unwrap();
+        let (est, _) = replay::estimates::<f64>(&truth, &log).unwrap();
         // Skip the first hour: the initial covariance is not yet the filter's steady state.
         let est = &est[3600..];
         for (k, (x, p)) in [

@@ -7,7 +7,8 @@
 //! each, and the band is the pointwise mean ± 2.58 standard deviations (99 %) of the normalised
 //! ACFs of its estimates. That band contains both the filter's P and the finite window.
 
-use crate::runner::{self, EstimateRow};
+use crate::records::EstimateRow;
+use crate::replay;
 use crate::sim;
 use anyhow::{anyhow, Result};
 use imu_ident::autocorr::acf_batch;
@@ -80,7 +81,7 @@ pub fn compare(model: &InsModel<f64>, est: &[EstimateRow], seed: u64) -> Result<
     let mut mc: Vec<Vec<Vec<f64>>> = vec![Vec::new(); sensors.len()];
     for k in 0..MC_RUNS {
         let log = sim::simulate(model, n, seed.wrapping_add(k as u64))?;
-        let (e, _) = runner::run::<f64>(model, &log)?;
+        let (e, _) = replay::estimates::<f64>(model, &log)?;
         for (i, s) in sensors.iter().enumerate() {
             let x: Vec<f64> = e.iter().map(|r| pick(*s, r)).collect();
             mc[i].push(normalised_acf(&x, max_lag)?);

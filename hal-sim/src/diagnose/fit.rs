@@ -2,11 +2,11 @@
 //!
 //! The base model stays fixed; the candidate's log-parameters are fitted with Nelder-Mead
 //! (argmin) from each of the candidate's starting points, and the best is kept. The likelihood
-//! is the core filter's own (`runner::log_likelihood`): no second copy of the filter.
+//! is the core filter's own (`replay::log_likelihood`, through the firmware's step): no second copy of the filter.
 
 use crate::candidates::Candidate;
 use crate::log::LogRow;
-use crate::runner::log_likelihood;
+use crate::replay::log_likelihood;
 use argmin::core::{CostFunction, Error, Executor, State};
 use argmin::solver::neldermead::NelderMead;
 use imu_ident::model::{Component, InsModel};

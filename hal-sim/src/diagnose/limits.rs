@@ -27,6 +27,7 @@
 
 use crate::candidates::LIBRARY;
 use crate::log::LogRow;
+use imu_ident::filter::InsFilter;
 use imu_ident::model::ins::G0;
 use imu_ident::model::{ComponentKind, InsModel, Sensor};
 use serde::Serialize;
@@ -115,13 +116,20 @@ pub fn accel_bias_observability(
         .iter()
         .rfind(|s| s.sensor == Sensor::Accel)
         .copied()?;
-    let mut last: Option<(f64, f64)> = None;
-    crate::runner::replay::<f64>(&augmented, log, |_, filter, _| {
-        let (x, p) = (filter.state_si(), filter.covariance_si());
-        last = Some((x[slot.start], p[(slot.start, slot.start)]));
-    })
-    .ok()?;
-    let (estimate, var) = last?;
+    // The step does not expose one state's posterior: a bare filter of the same model follows
+    // the ticks the step decided (same observations, same gate decisions, same repairs), so
+    // it holds the step's state bitwise.
+    let plan = crate::replay::run::<f64>(&augmented, None, log)
+        .ok()?
+        .telemetry
+        .records;
+    let mut filter = InsFilter::<f64>::new(augmented).ok()?;
+    for tick in crate::replay::follow(log, &plan) {
+        filter.step(tick.used_z());
+        filter.repair();
+    }
+    let (x, p) = (filter.state_si(), filter.covariance_si());
+    let (estimate, var) = (x[slot.start], p[(slot.start, slot.start)]);
     let info = 1.0 / var - 1.0 / (sigma0 * sigma0);
     (estimate.is_finite() && info.is_finite() && info > 0.0).then(|| BiasObservability {
         estimate,

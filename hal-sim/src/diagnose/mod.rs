@@ -22,7 +22,7 @@ pub mod whiteness;
 use crate::candidates::{Candidate, LIBRARY};
 use crate::log::LogRow;
 use crate::model_toml::ComponentToml;
-use crate::runner::{self, log_likelihood};
+use crate::replay;
 use anyhow::Result;
 use fit::Fit;
 use imu_ident::model::InsModel;
@@ -126,10 +126,13 @@ pub struct Diagnosis {
 
 /// Diagnoses `model` against `log`. Candidates are fitted on two threads.
 pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
-    let (est, _) = runner::run::<f64>(model, log)?;
+    // One run of the step gives the estimates and the likelihood; the fits below evaluate
+    // the same likelihood through the same step (`replay::log_likelihood`).
+    let tel = replay::run::<f64>(model, None, log)?.telemetry;
+    let est = tel.estimate_rows();
     let wh = whiteness(&est, WHITENESS_LAGS);
     let (windows, band, failed_windows) = nis_windows(&est, NIS_WINDOW);
-    let (ll0, n) = log_likelihood(model, log)?;
+    let (ll0, n) = tel.log_likelihood();
     let penalty_per_param = 0.5 * (n.max(2) as f64).ln();
 
     type Indexed = Vec<(usize, Candidate)>;

@@ -27,7 +27,7 @@
 use super::fit::Fit;
 use super::CandidateScore;
 use crate::log::LogRow;
-use crate::runner;
+use crate::replay;
 use imu_ident::model::InsModel;
 use serde::Serialize;
 
@@ -61,7 +61,7 @@ pub fn decide(
         .map(|&i| scores[i].1.candidate.add_to(model, &scores[i].1.params))
         .collect();
     let tilt = |m: &InsModel<f64>, data: &[LogRow]| -> f64 {
-        runner::run::<f64>(m, data)
+        replay::estimates::<f64>(m, data)
             .ok()
             .and_then(|(est, _)| crate::summary::tilt_stats(data, &est))
             .map(|t| t.0)

@@ -5,7 +5,7 @@
 //! (Bartlett), (b) the Ljung-Box statistic `Q = n (n+2) sum_k r_k^2 / (n-k)` is chi-square with
 //! L degrees of freedom, and (c) the sum of the NIS over a window of W steps is chi2(W).
 
-use crate::runner::EstimateRow;
+use crate::records::EstimateRow;
 use imu_ident::autocorr::acf_batch;
 use serde::Serialize;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
