@@ -7,6 +7,7 @@
 #   - QEMU for the emulated board (Debian's qemu-system-arm), through apt
 #   - `size` for the firmware sizes (Debian's binutils), through apt, unless llvm-size or size
 #     is already there
+#   - Python 3 with venv (Debian's python3, python3-venv) for the Python package's tests
 #
 # Needs rustup on PATH. apt runs as root here; elsewhere through sudo if it exists.
 set -euo pipefail
@@ -44,6 +45,12 @@ if command -v llvm-size >/dev/null 2>&1 || command -v size >/dev/null 2>&1; then
     echo "install-tools: size present"
 else
     packages+=(binutils)
+fi
+# The Python package (python/) is built and tested in a venv: python3 with venv and ensurepip.
+if command -v python3 >/dev/null 2>&1 && python3 -c 'import venv, ensurepip' >/dev/null 2>&1; then
+    echo "install-tools: $(python3 --version) with venv present"
+else
+    packages+=(python3 python3-venv)
 fi
 if [ "${#packages[@]}" -gt 0 ]; then
     sudo=""
