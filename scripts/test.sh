@@ -98,7 +98,7 @@ IMU_IDENT_FIRMWARE_ELF="$ELF" cargo test --workspace --test qemu_smoke -- --noca
 section "8/8 Python package (pip install ./python; pytest python/tests)"
 # A venv under the target dir (PyPI for maturin, numpy and pytest). pip builds the extension
 # with maturin in the workspace's target dir ([profile.python]), so hal-sim is compiled once
-# more, optimised; the tests compare it with the hal-sim CLI of step 5 (target/debug).
+# more, optimised; the tests compare it with the hal-sim CLI built in step 5.
 VENV="$TARGET_DIR/pyvenv"
 case "$VENV" in /*) ;; *) VENV="$PWD/$VENV" ;; esac
 if [ ! -x "$VENV/bin/python" ]; then
@@ -106,9 +106,10 @@ if [ ! -x "$VENV/bin/python" ]; then
 fi
 "$VENV/bin/python" -m pip install --quiet --upgrade pip
 "$VENV/bin/python" -m pip install --quiet ./python pytest
-cargo build -p hal-sim --bin hal-sim
+# The CLI that step 5 built for hal-sim's integration tests (CARGO_BIN_EXE_hal-sim).
 HAL_SIM_BIN="$TARGET_DIR/debug/hal-sim"
 case "$HAL_SIM_BIN" in /*) ;; *) HAL_SIM_BIN="$PWD/$HAL_SIM_BIN" ;; esac
+[ -x "$HAL_SIM_BIN" ] || cargo build -p hal-sim --bin hal-sim
 # pytest exits 5 when it collected no tests: a missing test suite is a failure here too.
 set +e
 HAL_SIM_BIN="$HAL_SIM_BIN" "$VENV/bin/python" -m pytest -q python/tests
