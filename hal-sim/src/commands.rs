@@ -281,12 +281,19 @@ pub fn demo(effect: Option<&str>, seed: Option<u64>, hours: f64, out: &Path) -> 
         "Hidden effect {} in paper data, seed {seed}, {hours} h.",
         candidate.label()
     );
-    let html = crate::report::html(
+    // The online identification from the nominal model, on the same data (params over time).
+    let (tel, _) = crate::navigate::run::<f64>(&nominal, true, &rows)?;
+    let adaptive = format!(
+        "<h2>Online identification (run --adapt from the nominal model)</h2>{}",
+        crate::report::parameter_plots(&tel.param_rows(), Some(&truth))?
+    );
+    let html = crate::report::html_with(
         "imu-ident demo: find the missing effect",
         &runs,
         &rows,
         Some(&d),
         &note,
+        &adaptive,
     )?;
     write_string(&out.join("report.html"), &html)?;
     println!("report: {}", out.join("report.html").display());

@@ -308,6 +308,72 @@ pub fn tilt_plot(run: &ModelRun, log: &[LogRow]) -> Result<Option<String>> {
     .map(Some)
 }
 
+/// What the reports cannot draw about the online identification: the Cramér-Rao interval of
+/// each parameter needs its standard deviation in the parameter records, which they do not carry.
+pub const NO_CR_SD: &str = "No Cramér-Rao interval: the parameter records (imu_ident::navigator::ParamRecord, params.csv) carry tau, sigma and beta but not their Cramér-Rao standard deviations; the firmware would have to report them.";
+
+/// One plot per identified parameter of a `run --adapt` (its `params` records) over time, with
+/// the true value when the truth model is known (same sensor, component index and kind).
+pub fn parameter_plots(
+    params: &[crate::adaptive::ParamRow],
+    truth: Option<&imu_ident::model::InsModel<f64>>,
+) -> Result<String> {
+    let mut truth_rows = Vec::new();
+    if let Some(m) = truth {
+        imu_ident::navigator::records::model_params(m, 0, 0.0, |p| truth_rows.push(*p));
+    }
+    let mut keys: Vec<(&str, usize, &str)> = params
+        .iter()
+        .map(|p| (p.sensor, p.component, p.kind))
+        .collect();
+    keys.sort_unstable();
+    keys.dedup();
+    let mut html = String::new();
+    for (sensor, comp, kind) in keys {
+        let rows: Vec<_> = params
+            .iter()
+            .filter(|p| (p.sensor, p.component, p.kind) == (sensor, comp, kind))
+            .collect();
+        let t1 = rows.last().map_or(0.0, |p| p.t / 3600.0);
+        let true_row = truth_rows.iter().find(|r| {
+            r.sensor.name() == sensor && usize::from(r.component) == comp && r.kind.name() == kind
+        });
+        type Get = fn(&crate::adaptive::ParamRow) -> f64;
+        type GetTrue = fn(&imu_ident::navigator::ParamRecord) -> f32;
+        let fields: [(&str, &str, Get, GetTrue); 3] = [
+            ("tau", "s", |p| p.tau, |r| r.tau),
+            ("sigma", "SI", |p| p.sigma, |r| r.sigma),
+            ("beta", "rad/s", |p| p.beta, |r| r.beta),
+        ];
+        for (name, unit, get, get_true) in fields {
+            let pts: Vec<(f64, f64)> = rows
+                .iter()
+                .map(|p| (p.t / 3600.0, get(p)))
+                .filter(|q| q.1.is_finite())
+                .collect();
+            if pts.is_empty() {
+                continue;
+            }
+            let mut series = vec![("identified".to_string(), pts)];
+            if let Some(v) = true_row.map(|r| f64::from(get_true(r))) {
+                if v.is_finite() {
+                    series.push((format!("truth {}", sig4(v, unit)), vec![(0.0, v), (t1, v)]));
+                }
+            }
+            html += &chart(
+                &format!("Online identification: {sensor} {comp} ({kind}) {name}"),
+                "t [h]",
+                &format!("{name} [{unit}]"),
+                &series,
+                &[],
+                &[],
+            )?;
+        }
+    }
+    html += &format!("<p>{}</p>", esc(NO_CR_SD));
+    Ok(html)
+}
+
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
@@ -346,6 +412,18 @@ pub fn html(
     log: &[LogRow],
     diagnosis: Option<&Diagnosis>,
     notes: &str,
+) -> Result<String> {
+    html_with(title, runs, log, diagnosis, notes, "")
+}
+
+/// [`html`] with `extra` HTML (e.g. [`parameter_plots`]) at the end.
+pub fn html_with(
+    title: &str,
+    runs: &[ModelRun],
+    log: &[LogRow],
+    diagnosis: Option<&Diagnosis>,
+    notes: &str,
+    extra: &str,
 ) -> Result<String> {
     let mut h = format!(
         "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>{t}</title><style>body{{font-family:sans-serif;max-width:920px;margin:auto}}table{{border-collapse:collapse}}td,th{{border:1px solid #999;padding:3px 8px;text-align:right}}th{{background:#eee}}.ok{{color:#180}}.bad{{color:#b00}}</style></head><body><h1>{t}</h1>",
@@ -414,6 +492,7 @@ pub fn html(
             h += &svg;
         }
     }
+    h += extra;
     h += "</body></html>";
     Ok(h)
 }
