@@ -8,6 +8,8 @@
 #   - `size` for the firmware sizes (Debian's binutils), through apt, unless llvm-size or size
 #     is already there
 #   - Python 3 with venv (Debian's python3, python3-venv) for the Python package's tests
+#   - Chromium (Debian's chromium) for the headless check of the HTML report
+#     (hal-sim/tests/report_browser.rs)
 #
 # Needs rustup on PATH. apt runs as root here; elsewhere through sudo if it exists.
 set -euo pipefail
@@ -51,6 +53,11 @@ if command -v python3 >/dev/null 2>&1 && python3 -c 'import venv, ensurepip' >/d
     echo "install-tools: $(python3 --version) with venv present"
 else
     packages+=(python3 python3-venv)
+fi
+if command -v chromium >/dev/null 2>&1; then
+    echo "install-tools: chromium present"
+else
+    packages+=(chromium)
 fi
 if [ "${#packages[@]}" -gt 0 ]; then
     sudo=""
