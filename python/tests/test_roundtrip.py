@@ -147,3 +147,16 @@ def test_errors_name_the_problem():
         imu_ident.identify(np.zeros(100), 1.0, "magnetometer")
     with pytest.raises(ValueError, match="1-D"):
         imu_ident.adev(np.zeros((10, 2)), 1.0)
+
+
+def test_readme_example_runs_verbatim(root, monkeypatch, capsys):
+    """The Python example of README.md, run as written from the repository root."""
+    text = (root / "README.md").read_text()
+    section = text[text.index("## Python"):]
+    code = section[section.index("```python\n") + len("```python\n"):]
+    code = code[: code.index("```")]
+    assert len(code.strip().splitlines()) == 5, code
+    monkeypatch.chdir(root)
+    exec(compile(code, "README.md", "exec"), {})
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == 2 and out[1] in ("adequate", "missing-effect"), out
