@@ -340,9 +340,20 @@ pub fn parameter_plots(
         });
         type Get = fn(&crate::adaptive::ParamRow) -> f64;
         type GetTrue = fn(&imu_ident::navigator::ParamRecord) -> f32;
+        let base = match sensor {
+            "accel" => "m/s^2",
+            "gyro" => "rad/s",
+            _ => "m/s",
+        };
+        // params.csv's `sigma`: sqrt(q) for a random walk, the density for white noise.
+        let sigma_unit = match kind {
+            "random-walk" => format!("{base}/sqrt(s)"),
+            "white" => format!("{base}/sqrt(Hz)"),
+            _ => base.to_string(),
+        };
         let fields: [(&str, &str, Get, GetTrue); 3] = [
             ("tau", "s", |p| p.tau, |r| r.tau),
-            ("sigma", "SI", |p| p.sigma, |r| r.sigma),
+            ("sigma", &sigma_unit, |p| p.sigma, |r| r.sigma),
             ("beta", "rad/s", |p| p.beta, |r| r.beta),
         ];
         for (name, unit, get, get_true) in fields {
