@@ -9,6 +9,9 @@
 #     is already there
 #   - RTKLIB's command-line tools (Debian's rtklib: pos2kml reads the solution.pos files that
 #     hal-sim writes, in hal-sim/tests/nav_io_real.rs), through apt
+#   - Python 3 with venv (Debian's python3, python3-venv) for the Python package's tests
+#   - Chromium (Debian's chromium) for the headless check of the HTML report
+#     (hal-sim/tests/report_browser.rs)
 #
 # Needs rustup on PATH. apt runs as root here; elsewhere through sudo if it exists.
 set -euo pipefail
@@ -51,6 +54,17 @@ if command -v pos2kml >/dev/null 2>&1; then
     echo "install-tools: RTKLIB pos2kml present"
 else
     packages+=(rtklib)
+fi
+# The Python package (python/) is built and tested in a venv: python3 with venv and ensurepip.
+if command -v python3 >/dev/null 2>&1 && python3 -c 'import venv, ensurepip' >/dev/null 2>&1; then
+    echo "install-tools: $(python3 --version) with venv present"
+else
+    packages+=(python3 python3-venv)
+fi
+if command -v chromium >/dev/null 2>&1; then
+    echo "install-tools: chromium present"
+else
+    packages+=(chromium)
 fi
 if [ "${#packages[@]}" -gt 0 ]; then
     sudo=""

@@ -10,6 +10,8 @@
 #                                      sizes printed; then both again with prove-no-panic: they
 #                                      link only if no panic path is left)
 #   7. QEMU smoke test                (hal-sim/tests/qemu_smoke.rs against the QEMU firmware)
+#   8. Python package                 (pip install ./python into a venv under the target dir,
+#                                      then pytest python/tests against the hal-sim CLI)
 #
 # Uses the default target dir unless CARGO_TARGET_DIR is set.
 set -euo pipefail
@@ -31,24 +33,24 @@ section() {
     printf '\n==== [%4d s] %s ====\n' "$((now - START))" "$*"
 }
 
-section "1/7 install tools"
+section "1/8 install tools"
 bash scripts/install-tools.sh
 cargo --version
 rustc --version
 
-section "2/7 format (cargo fmt --check)"
+section "2/8 format (cargo fmt --check)"
 cargo fmt --all -- --check
 
-section "3/7 clippy, host (workspace, all targets)"
+section "3/8 clippy, host (workspace, all targets)"
 cargo clippy --workspace --all-targets -- -D warnings
 
-section "4/7 clippy, $TARGET (library; firmware with --features qemu, --features board)"
+section "4/8 clippy, $TARGET (library; firmware with --features qemu, --features board)"
 cargo clippy -p imu-ident --target "$TARGET" --lib -- -D warnings
 cargo clippy -p imu-ident --target "$TARGET" --features qemu --bins -- -D warnings
 # Release, as step 6 builds it (the board's features never mix with the QEMU ones).
 cargo clippy --release -p imu-ident --target "$TARGET" --features board --bin imu-ident-board -- -D warnings
 
-section "5/7 host tests (cargo test --workspace)"
+section "5/8 host tests (cargo test --workspace)"
 # The QEMU tests are named qemu_firmware_*; they run in step 7 with the firmware built. Under
 # CI=true they fail rather than skip without it, so they are held back here.
 # The fuzz tests (tests/navigator_fuzz.rs, hal-sim/tests/fuzz_parsers.rs) read their case count
@@ -57,7 +59,7 @@ section "5/7 host tests (cargo test --workspace)"
 unset FUZZ_CASES
 cargo test --workspace -- --skip qemu_firmware_
 
-section "6/7 firmware release builds ($TARGET: imu-ident-qemu, imu-ident-board)"
+section "6/8 firmware release builds ($TARGET: imu-ident-qemu, imu-ident-board)"
 # Prints an ELF's text/data/bss sizes (and, with -A, every section's).
 print_size() {
     if command -v llvm-size >/dev/null 2>&1; then
@@ -89,9 +91,36 @@ ELF="$ELF-smoke"
 cargo build --release -p imu-ident --target "$TARGET" --features qemu,prove-no-panic --bin imu-ident-qemu
 cargo build --release -p imu-ident --target "$TARGET" --features board,prove-no-panic --bin imu-ident-board
 
-section "7/7 QEMU smoke test (mps2-an386)"
+section "7/8 QEMU smoke test (mps2-an386)"
 # --workspace keeps the feature set of step 5, so nothing is rebuilt.
 IMU_IDENT_FIRMWARE_ELF="$ELF" cargo test --workspace --test qemu_smoke -- --nocapture
+
+section "8/8 Python package (pip install ./python; pytest python/tests)"
+# A venv under the target dir (PyPI for maturin, numpy and pytest). pip builds the extension
+# with maturin in the workspace's target dir ([profile.python]), so hal-sim is compiled once
+# more, optimised; the tests compare it with the hal-sim CLI built in step 5.
+VENV="$TARGET_DIR/pyvenv"
+case "$VENV" in /*) ;; *) VENV="$PWD/$VENV" ;; esac
+if [ ! -x "$VENV/bin/python" ]; then
+    python3 -m venv "$VENV"
+fi
+"$VENV/bin/python" -m pip install --quiet --upgrade pip
+"$VENV/bin/python" -m pip install --quiet ./python pytest
+# The CLI that step 5 built for hal-sim's integration tests (CARGO_BIN_EXE_hal-sim).
+HAL_SIM_BIN="$TARGET_DIR/debug/hal-sim"
+case "$HAL_SIM_BIN" in /*) ;; *) HAL_SIM_BIN="$PWD/$HAL_SIM_BIN" ;; esac
+[ -x "$HAL_SIM_BIN" ] || cargo build -p hal-sim --bin hal-sim
+# pytest exits 5 when it collected no tests: a missing test suite is a failure here too.
+set +e
+HAL_SIM_BIN="$HAL_SIM_BIN" "$VENV/bin/python" -m pytest -q python/tests
+rc=$?
+set -e
+if [ "$rc" -eq 5 ]; then
+    echo "pytest collected no tests in python/tests" >&2
+    exit 1
+elif [ "$rc" -ne 0 ]; then
+    exit "$rc"
+fi
 
 section "all checks passed"
 echo "total $(( $(date +%s) - START )) s"

@@ -14,14 +14,19 @@ pub fn simulate(scenario_spec: &str, hours: Option<f64>, seed: u64, out: &Path) 
     let model = sc
         .to_core()
         .with_context(|| format!("scenario {scenario_spec}"))?;
-    let hours = hours.or(sc.hours).unwrap_or(12.0);
-    if !(hours.is_finite() && hours > 0.0) {
-        return Err(anyhow!("--hours must be a positive number, got {hours}"));
-    }
-    let steps = (hours * 3600.0 / model.dt).round() as usize;
+    let steps = simulation_steps(hours.or(sc.hours), model.dt)?;
     let rows = sim::simulate(&model, steps, seed)?;
     log::write(out, &rows)?;
     Ok(steps)
+}
+
+/// The number of steps of `hours` (default 12) at `dt`, as `simulate` draws them.
+pub fn simulation_steps(hours: Option<f64>, dt: f64) -> Result<usize> {
+    let hours = hours.unwrap_or(12.0);
+    if !(hours.is_finite() && hours > 0.0) {
+        return Err(anyhow!("--hours must be a positive number, got {hours}"));
+    }
+    Ok((hours * 3600.0 / dt).round() as usize)
 }
 
 /// `run`: replays a log through the firmware's 1 Hz step ([`imu_ident::navigator`], in double
@@ -46,6 +51,8 @@ pub fn run(
 
 /// `qemu`: runs the firmware ELF under QEMU on the log with the model; writes the files of
 /// [`run`] from the decoded telemetry, plus `firmware.json` (instruction counts, stack, exit).
+/// Without `elf` (and `$IMU_IDENT_FIRMWARE_ELF`) the firmware is built first when it is missing
+/// or older than its sources ([`crate::firmware::prepare`]).
 pub fn qemu(
     log_path: &Path,
     model_path: &Path,
@@ -55,17 +62,10 @@ pub fn qemu(
 ) -> Result<serde_json::Value> {
     let model = model_toml::load(model_path)?;
     let rows = log::read(log_path)?;
-    let elf = elf
-        .or_else(|| std::env::var_os("IMU_IDENT_FIRMWARE_ELF").map(Into::into))
-        .unwrap_or_else(|| "target/thumbv7em-none-eabihf/release/imu-ident-qemu".into());
+    let cfg = crate::qemu::QemuConfig::default();
+    let elf = crate::firmware::prepare(elf, &cfg.program)?;
     let pairs: Vec<(f64, f64)> = rows.iter().map(|r| (r.t, r.z)).collect();
-    let run = crate::qemu::run_firmware(
-        &elf,
-        &model,
-        adapt,
-        &pairs,
-        &crate::qemu::QemuConfig::default(),
-    )?;
+    let run = crate::qemu::run_firmware(&elf, &model, adapt, &pairs, &cfg)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let fw = serde_json::json!({
         "elf": elf.display().to_string(),
@@ -113,6 +113,20 @@ pub fn write_run(
     identified: Option<&imu_ident::model::InsModel<f64>>,
 ) -> Result<serde_json::Value> {
     tel.write(out)?;
+    let json = run_summary(rows, tel, identified)?;
+    write_string(
+        &out.join("summary.json"),
+        &serde_json::to_string_pretty(&json)?,
+    )?;
+    Ok(json)
+}
+
+/// A run's `summary.json` (see [`write_run`]), without writing anything.
+pub fn run_summary(
+    rows: &[log::LogRow],
+    tel: &crate::replay::Telemetry,
+    identified: Option<&imu_ident::model::InsModel<f64>>,
+) -> Result<serde_json::Value> {
     let summary: Summary = summarise(rows, &tel.estimate_rows(), tel.counts());
     let mut json = serde_json::to_value(&summary)?;
     if let Some(m) = identified {
@@ -121,10 +135,6 @@ pub fn write_run(
         ks.dedup();
         json["parameter_updates"] = ks.len().saturating_sub(1).into();
     }
-    write_string(
-        &out.join("summary.json"),
-        &serde_json::to_string_pretty(&json)?,
-    )?;
     Ok(json)
 }
 
@@ -261,12 +271,20 @@ pub fn demo(effect: Option<&str>, seed: Option<u64>, hours: f64, out: &Path) -> 
         "Hidden effect {} in paper data, seed {seed}, {hours} h.",
         candidate.label()
     );
-    let html = crate::report::html(
+    // The online identification from the nominal model, on the same data (params over time).
+    let cfg = imu_ident::adapt::AdaptConfig::default();
+    let tel = crate::replay::run::<f64>(&nominal, Some(&cfg), &rows)?.telemetry;
+    let adaptive = format!(
+        "<h2>Online identification (run --adapt from the nominal model)</h2>{}",
+        crate::report::parameter_plots(&tel.param_rows(), Some(&truth))?
+    );
+    let html = crate::report::html_with(
         "imu-ident demo: find the missing effect",
         &runs,
         &rows,
         Some(&d),
         &note,
+        &adaptive,
     )?;
     write_string(&out.join("report.html"), &html)?;
     println!("report: {}", out.join("report.html").display());

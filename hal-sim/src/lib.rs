@@ -8,6 +8,7 @@ pub mod commands;
 pub mod compare;
 pub mod diagnose;
 pub mod figures;
+pub mod firmware;
 pub mod hidden;
 pub mod identify;
 pub mod log;

@@ -190,7 +190,13 @@ pub fn run_firmware_bytes(
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
-        .with_context(|| format!("starting {} (is QEMU installed?)", cfg.program.display()))?;
+        .with_context(|| {
+            format!(
+                "starting {} (QEMU; install it with `{}`)",
+                cfg.program.display(),
+                crate::firmware::QEMU_HINT
+            )
+        })?;
 
     // Drain both pipes on their own threads so a chatty child never blocks on a full pipe.
     let mut out = child

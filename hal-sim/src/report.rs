@@ -17,6 +17,28 @@ fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
     anyhow!("plot: {e:?}")
 }
 
+/// A confidence band drawn as a shaded area: `(x, lo, hi)` points.
+#[derive(Debug, Clone, Default)]
+pub struct Band {
+    /// Legend label.
+    pub name: String,
+    /// `(x, lo, hi)`, in x order.
+    pub pts: Vec<(f64, f64, f64)>,
+}
+
+impl Band {
+    /// A band constant in y (`lo..hi`) over `x0..x1`.
+    pub fn flat(name: &str, x0: f64, x1: f64, lo: f64, hi: f64) -> Self {
+        Self {
+            name: name.to_string(),
+            pts: vec![(x0, lo, hi), (x1, lo, hi)],
+        }
+    }
+}
+
+/// Shading of the bands (light grey-blue), under the lines.
+const BAND_FILL: RGBColor = RGBColor(120, 150, 220);
+
 /// A line chart of several series `(name, points)` with optional horizontal band lines.
 pub fn line_chart(
     title: &str,
@@ -25,19 +47,45 @@ pub fn line_chart(
     series: &[(String, Vec<(f64, f64)>)],
     bands: &[f64],
 ) -> Result<String> {
+    chart(title, x_label, y_label, series, &[], bands)
+}
+
+/// The x range of the finite points of `series`.
+fn x_range(series: &[(String, Vec<(f64, f64)>)]) -> (f64, f64) {
+    series
+        .iter()
+        .flat_map(|s| s.1.iter())
+        .filter(|p| p.0.is_finite())
+        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)))
+}
+
+/// A line chart of `series` over shaded confidence `bands`, with horizontal reference lines
+/// at `hlines`.
+pub fn chart(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[(String, Vec<(f64, f64)>)],
+    bands: &[Band],
+    hlines: &[f64],
+) -> Result<String> {
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (860, 320)).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
+        let band_pts = bands
+            .iter()
+            .flat_map(|b| b.pts.iter().flat_map(|p| [(p.0, p.1), (p.0, p.2)]));
         let pts = series
             .iter()
-            .flat_map(|s| s.1.iter())
+            .flat_map(|s| s.1.iter().copied())
+            .chain(band_pts)
             .filter(|p| p.0.is_finite() && p.1.is_finite());
         let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for p in pts.clone() {
+        for p in pts {
             (x0, x1, y0, y1) = (x0.min(p.0), x1.max(p.0), y0.min(p.1), y1.max(p.1));
         }
-        for b in bands {
+        for b in hlines {
             (y0, y1) = (y0.min(*b), y1.max(*b));
         }
         if x0 >= x1 {
@@ -61,6 +109,28 @@ pub fn line_chart(
             .draw()
             .map_err(err)?;
         for b in bands {
+            let ok: Vec<_> = b
+                .pts
+                .iter()
+                .filter(|p| p.0.is_finite() && p.1.is_finite() && p.2.is_finite())
+                .collect();
+            let outline: Vec<(f64, f64)> = ok
+                .iter()
+                .map(|p| (p.0, p.2))
+                .chain(ok.iter().rev().map(|p| (p.0, p.1)))
+                .collect();
+            chart
+                .draw_series(std::iter::once(Polygon::new(
+                    outline,
+                    BAND_FILL.mix(0.3).filled(),
+                )))
+                .map_err(err)?
+                .label(b.name.as_str())
+                .legend(|(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 18, y + 5)], BAND_FILL.mix(0.3).filled())
+                });
+        }
+        for b in hlines {
             chart
                 .draw_series(LineSeries::new([(x0, *b), (x1, *b)], BLACK.mix(0.5)))
                 .map_err(err)?;
@@ -89,6 +159,29 @@ pub fn line_chart(
     Ok(svg)
 }
 
+/// `v` with 4 significant digits and its unit (plain notation from 1e-3 to 1e4, else
+/// scientific); `-` for a non-finite value.
+pub fn sig4(v: f64, unit: &str) -> String {
+    let num = if !v.is_finite() {
+        return "-".to_string();
+    } else if v == 0.0 {
+        "0.000".to_string()
+    } else {
+        let mag = v.abs().log10().floor();
+        if (-3.0..4.0).contains(&mag) {
+            let decimals = (3.0 - mag).max(0.0) as usize;
+            format!("{v:.decimals$}")
+        } else {
+            format!("{v:.3e}")
+        }
+    };
+    if unit.is_empty() {
+        num
+    } else {
+        format!("{num} {unit}")
+    }
+}
+
 /// Normalised-innovation ACF of each run with its 99 % band.
 pub fn acf_plot(runs: &[ModelRun]) -> Result<String> {
     let series: Vec<_> = runs
@@ -107,12 +200,14 @@ pub fn acf_plot(runs: &[ModelRun]) -> Result<String> {
         })
         .collect();
     let band = runs.first().map_or(0.0, |r| r.whiteness.band);
-    line_chart(
+    let (x0, x1) = x_range(&series);
+    chart(
         "Innovation whiteness: ACF of nu/sqrt(S), 99 % band",
         "lag [s]",
         "r_k",
         &series,
-        &[band, -band],
+        &[Band::flat("99 % band (white)", x0, x1, -band, band)],
+        &[0.0],
     )
 }
 
@@ -131,12 +226,14 @@ pub fn nis_plot(runs: &[ModelRun]) -> Result<String> {
         })
         .collect();
     let band = runs.first().map_or([0.0, 0.0], |r| r.nis_band);
-    line_chart(
+    let (x0, x1) = x_range(&series);
+    chart(
         "Windowed NIS (10-min mean), 99 % chi-square band",
         "t [h]",
         "mean NIS",
         &series,
-        &band,
+        &[Band::flat("99 % chi-square band", x0, x1, band[0], band[1])],
+        &[1.0],
     )
 }
 
@@ -154,9 +251,16 @@ pub fn estimate_acf_plots(run: &ModelRun) -> Result<String> {
         let series = vec![
             ("estimates on the data".to_string(), pts(&a.data)),
             ("model (Monte Carlo mean)".to_string(), pts(&a.model)),
-            ("99 % band".to_string(), pts(&a.hi)),
-            ("99 % band ".to_string(), pts(&a.lo)),
         ];
+        let band = Band {
+            name: "model 99 % band (Monte Carlo)".to_string(),
+            pts: a
+                .lags
+                .iter()
+                .zip(a.lo.iter().zip(&a.hi))
+                .map(|(&x, (&lo, &hi))| (x, lo, hi))
+                .collect(),
+        };
         let title = format!(
             "{}: ACF of the estimated {} error vs the model ({} of {} lags outside)",
             run.name,
@@ -164,7 +268,7 @@ pub fn estimate_acf_plots(run: &ModelRun) -> Result<String> {
             a.outside.len(),
             a.lags.len().saturating_sub(1)
         );
-        html += &line_chart(&title, "lag [s]", "r", &series, &[0.0])?;
+        html += &chart(&title, "lag [s]", "r", &series, &[band], &[0.0])?;
     }
     Ok(html)
 }
@@ -172,7 +276,7 @@ pub fn estimate_acf_plots(run: &ModelRun) -> Result<String> {
 /// Tilt error `true_delta - delta_hat` and `3 sigma_delta` of one run (truth only), every 30 s.
 pub fn tilt_plot(run: &ModelRun, log: &[LogRow]) -> Result<Option<String>> {
     let mut err_pts = vec![];
-    let (mut hi, mut lo) = (vec![], vec![]);
+    let mut band = vec![];
     let mut j = 0;
     for (i, e) in run.estimates.iter().enumerate() {
         while j < log.len() && log[j].t < e.t {
@@ -184,29 +288,132 @@ pub fn tilt_plot(run: &ModelRun, log: &[LogRow]) -> Result<Option<String>> {
         if i % 30 == 0 {
             let h = e.t / 3600.0;
             err_pts.push((h, (tr.delta - e.delta_hat) * 1e6));
-            hi.push((h, 3.0 * e.sigma_delta * 1e6));
-            lo.push((h, -3.0 * e.sigma_delta * 1e6));
+            let s3 = 3.0 * e.sigma_delta * 1e6;
+            band.push((h, -s3, s3));
         }
     }
-    let series = vec![
-        ("delta error".to_string(), err_pts),
-        ("+3 sigma".to_string(), hi),
-        ("-3 sigma".to_string(), lo),
-    ];
-    line_chart(
-        &format!("{}: tilt error against its 3 sigma bound", run.name),
+    let series = vec![("tilt error (truth - estimate)".to_string(), err_pts)];
+    let band = Band {
+        name: "±3 sigma (filter)".to_string(),
+        pts: band,
+    };
+    chart(
+        &format!("{}: tilt error against ±3 sigma", run.name),
         "t [h]",
         "µrad",
         &series,
-        &[],
+        &[band],
+        &[0.0],
     )
     .map(Some)
+}
+
+/// What the reports cannot draw about the online identification: the Cramér-Rao interval of
+/// each parameter needs its standard deviation in the parameter records, which they do not carry.
+pub const NO_CR_SD: &str = "No Cramér-Rao interval: the parameter records (imu_ident::navigator::ParamRecord, params.csv) carry tau, sigma and beta but not their Cramér-Rao standard deviations; the firmware would have to report them.";
+
+/// One plot per identified parameter of a `run --adapt` (its `params` records) over time, with
+/// the true value when the truth model is known (same sensor, component index and kind).
+pub fn parameter_plots(
+    params: &[crate::records::ParamRow],
+    truth: Option<&imu_ident::model::InsModel<f64>>,
+) -> Result<String> {
+    let mut truth_rows = Vec::new();
+    if let Some(m) = truth {
+        imu_ident::telemetry::model_params(m, 0, 0.0, |p| truth_rows.push(*p));
+    }
+    let mut keys: Vec<(&str, usize, &str)> = params
+        .iter()
+        .map(|p| (p.sensor, p.component, p.kind))
+        .collect();
+    keys.sort_unstable();
+    keys.dedup();
+    let mut html = String::new();
+    for (sensor, comp, kind) in keys {
+        let rows: Vec<_> = params
+            .iter()
+            .filter(|p| (p.sensor, p.component, p.kind) == (sensor, comp, kind))
+            .collect();
+        let t1 = rows.last().map_or(0.0, |p| p.t / 3600.0);
+        let true_row = truth_rows.iter().find(|r| {
+            r.sensor.name() == sensor && usize::from(r.component) == comp && r.kind.name() == kind
+        });
+        type Get = fn(&crate::records::ParamRow) -> f64;
+        type GetTrue = fn(&imu_ident::navigator::ParamRecord) -> f32;
+        let base = match sensor {
+            "accel" => "m/s^2",
+            "gyro" => "rad/s",
+            _ => "m/s",
+        };
+        // params.csv's `sigma`: sqrt(q) for a random walk, the density for white noise.
+        let sigma_unit = match kind {
+            "random-walk" => format!("{base}/sqrt(s)"),
+            "white" => format!("{base}/sqrt(Hz)"),
+            _ => base.to_string(),
+        };
+        let fields: [(&str, &str, Get, GetTrue); 3] = [
+            ("tau", "s", |p| p.tau, |r| r.tau),
+            ("sigma", &sigma_unit, |p| p.sigma, |r| r.sigma),
+            ("beta", "rad/s", |p| p.beta, |r| r.beta),
+        ];
+        for (name, unit, get, get_true) in fields {
+            let pts: Vec<(f64, f64)> = rows
+                .iter()
+                .map(|p| (p.t / 3600.0, get(p)))
+                .filter(|q| q.1.is_finite())
+                .collect();
+            if pts.is_empty() {
+                continue;
+            }
+            let mut series = vec![("identified".to_string(), pts)];
+            if let Some(v) = true_row.map(|r| f64::from(get_true(r))) {
+                if v.is_finite() {
+                    series.push((format!("truth {}", sig4(v, unit)), vec![(0.0, v), (t1, v)]));
+                }
+            }
+            html += &chart(
+                &format!("Online identification: {sensor} {comp} ({kind}) {name}"),
+                "t [h]",
+                &format!("{name} [{unit}]"),
+                &series,
+                &[],
+                &[],
+            )?;
+        }
+    }
+    html += &format!("<p>{}</p>", esc(NO_CR_SD));
+    Ok(html)
 }
 
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
+}
+
+/// The candidate effects, best score first, each with its fitted parameters explained in one
+/// line (scores in nats: log-likelihood gain minus the BIC penalty).
+fn candidate_table(cands: &[crate::diagnose::CandidateScore]) -> String {
+    let mut sorted: Vec<_> = cands.iter().collect();
+    sorted.sort_by(|a, b| b.score.total_cmp(&a.score));
+    let mut h = "<table><tr><th>candidate</th><th>log-lik gain</th><th>BIC penalty</th><th>score</th><th style=\"text-align:left\">what the fit means</th></tr>".to_string();
+    for c in sorted {
+        let explanation = crate::hidden::by_label(&c.label)
+            .zip(c.params.to_core().ok())
+            .map_or_else(
+                || "(no explanation: unknown candidate)".to_string(),
+                |(cand, comp)| cand.explain(&comp),
+            );
+        h += &format!(
+            "<tr><td style=\"text-align:left\">{}</td><td>{}</td><td>{}</td><td>{}</td><td style=\"text-align:left\">{}</td></tr>",
+            esc(&c.label),
+            sig4(c.gain, "nats"),
+            sig4(c.penalty, "nats"),
+            sig4(c.score, "nats"),
+            esc(&explanation)
+        );
+    }
+    h + "</table>"
 }
 
 /// The HTML report: the before/after table, the diagnosis (if any) and the plots.
@@ -216,6 +423,18 @@ pub fn html(
     log: &[LogRow],
     diagnosis: Option<&Diagnosis>,
     notes: &str,
+) -> Result<String> {
+    html_with(title, runs, log, diagnosis, notes, "")
+}
+
+/// [`html`] with `extra` HTML (e.g. [`parameter_plots`]) at the end.
+pub fn html_with(
+    title: &str,
+    runs: &[ModelRun],
+    log: &[LogRow],
+    diagnosis: Option<&Diagnosis>,
+    notes: &str,
+    extra: &str,
 ) -> Result<String> {
     let mut h = format!(
         "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>{t}</title><style>body{{font-family:sans-serif;max-width:920px;margin:auto}}table{{border-collapse:collapse}}td,th{{border:1px solid #999;padding:3px 8px;text-align:right}}th{{background:#eee}}.ok{{color:#180}}.bad{{color:#b00}}</style></head><body><h1>{t}</h1>",
@@ -248,14 +467,10 @@ pub fn html(
         }
         let ev = &d.evidence;
         h += &format!(
-            "<p>Where the model fails: {} of {} innovation-ACF lags outside the 99 % band (Ljung-Box p = {:.3}); {} of {} ten-minute NIS windows outside [{:.3}, {:.3}].</p>",
-            ev.failed_lags.len(), ev.whiteness.dof, ev.whiteness.p_value, ev.failed_windows.len(), ev.nis_windows.len(), ev.nis_window_band[0], ev.nis_window_band[1]
+            "<p>Where the model fails: {} of {} innovation-ACF lags outside the 99 % band (Ljung-Box p = {}); {} of {} ten-minute NIS windows outside [{}, {}].</p>",
+            ev.failed_lags.len(), ev.whiteness.dof, sig4(ev.whiteness.p_value, ""), ev.failed_windows.len(), ev.nis_windows.len(), sig4(ev.nis_window_band[0], ""), sig4(ev.nis_window_band[1], "")
         );
-        h += "<table><tr><th>candidate</th><th>log-lik gain</th><th>BIC penalty</th><th>score</th></tr>";
-        for c in &ev.candidates {
-            h += &format!("<tr><td style=\"text-align:left\">{}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1}</td></tr>", c.label, c.gain, c.penalty, c.score);
-        }
-        h += "</table>";
+        h += &candidate_table(&ev.candidates);
         if !d.limits.is_empty() {
             h += "<h3>What these data cannot show</h3><ul>";
             for l in &d.limits {
@@ -268,13 +483,13 @@ pub fn html(
             h += "</ul>";
         }
     }
-    h += "<h2>Before and after</h2><table><tr><th>model</th><th>log-likelihood</th><th>Ljung-Box p</th><th>ACF lags out</th><th>mean NIS</th><th>NIS windows out</th><th>tilt RMS [µrad]</th><th>outside 3σ</th></tr>";
+    h += "<h2>Before and after</h2><table><tr><th>model</th><th>log-likelihood</th><th>Ljung-Box p</th><th>ACF lags out</th><th>mean NIS</th><th>NIS windows out</th><th>tilt RMS</th><th>outside 3σ</th></tr>";
     for r in runs {
         h += &format!(
-            "<tr><td style=\"text-align:left\">{}</td><td>{:.1}</td><td>{:.3}</td><td>{}/{}</td><td>{:.3}</td><td>{}/{}</td><td>{}</td><td>{}</td></tr>",
-            esc(&r.name), r.log_likelihood, r.whiteness.p_value, r.whiteness.failed_lags.len(), r.whiteness.dof, r.summary.nis_mean, r.nis_failed, r.nis_windows.len(),
-            r.summary.tilt_rms.map_or("-".into(), |v| format!("{:.2}", v * 1e6)),
-            r.summary.tilt_outside_3sigma.map_or("-".into(), |v| format!("{:.2} %", v * 100.0))
+            "<tr><td style=\"text-align:left\">{}</td><td>{}</td><td>{}</td><td>{}/{}</td><td>{}</td><td>{}/{}</td><td>{}</td><td>{}</td></tr>",
+            esc(&r.name), sig4(r.log_likelihood, "nats"), sig4(r.whiteness.p_value, ""), r.whiteness.failed_lags.len(), r.whiteness.dof, sig4(r.summary.nis_mean, ""), r.nis_failed, r.nis_windows.len(),
+            r.summary.tilt_rms.map_or("-".into(), |v| sig4(v * 1e6, "µrad")),
+            r.summary.tilt_outside_3sigma.map_or("-".into(), |v| sig4(v * 100.0, "%"))
         );
     }
     h += "</table>";
@@ -288,6 +503,36 @@ pub fn html(
             h += &svg;
         }
     }
+    h += extra;
     h += "</body></html>";
     Ok(h)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sig4_keeps_four_significant_digits_and_the_unit() {
+        assert_eq!(sig4(347.891, "µrad"), "347.9 µrad");
+        assert_eq!(sig4(0.001_234_56, ""), "0.001235");
+        assert_eq!(sig4(85_583.2, "nats"), "8.558e4 nats");
+        assert_eq!(sig4(-2.5e-7, "rad"), "-2.500e-7 rad");
+        assert_eq!(sig4(f64::NAN, "rad"), "-");
+    }
+
+    #[test]
+    fn bands_are_filled_polygons() {
+        let series = vec![("x".to_string(), vec![(0.0, 0.0), (1.0, 1.0)])];
+        let svg = chart(
+            "t",
+            "x",
+            "y",
+            &series,
+            &[Band::flat("band", 0.0, 1.0, -1.0, 2.0)],
+            &[],
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert!(svg.contains("<polygon"), "no filled band in the SVG");
+    }
 }

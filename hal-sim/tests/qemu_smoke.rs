@@ -314,3 +314,111 @@ fn qemu_firmware_parity_exp_cosine_model_12h() {
         "gyro/exp-cosine hidden, exp-cosine model, fixed",
     );
 }
+
+/// A `hal-sim` process for `qemu` runs that must find (or build) the firmware themselves: no
+/// ELF given, and the target dir `target_dir`.
+fn hal_sim_qemu(target_dir: &std::path::Path, dir: &std::path::Path) -> std::process::Command {
+    let log_path = dir.join("log.csv");
+    let rows: Vec<LogRow> = make_log()
+        .into_iter()
+        .map(|(t, z)| LogRow { t, z, truth: None })
+        .collect();
+    hal_sim::log::write(&log_path, &rows).unwrap_or_else(|e| panic!("{e:#}"));
+    let model = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/paper.toml");
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_hal-sim"));
+    cmd.arg("qemu")
+        .arg("--log")
+        .arg(&log_path)
+        .arg("--model")
+        .arg(model)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .env_remove(hal_sim::firmware::ELF_ENV)
+        .env("CARGO_TARGET_DIR", target_dir);
+    cmd
+}
+
+/// `hal-sim qemu` without `--elf` builds the firmware it runs: from a target dir without the
+/// ELF, one command runs the replay. The target dir is a fixed folder under the workspace's
+/// (kept between runs so that only the first one compiles everything; the ELF is deleted
+/// first, so the build step is always exercised).
+#[test]
+fn qemu_firmware_built_on_demand() {
+    // Under CI=true the tools are there (scripts/install-tools.sh); elsewhere skip without them.
+    if std::env::var("CI").as_deref() != Ok("true")
+        && std::process::Command::new("qemu-system-arm")
+            .arg("--version")
+            .output()
+            .is_err()
+    {
+        eprintln!("skipping qemu_firmware_built_on_demand: qemu-system-arm is not installed");
+        return;
+    }
+    let root = hal_sim::firmware::workspace_root().unwrap_or_else(|| panic!("workspace root"));
+    let base =
+        std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| root.join("target"), |d| root.join(d));
+    let target_dir = base.join("qemu-autobuild");
+    let elf = target_dir
+        .join(hal_sim::firmware::TARGET)
+        .join("release")
+        .join(hal_sim::firmware::BIN);
+    if elf.exists() {
+        std::fs::remove_file(&elf).unwrap_or_else(|e| panic!("{}: {e}", elf.display()));
+    }
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let out = hal_sim_qemu(&target_dir, dir.path())
+        .output()
+        .unwrap_or_else(|e| panic!("{e}"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "hal-sim qemu failed:\n{stderr}");
+    assert!(
+        stderr.contains("building the firmware"),
+        "no build announced:\n{stderr}"
+    );
+    assert!(elf.is_file(), "{} was not built", elf.display());
+    let fw: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("out/firmware.json"))
+            .unwrap_or_else(|e| panic!("{e}")),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(fw["exit_success"], true, "{fw}");
+    assert_eq!(fw["elf"], elf.display().to_string());
+    // One estimates row per log row, as `hal-sim run` writes them.
+    let est = std::fs::read_to_string(dir.path().join("out/estimates.csv"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(est.lines().count(), 1 + STEPS);
+
+    // Up to date now: a second run does not build again.
+    let dir2 = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let out2 = hal_sim_qemu(&target_dir, dir2.path())
+        .output()
+        .unwrap_or_else(|e| panic!("{e}"));
+    let stderr2 = String::from_utf8_lossy(&out2.stderr);
+    assert!(out2.status.success(), "{stderr2}");
+    assert!(!stderr2.contains("building the firmware"), "{stderr2}");
+}
+
+/// Without QEMU and cargo (an empty PATH) and without the ELF, `hal-sim qemu` fails with the
+/// commands that get each missing tool and the build command. Needs neither tool, so it runs
+/// with the host tests.
+#[test]
+fn missing_firmware_tools_are_named_with_their_install_commands() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let empty = dir.path().join("empty-path");
+    std::fs::create_dir_all(&empty).unwrap_or_else(|e| panic!("{e}"));
+    let out = hal_sim_qemu(&dir.path().join("no-target"), dir.path())
+        .env("PATH", &empty)
+        .env_remove("CARGO")
+        .env_remove("RUSTC")
+        .output()
+        .unwrap_or_else(|e| panic!("{e}"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "must fail:\n{stderr}");
+    for needle in [
+        hal_sim::firmware::QEMU_HINT,
+        hal_sim::firmware::CARGO_HINT,
+        hal_sim::firmware::BUILD_COMMAND,
+    ] {
+        assert!(stderr.contains(needle), "no {needle:?} in:\n{stderr}");
+    }
+}
