@@ -153,7 +153,8 @@ pub fn bias_gauss_markov(b: f64, tau_b: f64, n: f64, k: f64) -> Option<BiasGm> {
         tau: tau_b / x,
         exact: true,
     };
-    let total = |tau: f64| n * n / tau + k * k * tau / 3.0 + avar_gauss_markov(gm.sigma, gm.tau, tau);
+    let total =
+        |tau: f64| n * n / tau + k * k * tau / 3.0 + avar_gauss_markov(gm.sigma, gm.tau, tau);
     let at = total(tau_b);
     let is_min = total(tau_b * 1.25) >= at && total(tau_b / 1.25) >= at;
     Some(if is_min && gm.sigma.is_finite() {
@@ -179,7 +180,12 @@ pub struct Reference {
 /// The datasheets known to `--reference`.
 pub const REFERENCES: [Reference; 1] = [Reference {
     name: "ADIS16405",
-    source: "Analog Devices, ADIS16405 data sheet Rev. B, Specifications table, typical values:              gyroscope in-run bias stability 0.007 deg/s (1 sigma) = 25.2 deg/h, angular random              walk 2.0 deg/sqrt(h); accelerometer in-run bias stability 0.2 mg (1 sigma) = 200 ug,              velocity random walk 0.2 m/s/sqrt(h)",
+    source: concat!(
+        "Analog Devices, ADIS16405 data sheet Rev. B, Specifications table, typical values: ",
+        "gyroscope in-run bias stability 0.007 deg/s (1 sigma) = 25.2 deg/h, angular random ",
+        "walk 2.0 deg/sqrt(h); accelerometer in-run bias stability 0.2 mg (1 sigma) = 200 ug, ",
+        "velocity random walk 0.2 m/s/sqrt(h)"
+    ),
     gyro_bias_instability_deg_h: 0.007 * 3600.0,
     arw_deg_sqrt_h: 2.0,
     accel_bias_instability_ug: 200.0,

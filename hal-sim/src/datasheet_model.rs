@@ -207,7 +207,11 @@ mod tests {
         assert_eq!(m.model.gyro.x.len(), 2);
         assert!(m.bias_gm[0].is_some_and(|g| g.exact));
         // ARW 2 deg/sqrt(h) is far above tactical; 25.2 deg/h is within the wide tactical band.
-        assert!(m.warnings.iter().any(|w| w.contains("angle random walk")), "{:?}", m.warnings);
+        assert!(
+            m.warnings.iter().any(|w| w.contains("angle random walk")),
+            "{:?}",
+            m.warnings
+        );
         let text = m.model.to_text("").expect("text");
         crate::imu_model::parse(&text, "m.toml").expect("reload");
         let none = DatasheetArgs {

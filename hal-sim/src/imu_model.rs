@@ -205,9 +205,12 @@ mod tests {
             accel: AxesToml::default(),
         };
         for a in AXES {
-            m.gyro.axis_mut(a).expect("axis").push(ComponentToml::White {
-                density: 2.9362341082725943e-6,
-            });
+            m.gyro
+                .axis_mut(a)
+                .expect("axis")
+                .push(ComponentToml::White {
+                    density: 2.9362341082725943e-6,
+                });
             m.accel
                 .axis_mut(a)
                 .expect("axis")

@@ -27,8 +27,16 @@ fn sqrt2(m: Matrix2<f64>) -> Matrix2<f64> {
 /// One component's sample path generator.
 enum State {
     White(f64),
-    Scalar { x: f64, phi: f64, sd: f64 },
-    Pair { x: Vector2<f64>, phi: Matrix2<f64>, l: Matrix2<f64> },
+    Scalar {
+        x: f64,
+        phi: f64,
+        sd: f64,
+    },
+    Pair {
+        x: Vector2<f64>,
+        phi: Matrix2<f64>,
+        l: Matrix2<f64>,
+    },
 }
 
 impl State {
@@ -87,7 +95,13 @@ impl State {
 }
 
 /// `n` samples at `dt` of one axis made of `comps`.
-pub fn simulate_axis(comps: &[Component<f64>], dt: f64, n: usize, seed: u64, stream: u64) -> Vec<f64> {
+pub fn simulate_axis(
+    comps: &[Component<f64>],
+    dt: f64,
+    n: usize,
+    seed: u64,
+    stream: u64,
+) -> Vec<f64> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(stream);
     let mut states: Vec<State> = comps.iter().map(|c| State::new(c, dt, &mut rng)).collect();

@@ -124,11 +124,18 @@ mod tests {
                     accelerometer_random_walk: 0.0002, gyroscope_noise_density: 0.005, \
                     gyroscope_random_walk: 4.0e-06}";
         assert_eq!(parse(flow, "f.yaml").expect("flow").update_rate, 200.0);
-        let e = parse("update_rate: 200\n", "m.yaml").unwrap_err().to_string();
-        assert!(e.contains("m.yaml") && e.contains("accelerometer_noise_density"), "{e}");
+        let e = parse("update_rate: 200\n", "m.yaml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("m.yaml") && e.contains("accelerometer_noise_density"),
+            "{e}"
+        );
         let e = parse("a: [1, 2\nb: 3\n", "s.yaml").unwrap_err().to_string();
         assert!(e.contains("s.yaml line"), "{e}");
-        let bad = k.to_yaml("t").replace("update_rate: 2.000e2", "update_rate: fast");
+        let bad = k
+            .to_yaml("t")
+            .replace("update_rate: 2.000e2", "update_rate: fast");
         let e = parse(&bad, "b.yaml").unwrap_err().to_string();
         assert!(e.contains("'update_rate'"), "{e}");
     }

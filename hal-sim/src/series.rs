@@ -231,7 +231,10 @@ pub fn read_header(path: impl AsRef<Path>) -> Result<Vec<String>, SeriesError> {
 }
 
 /// The trimmed names of the header row.
-fn header_names<R: Read>(rdr: &mut csv::Reader<R>, file_name: &str) -> Result<Vec<String>, SeriesError> {
+fn header_names<R: Read>(
+    rdr: &mut csv::Reader<R>,
+    file_name: &str,
+) -> Result<Vec<String>, SeriesError> {
     let headers = rdr
         .byte_headers()
         .map_err(|e| csv_error(e, file_name, 1))?

@@ -338,8 +338,7 @@ pub fn kalibr_of(summaries: &[IdentifySummary], rate: f64) -> (KalibrImu, Vec<St
     let mut notes = Vec::new();
     let mut figs = [(0.0, 0.0); 2];
     for (i, sensor) in [SensorArg::Gyro, SensorArg::Accel].into_iter().enumerate() {
-        let axes: Vec<&IdentifySummary> =
-            summaries.iter().filter(|s| s.sensor == sensor).collect();
+        let axes: Vec<&IdentifySummary> = summaries.iter().filter(|s| s.sensor == sensor).collect();
         let n = axes
             .iter()
             .filter_map(|s| s.white_density.map(|w| w[0]))
@@ -385,7 +384,7 @@ fn random_walk_density(s: &IdentifySummary) -> (f64, String) {
     if gm > 0.0 {
         return (gm, "Gauss-Markov driving density sqrt(2 sigma^2/tc)".into());
     }
-    let min = s.residuals.iter().min_by(|a, b| a.adev.total_cmp(&b.adev));
+    let min = super::sheet::flat_bottom(&s.residuals);
     match min {
         Some(r) => (
             r.adev * (3.0 / r.tau).sqrt(),

@@ -8,8 +8,8 @@ use serde::Serialize;
 use super::fit::Kind;
 use super::{IdentifySummary, SensorArg};
 use crate::datasheet::{
-    accel_rrw_m_s_h_sqrt_h, arw_deg_sqrt_h, deg_h, gyro_rrw_deg_h_sqrt_h, micro_g,
-    vrw_m_s_sqrt_h, Reference, FLICKER_FACTOR,
+    accel_rrw_m_s_h_sqrt_h, arw_deg_sqrt_h, deg_h, gyro_rrw_deg_h_sqrt_h, micro_g, vrw_m_s_sqrt_h,
+    Reference, FLICKER_FACTOR,
 };
 use crate::imu_model::{round4, sig4};
 
@@ -116,7 +116,7 @@ pub fn axis_figures(axis: &str, s: &IdentifySummary) -> AxisFigures {
         }
         None => (Figure::new(f64::NAN, None, rw_unit), f64::NAN),
     };
-    let min = rows.iter().min_by(|a, b| a.adev.total_cmp(&b.adev));
+    let min = flat_bottom(rows);
     let (adev_min, bias_instability, adev_min_tau) = match min {
         Some(r) => (
             Figure::new(
@@ -176,6 +176,24 @@ pub fn axis_figures(axis: &str, s: &IdentifySummary) -> AxisFigures {
         rate_random_walk,
         gauss_markov,
     }
+}
+
+/// The ADEV point where IEEE 952 reads the bias instability: the first local minimum of the
+/// measured curve (the first octave point not above either neighbour; the last point if the
+/// curve still falls). Not the global minimum: the last octaves rest on a few clusters, and
+/// their noise (intervals of a factor 2-4) would make a lower point there more likely than
+/// not; nor does a Gauss-Markov term, whose ADEV falls again as white noise beyond its peak,
+/// leave a floor.
+pub fn flat_bottom(rows: &[super::Residual]) -> Option<&super::Residual> {
+    let n = rows.len();
+    (0..n)
+        .find(|&i| {
+            let left = i == 0 || rows[i].adev <= rows[i - 1].adev;
+            let right = i + 1 == n || rows[i].adev <= rows[i + 1].adev;
+            left && right && i > 0
+        })
+        .or(n.checked_sub(1))
+        .map(|i| &rows[i])
 }
 
 /// `datasheet.md`: one table per sensor, the Kalibr figures, and the reference datasheet
