@@ -199,7 +199,7 @@ mod tests {
             vrw: Some(0.2),
             gyro_bias_instability: Some(25.2),
             accel_bias_instability: Some(200.0),
-            bias_tau: Some(100.0),
+            bias_tau: Some(200.0),
             grade: Some(Grade::Tactical),
             ..DatasheetArgs::default()
         };

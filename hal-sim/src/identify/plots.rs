@@ -131,7 +131,11 @@ pub fn adev_svg(
 /// legend entry for the band, not one per edge).
 pub fn acf_svg(title: &str, rho: &[(f64, f64)], fits: &[Curve], band: f64) -> Result<String> {
     let finite = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite();
-    let all = || rho.iter().chain(fits.iter().flat_map(|c| c.1.iter())).filter(finite);
+    let all = || {
+        rho.iter()
+            .chain(fits.iter().flat_map(|c| c.1.iter()))
+            .filter(finite)
+    };
     let x1 = all().map(|p| p.0).fold(f64::MIN, f64::max);
     let x0 = all().map(|p| p.0).fold(f64::MAX, f64::min).min(0.0);
     let y0 = all().map(|p| p.1).fold(-band, f64::min);
