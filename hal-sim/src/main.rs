@@ -93,25 +93,25 @@ enum Command {
         #[arg(long)]
         imu: bool,
         /// Unit of the gyro columns (default: from the name suffix _dps / _rads).
-        #[arg(long, value_enum)]
+        #[arg(long, value_enum, conflicts_with = "column")]
         gyro_unit: Option<hal_sim::identify::imu::Unit>,
         /// Unit of the accelerometer columns (default: from the name suffix _g / _mps2).
-        #[arg(long, value_enum)]
+        #[arg(long, value_enum, conflicts_with = "column")]
         accel_unit: Option<hal_sim::identify::imu::Unit>,
         /// Datasheet to set the figures against in datasheet.md (e.g. ADIS16405).
-        #[arg(long)]
+        #[arg(long, conflicts_with = "column")]
         reference: Option<String>,
         /// Sample rate [Hz].
         #[arg(long)]
         rate: f64,
         /// Factor applied to every value (give the factor to SI for a usable model.toml).
-        #[arg(long, default_value_t = 1.0)]
+        #[arg(long, default_value_t = 1.0, conflicts_with_all = ["columns", "imu"])]
         scale: f64,
         /// Block-average factor for the ACF.
         #[arg(long, default_value_t = 1)]
         decimate: usize,
         /// gyro or accel (default: from the column name).
-        #[arg(long)]
+        #[arg(long, conflicts_with_all = ["columns", "imu"])]
         sensor: Option<String>,
         /// Output folder.
         #[arg(long)]
