@@ -176,13 +176,12 @@ pub fn read_columns_counted(
     Ok((cols, stats))
 }
 
+/// The decompressed byte stream, its progress bar and the count of bytes read from disk.
+type OpenCsv = (Box<dyn Read>, ProgressBar, Rc<Cell<u64>>);
+
 /// Opens a plain or gzip CSV (told apart by the magic bytes) behind a byte counter and the
 /// progress bar.
-fn open_csv(
-    path: &Path,
-    file_name: &str,
-    quiet: bool,
-) -> Result<(Box<dyn Read>, ProgressBar, Rc<Cell<u64>>), SeriesError> {
+fn open_csv(path: &Path, file_name: &str, quiet: bool) -> Result<OpenCsv, SeriesError> {
     let open_err = |source| SeriesError::Open {
         file: file_name.to_string(),
         source,

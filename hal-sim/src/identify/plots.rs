@@ -148,7 +148,7 @@ pub fn acf_svg(title: &str, rho: &[(f64, f64)], fits: &[Curve], band: f64) -> Re
     let x0 = all().map(|p| p.0).fold(f64::MAX, f64::min).min(0.0);
     let y0 = all().map(|p| p.1).fold(-band, f64::min);
     let y1 = all().map(|p| p.1).fold(band, f64::max);
-    if x0 >= x1 || !(y0 < y1) {
+    if x0 >= x1 || y0.partial_cmp(&y1) != Some(std::cmp::Ordering::Less) {
         return Err(anyhow!("plot: no ACF points"));
     }
     let pad = 0.05 * (y1 - y0);
