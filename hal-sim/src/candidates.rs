@@ -187,12 +187,14 @@ impl Candidate {
                 "reference velocity error correlated over {:.0} s (sigma {:.3e} m/s): GNSS multipath or reference filter lag",
                 g.tau, g.sigma
             ),
-            (Component::GaussMarkov(g), _) => format!(
-                "a second correlated {sensor} with tau {:.0} s (sigma {:.3e}): e.g. a thermal transient on another time scale",
-                g.tau, g.sigma
+            (Component::GaussMarkov(g), s) => format!(
+                "a second correlated {sensor} with tau {:.3e} s (sigma {:.3e} {}): e.g. a thermal transient on another time scale",
+                g.tau,
+                g.sigma,
+                if s == Sensor::Gyro { "rad/s" } else { "m/s^2" }
             ),
             (Component::ExpCosine(e), _) => format!(
-                "{sensor} oscillates with period {:.0} s, envelope {:.0} s (thermal cycling, DTG nutation, platform sway)",
+                "{sensor} oscillates with period {:.3e} s, envelope {:.3e} s (thermal cycling, DTG nutation, platform sway)",
                 2.0 * PI / e.beta.max(1e-300),
                 e.tau
             ),

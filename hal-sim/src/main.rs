@@ -95,25 +95,41 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
-    /// Identify a composite noise model of one axis of a static recording (ADEV + ACF).
+    /// Identify a composite noise model of one axis (--column) or of a whole IMU
+    /// (--columns gx,gy,gz,ax,ay,az or --imu) of a static recording (ADEV + ACF).
     Identify {
         /// CSV or gzip CSV with a header row.
         #[arg(long)]
         series: PathBuf,
-        /// Column to analyse.
+        /// Column to analyse (one axis).
+        #[arg(long, required_unless_present_any = ["columns", "imu"], conflicts_with_all = ["columns", "imu"])]
+        column: Option<String>,
+        /// Six columns gx,gy,gz,ax,ay,az: the whole IMU in one pass over the file.
+        #[arg(long, value_delimiter = ',', conflicts_with = "imu")]
+        columns: Option<Vec<String>>,
+        /// The whole IMU, the six columns found by name (gyro_x_dps, acc_z_g, ...).
         #[arg(long)]
-        column: String,
+        imu: bool,
+        /// Unit of the gyro columns (default: from the name suffix _dps / _rads).
+        #[arg(long, value_enum, conflicts_with = "column")]
+        gyro_unit: Option<hal_sim::identify::imu::Unit>,
+        /// Unit of the accelerometer columns (default: from the name suffix _g / _mps2).
+        #[arg(long, value_enum, conflicts_with = "column")]
+        accel_unit: Option<hal_sim::identify::imu::Unit>,
+        /// Datasheet to set the figures against in datasheet.md (e.g. ADIS16405).
+        #[arg(long, conflicts_with = "column")]
+        reference: Option<String>,
         /// Sample rate [Hz].
         #[arg(long)]
         rate: f64,
         /// Factor applied to every value (give the factor to SI for a usable model.toml).
-        #[arg(long, default_value_t = 1.0)]
+        #[arg(long, default_value_t = 1.0, conflicts_with_all = ["columns", "imu"])]
         scale: f64,
         /// Block-average factor for the ACF.
         #[arg(long, default_value_t = 1)]
         decimate: usize,
         /// gyro or accel (default: from the column name).
-        #[arg(long)]
+        #[arg(long, conflicts_with_all = ["columns", "imu"])]
         sensor: Option<String>,
         /// Output folder.
         #[arg(long)]
@@ -121,6 +137,11 @@ enum Command {
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
+    },
+    /// IMU model files: from datasheet figures, or simulated into a static recording.
+    Model {
+        #[command(subcommand)]
+        command: hal_sim::datasheet_model::ModelCommand,
     },
     /// Run the firmware under QEMU on a log; writes the files of `run` plus firmware.json.
     Qemu {
@@ -259,15 +280,51 @@ fn main() -> Result<()> {
             print!("{}", commands::compare(&log, &model, &out)?);
             println!("report: {}", out.join("report.html").display());
         }
+        Command::Model { command } => command.run()?,
         Command::Identify {
             series,
-            column,
+            column: None,
+            columns,
+            imu,
+            gyro_unit,
+            accel_unit,
+            reference,
+            rate,
+            decimate,
+            out,
+            quiet,
+            ..
+        } => {
+            let args = hal_sim::identify::imu::ImuArgs {
+                series,
+                columns: if imu { None } else { columns },
+                rate,
+                gyro_unit,
+                accel_unit,
+                decimate,
+                out,
+                quiet,
+                reference,
+            };
+            let s = hal_sim::identify::imu::run(&args)?;
+            print!("{}", hal_sim::identify::imu::report(&s));
+            println!(
+                "read {} bytes, {} rows in one pass; wrote {}/<axis>/..., imu-model.toml, kalibr-imu.yaml, datasheet.md, datasheet.json",
+                s.read.bytes,
+                s.read.rows,
+                args.out.display()
+            );
+        }
+        Command::Identify {
+            series,
+            column: Some(column),
             rate,
             scale,
             decimate,
             sensor,
             out,
             quiet,
+            ..
         } => {
             use hal_sim::identify::{run, IdentifyArgs, SensorArg};
             let sensor = match sensor.as_deref() {

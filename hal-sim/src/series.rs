@@ -12,9 +12,11 @@
 //! Errors name the file, the 1-based line number, the column and what was expected, e.g.
 //! `adis.csv.gz line 1234, column gyro_z_dps: expected a finite number, found 'abc'`.
 
+use std::cell::Cell;
 use std::fs::File;
 use std::io::{self, BufRead, BufReader, IsTerminal, Read};
 use std::path::Path;
+use std::rc::Rc;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -135,6 +137,25 @@ pub fn read_columns(
     columns: &[&str],
     opts: &ReadOptions,
 ) -> Result<Vec<Vec<f64>>, SeriesError> {
+    read_columns_counted(path, columns, opts).map(|(c, _)| c)
+}
+
+/// What one call of [`read_columns_counted`] read: the bytes taken from the file on disk
+/// (compressed bytes for a gzip file) and the data rows parsed. A single pass over a file
+/// reads each of its bytes once, so `bytes` equals the file size; a second pass would double it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct ReadStats {
+    pub bytes: u64,
+    pub rows: u64,
+}
+
+/// [`read_columns`] that also reports what it read ([`ReadStats`]), so that a caller can show
+/// (and a test check) that a multi-column analysis made one pass over the file.
+pub fn read_columns_counted(
+    path: impl AsRef<Path>,
+    columns: &[&str],
+    opts: &ReadOptions,
+) -> Result<(Vec<Vec<f64>>, ReadStats), SeriesError> {
     let path = path.as_ref();
     let file_name = path.display().to_string();
     if !opts.scale.is_finite() {
@@ -144,24 +165,43 @@ pub fn read_columns(
         return Err(SeriesError::NoColumns { file: file_name });
     }
 
+    let (source, bar, bytes) = open_csv(path, &file_name, opts.quiet)?;
+    let result = parse_csv(source, &file_name, columns, opts.scale);
+    bar.finish_and_clear();
+    let cols = result?;
+    let stats = ReadStats {
+        bytes: bytes.get(),
+        rows: cols.first().map_or(0, |c| c.len() as u64),
+    };
+    Ok((cols, stats))
+}
+
+/// The decompressed byte stream, its progress bar and the count of bytes read from disk.
+type OpenCsv = (Box<dyn Read>, ProgressBar, Rc<Cell<u64>>);
+
+/// Opens a plain or gzip CSV (told apart by the magic bytes) behind a byte counter and the
+/// progress bar.
+fn open_csv(path: &Path, file_name: &str, quiet: bool) -> Result<OpenCsv, SeriesError> {
     let open_err = |source| SeriesError::Open {
-        file: file_name.clone(),
+        file: file_name.to_string(),
         source,
     };
     let file = File::open(path).map_err(open_err)?;
     let total_bytes = file.metadata().map_err(open_err)?.len();
 
-    let bar = progress_bar(total_bytes, opts.quiet, path);
+    let bar = progress_bar(total_bytes, quiet, path);
     // The counter sits under the BufReader, so it sees compressed bytes: the bar's length is
     // the file size on disk whether or not the file is compressed.
+    let bytes = Rc::new(Cell::new(0u64));
     let counted = CountingReader {
         inner: file,
         bar: bar.clone(),
+        bytes: Rc::clone(&bytes),
     };
     let mut buffered = BufReader::with_capacity(1 << 16, counted);
     let is_gzip = {
         let head = buffered.fill_buf().map_err(|source| SeriesError::Read {
-            file: file_name.clone(),
+            file: file_name.to_string(),
             line: 1,
             source,
         })?;
@@ -172,10 +212,41 @@ pub fn read_columns(
     } else {
         Box::new(buffered)
     };
+    Ok((source, bar, bytes))
+}
 
-    let result = parse_csv(source, &file_name, columns, opts.scale);
+/// The column names of the header row only (reads the first buffer of the file, not the data):
+/// `hal-sim identify --imu` finds the six axes by name with it before the one pass over the data.
+pub fn read_header(path: impl AsRef<Path>) -> Result<Vec<String>, SeriesError> {
+    let path = path.as_ref();
+    let file_name = path.display().to_string();
+    let (source, bar, _) = open_csv(path, &file_name, true)?;
     bar.finish_and_clear();
-    result
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .flexible(true)
+        .from_reader(source);
+    header_names(&mut rdr, &file_name)
+}
+
+/// The trimmed names of the header row.
+fn header_names<R: Read>(
+    rdr: &mut csv::Reader<R>,
+    file_name: &str,
+) -> Result<Vec<String>, SeriesError> {
+    let headers = rdr
+        .byte_headers()
+        .map_err(|e| csv_error(e, file_name, 1))?
+        .clone();
+    if headers.is_empty() {
+        return Err(SeriesError::NoHeader {
+            file: file_name.to_string(),
+        });
+    }
+    Ok(headers
+        .iter()
+        .map(|h| String::from_utf8_lossy(trim_ascii(h)).into_owned())
+        .collect())
 }
 
 /// The CSV part, separated from file handling so that the reader type is erased once.
@@ -193,19 +264,7 @@ fn parse_csv(
         .buffer_capacity(1 << 16)
         .from_reader(source);
 
-    let headers = rdr
-        .byte_headers()
-        .map_err(|e| csv_error(e, file_name, 1))?
-        .clone();
-    if headers.is_empty() {
-        return Err(SeriesError::NoHeader {
-            file: file_name.to_string(),
-        });
-    }
-    let names: Vec<String> = headers
-        .iter()
-        .map(|h| String::from_utf8_lossy(trim_ascii(h)).into_owned())
-        .collect();
+    let names = header_names(&mut rdr, file_name)?;
 
     let mut index = Vec::with_capacity(columns.len());
     for &col in columns {
@@ -332,12 +391,15 @@ fn progress_bar(total_bytes: u64, quiet: bool, path: &Path) -> ProgressBar {
 struct CountingReader<R> {
     inner: R,
     bar: ProgressBar,
+    /// Total bytes read, shared with [`read_columns_counted`] ([`ReadStats::bytes`]).
+    bytes: Rc<Cell<u64>>,
 }
 
 impl<R: Read> Read for CountingReader<R> {
     fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
         let n = self.inner.read(buf)?;
         self.bar.inc(n as u64);
+        self.bytes.set(self.bytes.get() + n as u64);
         Ok(n)
     }
 }

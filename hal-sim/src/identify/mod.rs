@@ -9,8 +9,10 @@
 pub mod acf;
 pub mod ci;
 pub mod fit;
+pub mod imu;
 pub mod plots;
 pub mod select;
+pub mod sheet;
 
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -194,6 +196,13 @@ pub fn run(args: &IdentifyArgs) -> Result<IdentifySummary> {
         quiet: args.quiet,
     };
     let y = read_column(&args.series, &args.column, &opts)?;
+    analyse(args, sensor, &y)
+}
+
+/// The identification of one axis already in memory (`y`, scaled): everything [`run`] does
+/// after reading the column. `hal-sim identify --columns` reads the file once and calls this
+/// for each axis (`imu.rs`), so both forms share every line of the maths.
+pub fn analyse(args: &IdentifyArgs, sensor: SensorArg, y: &[f64]) -> Result<IdentifySummary> {
     let file = args.series.display().to_string();
     ensure!(
         y.len() >= 64,
@@ -205,11 +214,11 @@ pub fn run(args: &IdentifyArgs) -> Result<IdentifySummary> {
         .with_context(|| format!("creating {}", args.out.display()))?;
     let dt = 1.0 / args.rate;
 
-    let rows = overlapping_adev(&y, &AdevConfig::octave(args.rate))
+    let rows = overlapping_adev(y, &AdevConfig::octave(args.rate))
         .with_context(|| format!("{file}, column {}: Allan deviation", args.column))?;
     write_adev_csv(args.out.join("adev.csv"), &rows)?;
 
-    let acf = acf::analyse(&y, args.rate, args.decimate, MAX_LAG)
+    let acf = acf::analyse(y, args.rate, args.decimate, MAX_LAG)
         .with_context(|| format!("{file}, column {}", args.column))?;
     write_acf_csv(&args.out.join("acf.csv"), &acf)?;
 
@@ -450,7 +459,7 @@ pub fn model_toml(sensor: SensorArg, terms: &[Term], dt: f64) -> Result<(String,
                      # observation.sigma_v = {SIGMA_V_PLACEHOLDER} is a placeholder: a static record has no velocity reference.\n",
                     sensor.core().name()
                 );
-                return Ok((head + &body, notes));
+                return Ok((head + &crate::imu_model::readable_toml(&body), notes));
             }
             Err(e) if kept.len() > 1 => {
                 if let Some((_, c)) = kept.pop() {

@@ -2,6 +2,7 @@
 //! sum; and the ACF with its exponential and exponential-cosine fits.
 
 use anyhow::{anyhow, Result};
+use plotters::coord::CoordTranslate;
 use plotters::prelude::*;
 
 const COLORS: [RGBColor; 6] = [
@@ -15,6 +16,19 @@ const COLORS: [RGBColor; 6] = [
 
 fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
     anyhow!("plot: {e:?}")
+}
+
+/// The legend box, upper right, shared by both plots.
+fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)
 }
 
 /// A named curve.
@@ -85,14 +99,26 @@ pub fn adev_svg(
             .map_err(err)?
             .label("model (sum)")
             .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], RED));
-        chart
-            .draw_series(
+        // The measured 95 % interval as one shaded area (upper edge out, lower edge back),
+        // drawn under the curves, with its own legend entry.
+        let band: Vec<(f64, f64)> = measured
+            .iter()
+            .filter(|m| ok(m.0) && ok(m.2) && ok(m.3))
+            .map(|&(t, _, _, hi)| (t, hi))
+            .chain(
                 measured
                     .iter()
+                    .rev()
                     .filter(|m| ok(m.0) && ok(m.2) && ok(m.3))
-                    .map(|&(t, _, lo, hi)| PathElement::new([(t, lo), (t, hi)], BLACK)),
+                    .map(|&(t, _, lo, _)| (t, lo.max(y_floor))),
             )
-            .map_err(err)?;
+            .collect();
+        let shade = RGBColor(0, 0, 0).mix(0.15);
+        chart
+            .draw_series(std::iter::once(Polygon::new(band, shade.filled())))
+            .map_err(err)?
+            .label("measured 95 % CI")
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], shade.filled()));
         chart
             .draw_series(
                 measured
@@ -101,23 +127,104 @@ pub fn adev_svg(
                     .map(|&(t, a, _, _)| Circle::new((t, a), 3, BLACK.filled())),
             )
             .map_err(err)?
-            .label("measured, 95 % CI")
+            .label("measured ADEV")
             .legend(|(x, y)| Circle::new((x + 9, y), 3, BLACK.filled()));
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(err)?;
+        draw_legend(&mut chart)?;
         root.present().map_err(err)?;
     }
     Ok(svg)
 }
 
-/// ACF against lag time, with fits and the ±`band` lines.
+/// ACF against lag time, with fits and the ±`band` interval of a white series shaded (one
+/// legend entry for the band, not one per edge).
 pub fn acf_svg(title: &str, rho: &[(f64, f64)], fits: &[Curve], band: f64) -> Result<String> {
-    let mut series: Vec<Curve> = vec![("sample ACF".into(), rho.to_vec())];
-    series.extend(fits.iter().cloned());
-    crate::report::line_chart(title, "lag [s]", "rho", &series, &[band, -band])
+    let finite = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite();
+    let all = || {
+        rho.iter()
+            .chain(fits.iter().flat_map(|c| c.1.iter()))
+            .filter(finite)
+    };
+    let x1 = all().map(|p| p.0).fold(f64::MIN, f64::max);
+    let x0 = all().map(|p| p.0).fold(f64::MAX, f64::min).min(0.0);
+    let y0 = all().map(|p| p.1).fold(-band, f64::min);
+    let y1 = all().map(|p| p.1).fold(band, f64::max);
+    if x0 >= x1 || y0.partial_cmp(&y1) != Some(std::cmp::Ordering::Less) {
+        return Err(anyhow!("plot: no ACF points"));
+    }
+    let pad = 0.05 * (y1 - y0);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (860, 480)).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x1, (y0 - pad)..(y1 + pad))
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("lag [s]")
+            .y_desc("rho")
+            .draw()
+            .map_err(err)?;
+        let shade = RGBColor(0, 0, 0).mix(0.12);
+        chart
+            .draw_series(std::iter::once(Rectangle::new(
+                [(x0, -band), (x1, band)],
+                shade.filled(),
+            )))
+            .map_err(err)?
+            .label(format!("white-noise 95 % band, +/-{band:.3e}"))
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], shade.filled()));
+        chart
+            .draw_series(LineSeries::new(
+                rho.iter().copied().filter(|p| finite(&p)),
+                BLACK.stroke_width(1),
+            ))
+            .map_err(err)?
+            .label("sample ACF")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLACK));
+        for (i, (name, p)) in fits.iter().enumerate() {
+            let c = COLORS[i % COLORS.len()];
+            chart
+                .draw_series(LineSeries::new(
+                    p.iter().copied().filter(|q| finite(&q)),
+                    c.stroke_width(2),
+                ))
+                .map_err(err)?
+                .label(name.as_str())
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], c));
+        }
+        draw_legend(&mut chart)?;
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The band is one shaded area with one legend entry (it was two coloured lines sharing a
+    /// "99 % band" entry), and the ADEV interval is a filled polygon.
+    #[test]
+    fn bands_are_shaded_with_one_legend_entry() {
+        let rho: Vec<(f64, f64)> = (1..50).map(|i| (i as f64 * 0.01, 0.9f64.powi(i))).collect();
+        let svg = acf_svg("t", &rho, &[], 0.02).expect("acf");
+        assert_eq!(svg.matches("white-noise 95 % band").count(), 1, "{svg}");
+        assert!(!svg.contains("99 % band"));
+        assert!(svg.contains("opacity=\"0.12\""), "no shaded area: {svg}");
+        let m: Vec<(f64, f64, f64, f64)> = (0..10)
+            .map(|i| {
+                let t = 2f64.powi(i) * 0.01;
+                let a = 1.0 / t.sqrt();
+                (t, a, 0.9 * a, 1.1 * a)
+            })
+            .collect();
+        let svg = adev_svg("t", "u", &m, &[], &[]).expect("adev");
+        assert_eq!(svg.matches("measured 95 % CI").count(), 1);
+        assert!(svg.contains("<polygon"), "no CI polygon");
+    }
 }
