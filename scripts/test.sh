@@ -53,7 +53,7 @@ cargo clippy --release -p imu-ident --target "$TARGET" --features board --bin im
 section "5/8 host tests (cargo test --workspace)"
 # The QEMU tests are named qemu_firmware_*; they run in step 7 with the firmware built. Under
 # CI=true they fail rather than skip without it, so they are held back here.
-# The fuzz tests (tests/navigator_fuzz.rs, hal-sim/tests/fuzz_parsers.rs) read their case count
+# The fuzz tests (tests/step_fuzz.rs, hal-sim/tests/fuzz_parsers.rs) read their case count
 # from FUZZ_CASES; CI runs their default short budget (about 15 s on 2 cores). The long run with
 # a large FUZZ_CASES is recorded in RELIABILITY.md.
 unset FUZZ_CASES

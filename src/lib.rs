@@ -11,11 +11,11 @@ pub mod filter;
 pub mod ident;
 pub mod linalg;
 pub mod model;
-pub mod navigator;
 #[cfg(all(target_arch = "arm", target_os = "none", feature = "prove-no-panic"))]
 mod panic_proof;
 pub mod real;
 pub mod replay;
+pub mod step;
 pub mod strapdown;
 pub mod telemetry;
 pub use real::Real;

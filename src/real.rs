@@ -23,7 +23,7 @@ pub trait Real: nalgebra::RealField + Copy + core::fmt::Debug + Default {
     /// Machine epsilon of this precision.
     const EPS: f64;
     /// `0`, usable in `const` items (blank filters built at compile time, see
-    /// [`Navigator::BLANK`](crate::navigator::Navigator::BLANK)).
+    /// [`Estimator::BLANK`](crate::step::Estimator::BLANK)).
     const ZERO: Self;
 }
 

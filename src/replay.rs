@@ -1,5 +1,5 @@
 //! A compact binary form of an observation log, read by the firmware and written by the host.
-//! The loop that steps through its rows is [`Navigator::push`](crate::navigator::Navigator::push).
+//! The loop that steps through its rows is [`Estimator::push`](crate::step::Estimator::push).
 //!
 //! # Format (version 1, all integers and floats little-endian)
 //!

@@ -281,9 +281,9 @@ fn cost(truth: &InsModel<f64>, cfg: AdaptConfig<f64>) -> anyhow::Result<()> {
         std::mem::size_of::<imu_ident::adapt::AdaptiveFilter<f32>>(),
         std::mem::size_of::<imu_ident::adapt::AdaptiveFilter<f64>>()
     );
-    // Per-row host time of the f32 step identifying online (`Navigator::push`, no estimate
+    // Per-row host time of the f32 step identifying online (`Estimator::push`, no estimate
     // rows): mean, 99.9 % and worst row.
-    let mut f = replay::navigator::<f32>(&start, Some(&cfg))?;
+    let mut f = replay::estimator::<f32>(&start, Some(&cfg))?;
     let mut ns: Vec<f64> = Vec::with_capacity(log.len());
     for r in &log {
         let t = Instant::now();

@@ -14,8 +14,8 @@ fn main() -> anyhow::Result<()> {
         .and_then(|s| s.parse().ok())
         .unwrap_or(10_000_000);
     let model = scenario::load("paper")?.to_core()?;
-    let mut a = replay::navigator::<f64>(&model, None)?;
-    let mut b = replay::navigator::<f32>(&model, None)?;
+    let mut a = replay::estimator::<f64>(&model, None)?;
+    let mut b = replay::estimator::<f32>(&model, None)?;
     let chunk = 43_200;
     let (mut worst, mut worst_t, mut not_pd, mut repairs) = (0.0f64, 0usize, 0usize, 0usize);
     let mut done = 0;

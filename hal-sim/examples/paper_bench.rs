@@ -52,8 +52,8 @@ fn main() -> anyhow::Result<()> {
     // f32 against f64 on the same observations, every step of every seed.
     let mut worst = 0.0f64;
     for log in &logs {
-        let mut a = replay::navigator::<f64>(&truth, None)?;
-        let mut b = replay::navigator::<f32>(&truth, None)?;
+        let mut a = replay::estimator::<f64>(&truth, None)?;
+        let mut b = replay::estimator::<f32>(&truth, None)?;
         let mut nop = |_: &Record| {};
         for row in log {
             a.push(row.t, row.z, &mut nop);
@@ -64,7 +64,7 @@ fn main() -> anyhow::Result<()> {
     }
     println!("\nlargest |delta_f32 - delta_f64| / sigma_delta over 20 x 43200 steps: {worst:.2e}");
 
-    // Host throughput of the step (`Navigator::push` through the replay driver: predict,
+    // Host throughput of the step (`Estimator::push` through the replay driver: predict,
     // Joseph update, gate, estimate autocorrelators), median of 7 repeats.
     for (label, f32_mode) in [("f64", false), ("f32", true)] {
         let mut rates = vec![];
@@ -73,10 +73,10 @@ fn main() -> anyhow::Result<()> {
             let mut acc = 0.0;
             let mut sink = |r: &Record| acc += f64::from(r.nis);
             if f32_mode {
-                let mut f = replay::navigator::<f32>(&truth, None)?;
+                let mut f = replay::estimator::<f32>(&truth, None)?;
                 replay::drive(&mut f, &logs[0], &mut sink);
             } else {
-                let mut f = replay::navigator::<f64>(&truth, None)?;
+                let mut f = replay::estimator::<f64>(&truth, None)?;
                 replay::drive(&mut f, &logs[0], &mut sink);
             }
             std::hint::black_box(acc);

@@ -51,7 +51,7 @@ pub fn run<T: Real>(
 ) -> Result<AdaptiveRun> {
     let r = replay::run::<T>(start, Some(&cfg), log)?;
     let f = r
-        .navigator
+        .estimator
         .adaptive()
         .ok_or_else(|| anyhow!("the step is not adapting"))?;
     let mut theta = [0.0; MAXP];

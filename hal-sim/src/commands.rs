@@ -29,7 +29,7 @@ pub fn simulation_steps(hours: Option<f64>, dt: f64) -> Result<usize> {
     Ok((hours * 3600.0 / dt).round() as usize)
 }
 
-/// `run`: replays a log through the firmware's 1 Hz step ([`imu_ident::navigator`], in double
+/// `run`: replays a log through the firmware's 1 Hz step ([`imu_ident::step`], in double
 /// precision); writes `estimates.csv`, `params.csv`, `acf.csv` and `summary.json` into `out`.
 /// With `adapt`, the step identifies the noise model online, starting from the given model;
 /// `params.csv` logs the parameters at each re-identification and the summary gains

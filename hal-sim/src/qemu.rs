@@ -32,8 +32,8 @@ use anyhow::{anyhow, bail, Context, Result};
 use defmt_decoder::{DecodeError, Frame, Table};
 use defmt_parser::Fragment;
 use imu_ident::model::{wire, ComponentKind, InsModel, Sensor};
-use imu_ident::navigator::{AcfRecord, ParamRecord};
 use imu_ident::replay::{encode, encoded_len, Row};
+use imu_ident::step::{AcfRecord, ParamRecord};
 use imu_ident::telemetry::{Record, WIRE_FIELDS, WIRE_TAG};
 use imu_ident::telemetry::{ACF_WIRE_TAG, PARAM_WIRE_FIELDS, PARAM_WIRE_TAG};
 use serde::Serialize;
@@ -88,7 +88,7 @@ pub struct Icount {
 /// The firmware's stack measurement (painted at boot, scanned at exit).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Stack {
-    /// `init` (building the navigator) or `run` (the ticks).
+    /// `init` (building the estimator) or `run` (the ticks).
     pub phase: String,
     /// Deepest stack use [bytes].
     pub high_water: u32,

@@ -1,13 +1,13 @@
 //! The one replay driver of the host: every log replay of `hal-sim` (`run`, `diagnose`,
 //! `compare`, `demo`, `figures`, the benchmarks) goes through [`drive`], which hands each row
-//! to the firmware's own step, [`Navigator::push`] (in `f64` or `f32`), with a sink. So the
+//! to the firmware's own step, [`Estimator::push`] (in `f64` or `f32`), with a sink. So the
 //! host and the QEMU firmware apply one set of rules, the step's:
 //!
 //! - time: a gap of `k = round((t - t_prev) / dt) > 1` steps is bridged by `k - 1` ticks
 //!   without an observation (flagged `bridged`, written to `estimates.csv` and counted as
-//!   `missing`), at most [`NavConfig::max_bridge`]; a row whose time does not advance, is not
+//!   `missing`), at most [`StepConfig::max_bridge`]; a row whose time does not advance, is not
 //!   finite, or jumps further than that until the next row confirms the jump, is skipped;
-//! - outliers: the NIS gate with its running scale ([`imu_ident::navigator`]);
+//! - outliers: the NIS gate with its running scale ([`imu_ident::step`]);
 //! - the adaptive model, when asked, is the step's own online identification.
 //!
 //! What the step does not expose (one state's posterior for the diagnosis limits, or the
@@ -19,7 +19,7 @@ use std::path::Path;
 use anyhow::{anyhow, Result};
 use imu_ident::adapt::AdaptConfig;
 use imu_ident::model::InsModel;
-use imu_ident::navigator::{AcfRecord, NavConfig, Navigator, ParamRecord};
+use imu_ident::step::{AcfRecord, Estimator, ParamRecord, StepConfig};
 use imu_ident::telemetry::{Record, TelemetrySink, BRIDGED, SKIPPED};
 use imu_ident::Real;
 
@@ -140,19 +140,19 @@ pub fn adapt_config<T: Real>(c: &AdaptConfig<f64>) -> AdaptConfig<T> {
 }
 
 /// The step's settings: the defaults, with the online identification `adapt` when given.
-pub fn nav_config<T: Real>(adapt: Option<&AdaptConfig<f64>>) -> NavConfig<T> {
-    NavConfig {
+pub fn nav_config<T: Real>(adapt: Option<&AdaptConfig<f64>>) -> StepConfig<T> {
+    StepConfig {
         adapt: adapt.map(adapt_config),
-        ..NavConfig::default()
+        ..StepConfig::default()
     }
 }
 
 /// A step in precision `T` starting from `model` (boxed: the adaptive engine is tens of KB).
-pub fn navigator<T: Real>(
+pub fn estimator<T: Real>(
     model: &InsModel<f64>,
     adapt: Option<&AdaptConfig<f64>>,
-) -> Result<Box<Navigator<T>>> {
-    let mut nav = Box::new(Navigator::<T>::BLANK);
+) -> Result<Box<Estimator<T>>> {
+    let mut nav = Box::new(Estimator::<T>::BLANK);
     nav.init(model.cast(), nav_config(adapt))
         .map_err(|e| anyhow!("the model was rejected: {e:?}"))?;
     Ok(nav)
@@ -160,7 +160,7 @@ pub fn navigator<T: Real>(
 
 /// THE replay loop: hands every row of `log` to the step, which decides the ticks (bridges,
 /// skips, gates) and sends what it did to `sink`.
-pub fn drive<T: Real>(nav: &mut Navigator<T>, log: &[LogRow], sink: &mut impl TelemetrySink) {
+pub fn drive<T: Real>(nav: &mut Estimator<T>, log: &[LogRow], sink: &mut impl TelemetrySink) {
     for row in log {
         nav.push(row.t, T::lit(row.z), sink);
     }
@@ -172,14 +172,14 @@ pub struct Replay<T: Real> {
     /// What the step reported.
     pub telemetry: Telemetry,
     /// The step after the last row.
-    pub navigator: Box<Navigator<T>>,
+    pub estimator: Box<Estimator<T>>,
 }
 
 impl<T: Real> Replay<T> {
     /// The model in use at the end (the identified one when adapting).
     pub fn end_model(&self) -> Result<InsModel<f64>> {
         let m = self
-            .navigator
+            .estimator
             .model()
             .map_err(|e| anyhow!("the identified model is invalid: {e:?}"))?;
         Ok(m.cast())
@@ -193,12 +193,12 @@ pub fn run<T: Real>(
     adapt: Option<&AdaptConfig<f64>>,
     log: &[LogRow],
 ) -> Result<Replay<T>> {
-    let mut navigator = navigator::<T>(model, adapt)?;
+    let mut estimator = estimator::<T>(model, adapt)?;
     let mut telemetry = Telemetry::default();
-    drive(&mut navigator, log, &mut telemetry);
+    drive(&mut estimator, log, &mut telemetry);
     Ok(Replay {
         telemetry,
-        navigator,
+        estimator,
     })
 }
 
@@ -226,7 +226,7 @@ impl TelemetrySink for LikelihoodSink {
 /// The innovation log-likelihood of the fixed `model` on `log` (`f64`) and its number of
 /// terms: the same value as [`Telemetry::log_likelihood`] of [`run`], without storing.
 pub fn log_likelihood(model: &InsModel<f64>, log: &[LogRow]) -> Result<(f64, usize)> {
-    let mut nav = navigator::<f64>(model, None)?;
+    let mut nav = estimator::<f64>(model, None)?;
     let mut sink = LikelihoodSink::default();
     drive(&mut nav, log, &mut sink);
     Ok((sink.0.value, sink.0.terms))

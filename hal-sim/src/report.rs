@@ -310,7 +310,7 @@ pub fn tilt_plot(run: &ModelRun, log: &[LogRow]) -> Result<Option<String>> {
 
 /// What the reports cannot draw about the online identification: the Cramér-Rao interval of
 /// each parameter needs its standard deviation in the parameter records, which they do not carry.
-pub const NO_CR_SD: &str = "No Cramér-Rao interval: the parameter records (imu_ident::navigator::ParamRecord, params.csv) carry tau, sigma and beta but not their Cramér-Rao standard deviations; the firmware would have to report them.";
+pub const NO_CR_SD: &str = "No Cramér-Rao interval: the parameter records (imu_ident::step::ParamRecord, params.csv) carry tau, sigma and beta but not their Cramér-Rao standard deviations; the firmware would have to report them.";
 
 /// One plot per identified parameter of a `run --adapt` (its `params` records) over time, with
 /// the true value when the truth model is known (same sensor, component index and kind).
@@ -339,7 +339,7 @@ pub fn parameter_plots(
             r.sensor.name() == sensor && usize::from(r.component) == comp && r.kind.name() == kind
         });
         type Get = fn(&crate::records::ParamRow) -> f64;
-        type GetTrue = fn(&imu_ident::navigator::ParamRecord) -> f32;
+        type GetTrue = fn(&imu_ident::step::ParamRecord) -> f32;
         let base = match sensor {
             "accel" => "m/s^2",
             "gyro" => "rad/s",

@@ -17,7 +17,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// Edges of the core allowed TEMPORARILY to close a cycle (none since the merge of the core
-/// refactor of issue 14, which removed `telemetry` -> `navigator` and `model` -> `navigator`).
+/// refactor of issue 14, which removed `telemetry` -> `estimator` and `model` -> `estimator`).
 /// An entry here is a debt: the test prints one that no longer exists in the sources.
 const KNOWN_CORE_CYCLE_EDGES: &[(&str, &str)] = &[];
 

@@ -3,7 +3,7 @@
 //! estimates and the same innovation log-likelihood through `run`, `compare` and `diagnose`.
 //!
 //! The three go through one driver (`hal_sim::replay`, i.e. the firmware's
-//! `Navigator::push`, in f64) and one likelihood definition (`records::log_likelihood`), so
+//! `Estimator::push`, in f64) and one likelihood definition (`records::log_likelihood`), so
 //! equality is asserted exactly (bitwise): any difference is a second code path.
 //!
 //! `cargo test -p hal-sim --test replay_consistency -- --nocapture`
@@ -145,7 +145,7 @@ fn run_compare_and_diagnose_replay_the_same_ticks() {
     // jump bridges the longest bridge (one day) and ticks its row flagged `time_jump`; the
     // repeated and the backwards stamps and the first row after the jump (suspect until the
     // next row confirms it) are skipped.
-    let max_bridge = imu_ident::navigator::NavConfig::<f64>::default().max_bridge as usize;
+    let max_bridge = imu_ident::step::StepConfig::<f64>::default().max_bridge as usize;
     assert_eq!(run_counts.skipped_time, 3);
     assert_eq!(run_counts.rows, rows.len() - 3);
     assert_eq!(run_counts.bridged, 60 + max_bridge);

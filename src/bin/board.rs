@@ -1,6 +1,6 @@
 //! Firmware for an STM32F405: the 1 Hz navigation step on a real board.
 //!
-//! Kept thin on purpose: the step ([`Navigator`]), the frame decoder ([`SerialSource`]) and the
+//! Kept thin on purpose: the step ([`Estimator`]), the frame decoder ([`SerialSource`]) and the
 //! telemetry ([`DefmtSink`]) live in the library, where the host tests them; this file only
 //! wires the board to them.
 //!
@@ -16,14 +16,14 @@
 //!   timer's, not the loop's run time.
 //! - Step: `t` = whole seconds since the timer started at boot, `z` = the newest frame received
 //!   since the previous tick (NaN when none; the frame's own `t` is not used: the board's timer
-//!   is the time base), then [`Navigator::tick`] and [`Navigator::emit`] to defmt over RTT
+//!   is the time base), then [`Estimator::tick`] and [`Estimator::emit`] to defmt over RTT
 //!   (this file's RTT logger, laid out as defmt-rtt's; `probe-rs run` decodes it).
 //! - Errors: a failed start-up is reported with `defmt::error!` and parks the core. Serial line
 //!   errors, queue overflows, bad CRCs, superseded frames and late ticks are counted and
 //!   reported with `defmt::warn!` when they change; the frame decoder resynchronises by
 //!   itself, and the tick goes on with a missing observation.
-//! - Memory: the navigator is a zero-initialised static in `.bss`, initialised in place
-//!   ([`Navigator::init`]: no copy of it on the stack); no heap.
+//! - Memory: the estimator is a zero-initialised static in `.bss`, initialised in place
+//!   ([`Estimator::init`]: no copy of it on the stack); no heap.
 //!
 //! Panics: none are expected; the handler below parks the core without formatting anything.
 //! `--features prove-no-panic` proves at link time that no panic path is linked at all (see
@@ -51,7 +51,7 @@ mod firmware {
     use heapless::spsc::{Consumer, Producer, Queue};
     use imu_ident::edge::{ObservationSource, SerialSource, Tick};
     use imu_ident::model::InsModel;
-    use imu_ident::navigator::{NavConfig, NavError, Navigator};
+    use imu_ident::step::{Estimator, StepConfig, StepError};
     use imu_ident::telemetry::DefmtSink;
     use static_cell::StaticCell;
     use stm32f4xx_hal::nb;
@@ -76,10 +76,10 @@ mod firmware {
 
     type RxQueue = Queue<u8, RX_QUEUE_LEN>;
 
-    /// The navigator (~31 KB in f32): a static, not the stack. `BLANK` is all zero bits, so it
-    /// sits in `.bss` and costs no flash; [`Navigator::init`] fills it in place (measured on
+    /// The estimator (~31 KB in f32): a static, not the stack. `BLANK` is all zero bits, so it
+    /// sits in `.bss` and costs no flash; [`Estimator::init`] fills it in place (measured on
     /// the QEMU build: 24 KB of stack at start-up, against ~100 KB for a by-value `new`).
-    static mut NAV: Navigator<f32> = Navigator::BLANK;
+    static mut NAV: Estimator<f32> = Estimator::BLANK;
     /// Set when [`NAV`] has been handed out.
     static NAV_TAKEN: AtomicBool = AtomicBool::new(false);
     /// The receive queue between the USART2 interrupt (producer) and the loop (consumer).
@@ -107,8 +107,8 @@ mod firmware {
         Serial,
         /// The timer rejected its period.
         Timer,
-        /// The navigator rejected the model or its settings.
-        Nav(NavError),
+        /// The estimator rejected the model or its settings.
+        Nav(StepError),
     }
 
     /// The loop's side of the receive queue, as the `embedded_io` reader [`SerialSource`]
@@ -195,7 +195,7 @@ mod firmware {
 
     /// What the loop runs with.
     struct Board {
-        nav: &'static mut Navigator<f32>,
+        nav: &'static mut Estimator<f32>,
         source: SerialSource<QueueRx>,
         tick: TimerTick,
     }
@@ -219,7 +219,7 @@ mod firmware {
     }
 
     /// The storage of [`NAV`], once.
-    fn nav_slot() -> Option<&'static mut Navigator<f32>> {
+    fn nav_slot() -> Option<&'static mut Estimator<f32>> {
         if NAV_TAKEN.swap(true, Ordering::AcqRel) {
             return None;
         }
@@ -227,7 +227,7 @@ mod firmware {
         Some(unsafe { &mut *core::ptr::addr_of_mut!(NAV) })
     }
 
-    /// Clocks, USART, navigator, timer.
+    /// Clocks, USART, estimator, timer.
     fn start() -> Result<Board, StartError> {
         let dp = pac::Peripherals::take().ok_or(StartError::Peripherals)?;
 
@@ -271,7 +271,7 @@ mod firmware {
         let source = SerialSource::new(QueueRx(consumer));
 
         let nav = nav_slot().ok_or(StartError::Static)?;
-        nav.init(InsModel::paper(), NavConfig::adaptive())
+        nav.init(InsModel::paper(), StepConfig::adaptive())
             .map_err(StartError::Nav)?;
 
         let tick = TimerTick::start(dp.TIM2, &clocks)?;

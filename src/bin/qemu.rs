@@ -1,5 +1,5 @@
 //! Firmware for QEMU's mps2-an386 (Cortex-M4F): replays a recorded log through the 1 Hz step
-//! ([`Navigator`]) at full speed and reports every tick, parameter change and autocorrelation
+//! ([`Estimator`]) at full speed and reports every tick, parameter change and autocorrelation
 //! identification as defmt frames; then the instruction counts and the stack high-water mark.
 //!
 //! Kept thin on purpose: the model codec ([`imu_ident::model::wire`]), the log codec
@@ -43,8 +43,8 @@ mod firmware {
     use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
     use cortex_m_semihosting::{nr, syscall, syscall1};
     use imu_ident::model::wire::{self, WireError};
-    use imu_ident::navigator::{NavConfig, NavError, Navigator};
     use imu_ident::replay::{Decoder, ReplayError};
+    use imu_ident::step::{Estimator, StepConfig, StepError};
     use imu_ident::telemetry::DefmtSink;
 
     /// File names used when QEMU passes no arguments.
@@ -68,8 +68,8 @@ mod firmware {
         Read,
         /// The model file is not valid.
         Model(WireError),
-        /// The model or its options were rejected by the navigator.
-        Navigator(NavError),
+        /// The model or its options were rejected by the estimator.
+        Estimator(StepError),
         /// The log is not a valid replay log.
         Log(ReplayError),
     }
@@ -109,9 +109,9 @@ mod firmware {
         }
     }
 
-    /// The navigator lives in a static, not on the stack (about 32 KB; all zeros until
+    /// The estimator lives in a static, not on the stack (about 32 KB; all zeros until
     /// initialised, so it sits in `.bss`).
-    static mut NAV: Navigator<f32> = Navigator::BLANK;
+    static mut NAV: Estimator<f32> = Estimator::BLANK;
 
     #[entry]
     fn main() -> ! {
@@ -149,9 +149,9 @@ mod firmware {
         let bytes = model_bytes.get(..n).ok_or(FirmwareError::Read)?;
         let (model, adapt) = wire::decode::<f32>(bytes).map_err(FirmwareError::Model)?;
         let cfg = if adapt {
-            NavConfig::adaptive()
+            StepConfig::adaptive()
         } else {
-            NavConfig::default()
+            StepConfig::default()
         };
         let block = cfg.adapt.map_or(0, |a| a.block);
         let epoch = cfg.adapt.map_or(0, |a| a.epoch);
@@ -167,18 +167,18 @@ mod firmware {
     #[inline(never)]
     fn init(
         model: imu_ident::model::InsModel<f32>,
-        cfg: NavConfig<f32>,
-    ) -> Result<&'static mut Navigator<f32>, FirmwareError> {
+        cfg: StepConfig<f32>,
+    ) -> Result<&'static mut Estimator<f32>, FirmwareError> {
         // SAFETY: called once, from `run`; no other reference to NAV exists.
         let nav = unsafe { &mut *core::ptr::addr_of_mut!(NAV) };
-        nav.init(model, cfg).map_err(FirmwareError::Navigator)?;
+        nav.init(model, cfg).map_err(FirmwareError::Estimator)?;
         Ok(nav)
     }
 
     /// Replays the log through `nav`, counting instructions per tick.
     #[inline(never)]
     fn replay(
-        nav: &mut Navigator<f32>,
+        nav: &mut Estimator<f32>,
         log_path: &CStr,
         block: u32,
         epoch: u32,
@@ -249,9 +249,9 @@ mod firmware {
 
     impl Counting {
         /// Sends what was collected, with the parameters and ACF records recomputed from the
-        /// navigator (they describe the state after the last tick, which is what they were).
-        fn replay(&self, nav: &Navigator<f32>, sink: &mut DefmtSink) {
-            use imu_ident::navigator::Report;
+        /// estimator (they describe the state after the last tick, which is what they were).
+        fn replay(&self, nav: &Estimator<f32>, sink: &mut DefmtSink) {
+            use imu_ident::step::Report;
             let n = self.records.len();
             for (i, r) in self.records.iter().enumerate() {
                 let last = i + 1 == n;

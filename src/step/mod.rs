@@ -2,20 +2,20 @@
 //! filter, gates outliers, feeds the autocorrelators, re-identifies the noise model on schedule
 //! and feeds it back into `Phi` and `Q`, and says what it did in a small [`Report`].
 //!
-//! The [`Navigator`] never reads a clock or touches hardware: the caller passes the time and the
+//! The [`Estimator`] never reads a clock or touches hardware: the caller passes the time and the
 //! observation in (from a timer and a serial port on a board, from a recorded log under QEMU or
 //! on the host) and hands the report to a [`TelemetrySink`]. It allocates nothing; it lives in a
 //! `static` or in a struct the binary owns (about 32 KB in `f32`, see `BENCHMARKS.md`).
 //!
 //! Two engines share the interface: a fixed model ([`InsFilter`]) and the online identification
-//! ([`AdaptiveFilter`], issue 3), chosen by [`NavConfig::adapt`].
+//! ([`AdaptiveFilter`], issue 3), chosen by [`StepConfig::adapt`].
 //!
 //! ```
 //! use imu_ident::model::InsModel;
-//! use imu_ident::navigator::{NavConfig, Navigator};
+//! use imu_ident::step::{StepConfig, Estimator};
 //! use imu_ident::telemetry::{Record, MISSING};
 //!
-//! let mut nav = Navigator::<f32>::new(InsModel::paper(), NavConfig::default()).unwrap();
+//! let mut nav = Estimator::<f32>::new(InsModel::paper(), StepConfig::default()).unwrap();
 //! let first = nav.tick(1.0, 0.02);
 //! assert!(first.reidentified); // the starting parameters are reported once
 //! let r = nav.tick(2.0, f32::NAN);
@@ -31,14 +31,14 @@
 //!
 //! # Outlier gate
 //!
-//! An observation is withheld when its NIS exceeds `g s`, with `g` = [`NavConfig::gate`] (a
+//! An observation is withheld when its NIS exceeds `g s`, with `g` = [`StepConfig::gate`] (a
 //! chi-square quantile with one degree of freedom) and `s >= 1` a running scale of the NIS:
 //!
 //! ```text
 //! s <- min(S_MAX, max(1, (1 - a) s + a min(NIS, g s))),   a = 1/64, over every finite innovation
 //! ```
 //!
-//! with `S_MAX` = [`NavConfig::max_gate_scale`].
+//! with `S_MAX` = [`StepConfig::max_gate_scale`].
 //!
 //! A fixed threshold would shield a badly wrong model from the very data that must correct it
 //! (a model with 10x too small a sigma sees NIS ~ 100 chi-square: most observations would be
@@ -71,21 +71,21 @@ pub const ACF_LAGS: usize = 16;
 /// The estimate autocorrelator of one sensor.
 pub type EstimateAcf<T> = Autocorrelator<T, ACF_WINDOW, ACF_LAGS>;
 
-/// Why a navigator could not be built.
+/// Why a estimator could not be built.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum NavError {
+pub enum StepError {
     /// The model was rejected by the fixed filter.
     Model(ModelError),
     /// The adaptive filter rejected the model or its configuration.
     Adapt(AdaptError),
-    /// A navigator setting is out of range.
+    /// A estimator setting is out of range.
     BadConfig,
 }
 
 /// Settings of the step.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct NavConfig<T> {
+pub struct StepConfig<T> {
     /// `None`: run the model as given; `Some`: identify it online.
     pub adapt: Option<AdaptConfig<T>>,
     /// Base outlier gate on the NIS (module documentation). `30` is the chi-square(1) quantile
@@ -99,14 +99,14 @@ pub struct NavConfig<T> {
     pub max_gate_scale: T,
     /// Longest gap in the observation times bridged by missing-observation ticks. A longer gap
     /// bridges this many ticks and flags [`TIME_JUMP`]; it bounds the work of one
-    /// [`push`](Navigator::push).
+    /// [`push`](Estimator::push).
     pub max_bridge: u32,
     /// Ticks between autocorrelation identifications of the estimates (the paper's loop, kept
     /// as telemetry for comparison).
     pub acf_every: u32,
 }
 
-impl<T: Real> Default for NavConfig<T> {
+impl<T: Real> Default for StepConfig<T> {
     fn default() -> Self {
         Self {
             adapt: None,
@@ -118,7 +118,7 @@ impl<T: Real> Default for NavConfig<T> {
     }
 }
 
-impl<T: Real> NavConfig<T> {
+impl<T: Real> StepConfig<T> {
     /// The default settings with the default online identification.
     pub fn adaptive() -> Self {
         Self {
@@ -142,7 +142,7 @@ pub struct Report {
     pub acf: bool,
 }
 
-// Adaptive first: the all-zero `BLANK` navigator holds it, and an all-zero-bits `static`
+// Adaptive first: the all-zero `BLANK` estimator holds it, and an all-zero-bits `static`
 // goes to `.bss` (no flash image).
 #[derive(Debug, Clone)]
 enum Engine<T: Real> {
@@ -152,9 +152,9 @@ enum Engine<T: Real> {
 
 /// The estimator of the firmware: filter, identification, gate and bookkeeping.
 #[derive(Debug, Clone)]
-pub struct Navigator<T: Real> {
+pub struct Estimator<T: Real> {
     engine: Engine<T>,
-    cfg: NavConfig<T>,
+    cfg: StepConfig<T>,
     dt: T,
     acf: [EstimateAcf<T>; 2],
     /// Running mean of each estimate's variance `P` over the ACF window (`sigma^2` correction).
@@ -168,14 +168,14 @@ pub struct Navigator<T: Real> {
     repairs: u32,
 }
 
-impl<T: Real> Navigator<T> {
-    /// An uninitialised navigator (a compile-time value, all zeros): the firmware keeps one in
+impl<T: Real> Estimator<T> {
+    /// An uninitialised estimator (a compile-time value, all zeros): the firmware keeps one in
     /// a `static` (no flash, no stack) and calls [`init`](Self::init) on it.
     pub const BLANK: Self = Self {
         engine: Engine::Adaptive(AdaptiveFilter::BLANK),
-        cfg: NavConfig {
+        cfg: StepConfig {
             // `Some`: `None` would be stored as a non-zero niche value, which would put the
-            // whole blank navigator in `.data` (30 KB of flash).
+            // whole blank estimator in `.data` (30 KB of flash).
             adapt: Some(AdaptConfig::BLANK),
             gate: T::ZERO,
             max_gate_scale: T::ZERO,
@@ -192,36 +192,36 @@ impl<T: Real> Navigator<T> {
         repairs: 0,
     };
 
-    /// A navigator starting from `model`.
-    pub fn new(model: InsModel<T>, cfg: NavConfig<T>) -> Result<Self, NavError> {
+    /// A estimator starting from `model`.
+    pub fn new(model: InsModel<T>, cfg: StepConfig<T>) -> Result<Self, StepError> {
         let mut nav = Self::BLANK;
         nav.init(model, cfg)?;
         Ok(nav)
     }
 
-    /// [`new`](Self::new) in place, for a navigator in a `static`: nothing of its ~32 KB is
+    /// [`new`](Self::new) in place, for a estimator in a `static`: nothing of its ~32 KB is
     /// built on the stack and moved (measured: by-value construction peaked at 94 KB of stack
     /// on the Cortex-M4, in place 18 KB; `BENCHMARKS.md`). On error it must not be ticked.
-    pub fn init(&mut self, model: InsModel<T>, cfg: NavConfig<T>) -> Result<(), NavError> {
+    pub fn init(&mut self, model: InsModel<T>, cfg: StepConfig<T>) -> Result<(), StepError> {
         let gate_ok = cfg.gate.is_finite()
             && cfg.gate > T::one()
             && cfg.max_gate_scale >= T::one()
             && (cfg.gate * cfg.max_gate_scale).is_finite();
         if !gate_ok || cfg.acf_every == 0 || cfg.max_bridge == 0 {
-            return Err(NavError::BadConfig);
+            return Err(StepError::BadConfig);
         }
         let dt = model.dt;
         match cfg.adapt {
             None => {
                 // Small (about 2 KB): built by value.
-                self.engine = Engine::Fixed(InsFilter::new(model).map_err(NavError::Model)?);
+                self.engine = Engine::Fixed(InsFilter::new(model).map_err(StepError::Model)?);
             }
             Some(a) => {
                 if !matches!(self.engine, Engine::Adaptive(_)) {
                     self.engine = Engine::Adaptive(AdaptiveFilter::BLANK);
                 }
                 if let Engine::Adaptive(f) = &mut self.engine {
-                    f.init(model, a).map_err(NavError::Adapt)?;
+                    f.init(model, a).map_err(StepError::Adapt)?;
                 }
             }
         }
@@ -240,7 +240,7 @@ impl<T: Real> Navigator<T> {
     }
 
     /// The settings.
-    pub fn config(&self) -> &NavConfig<T> {
+    pub fn config(&self) -> &StepConfig<T> {
         &self.cfg
     }
 
@@ -255,10 +255,10 @@ impl<T: Real> Navigator<T> {
     }
 
     /// The model in use (with the identified parameters when adapting).
-    pub fn model(&self) -> Result<InsModel<T>, NavError> {
+    pub fn model(&self) -> Result<InsModel<T>, StepError> {
         match &self.engine {
             Engine::Fixed(f) => Ok(f.model().clone()),
-            Engine::Adaptive(a) => a.model().map_err(NavError::Adapt),
+            Engine::Adaptive(a) => a.model().map_err(StepError::Adapt),
         }
     }
 
@@ -342,7 +342,7 @@ impl<T: Real> Navigator<T> {
             record,
             reidentified,
             jumped,
-            // `checked_rem`: a BLANK navigator (acf_every = 0) ticked without `init` must not panic.
+            // `checked_rem`: a BLANK estimator (acf_every = 0) ticked without `init` must not panic.
             acf: self.k.checked_rem(self.cfg.acf_every) == Some(0),
         }
     }
@@ -374,7 +374,7 @@ impl<T: Real> Navigator<T> {
     }
 
     /// One log row: bridges a gap in time with missing-observation ticks (at most
-    /// [`NavConfig::max_bridge`]), skips a row whose time does not advance or is not finite,
+    /// [`StepConfig::max_bridge`]), skips a row whose time does not advance or is not finite,
     /// then ticks with the row. Every tick's record goes to `sink`, followed by the parameters
     /// when they changed and the autocorrelation identification when it ran.
     ///

@@ -1,5 +1,5 @@
 //! Fuzzing of the firmware step (issue 7): arbitrary log rows `(t, z)` through
-//! [`Navigator::<f32>::push`], with the fixed model and with the online identification (a small
+//! [`Estimator::<f32>::push`], with the fixed model and with the online identification (a small
 //! [`AdaptConfig`], so that re-identifications and probe jumps happen in short sequences).
 //!
 //! The rows mix plausible data (noise of sd 0.03 m/s around 0 or a small offset, one row per
@@ -18,7 +18,7 @@
 use imu_ident::adapt::AdaptConfig;
 use imu_ident::filter::is_positive_definite;
 use imu_ident::model::{Component, InsModel};
-use imu_ident::navigator::{AcfRecord, NavConfig, Navigator, ParamRecord};
+use imu_ident::step::{AcfRecord, Estimator, ParamRecord, StepConfig};
 use imu_ident::telemetry::{
     Record, TelemetrySink, BAD_INPUT, BRIDGED, GATED_OUTLIER, MISSING, P_REPAIRED, SKIPPED,
     TIME_JUMP,
@@ -130,7 +130,7 @@ fn hostile_z() -> impl Strategy<Value = f32> {
 }
 
 /// Row times: mostly on time, else off by half a step, repeated, backwards, jumping forward,
-/// or a glitch. The glitches that freeze the navigator for good (a time so large that the rows
+/// or a glitch. The glitches that freeze the estimator for good (a time so large that the rows
 /// after it all go backwards, or that a 1 s step no longer changes) are rare, so that most runs
 /// keep exercising the filter after their faults.
 fn time_op() -> impl Strategy<Value = TimeOp> {
@@ -290,9 +290,9 @@ struct Totals {
     jumps: u64,
 }
 
-/// The invariants of the navigator after a push (module documentation).
+/// The invariants of the estimator after a push (module documentation).
 fn check_state(
-    nav: &Navigator<f32>,
+    nav: &Estimator<f32>,
     adapt: Option<&AdaptConfig<f32>>,
 ) -> Result<(), TestCaseError> {
     let (p, n) = nav.covariance_scaled();
@@ -358,15 +358,15 @@ fn check_state(
 
 /// Pushes the rows of a run and checks every record and the state after each push.
 fn fuzz_one(
-    cfg: NavConfig<f32>,
+    cfg: StepConfig<f32>,
     start: f64,
     segs: &[Seg],
     tot: &mut Totals,
 ) -> Result<(), TestCaseError> {
-    let mut nav = Navigator::<f32>::new(InsModel::paper(), cfg).expect("valid configuration");
+    let mut nav = Estimator::<f32>::new(InsModel::paper(), cfg).expect("valid configuration");
     let dt = f64::from(InsModel::<f32>::paper().dt);
     let mut sink = Collect::default();
-    // The time of the last tick with a finite time (what the navigator bridges from).
+    // The time of the last tick with a finite time (what the estimator bridges from).
     let mut prev_t: Option<f64> = None;
     let mut suspect: Option<f64> = None;
     let rows = rows(start, segs);
@@ -538,7 +538,7 @@ fn fuzz_one(
     Ok(())
 }
 
-fn fuzz(name: &str, cfg: NavConfig<f32>) {
+fn fuzz(name: &str, cfg: StepConfig<f32>) {
     let n = cases();
     let mut runner = TestRunner::new(Config {
         cases: n,
@@ -558,7 +558,7 @@ fn fuzz(name: &str, cfg: NavConfig<f32>) {
     let tot = totals.into_inner();
     let secs = start.elapsed().as_secs_f64();
     eprintln!(
-        "navigator_fuzz {name}: {} cases (shrinking included), {} rows, {} ticks in {:.1} s \
+        "step_fuzz {name}: {} cases (shrinking included), {} rows, {} ticks in {:.1} s \
          ({:.0} ticks/s); skipped {}, clock jumps confirmed {}, gated {}, repaired {}, re-identifications {}, \
          updates {}, jumps {}",
         tot.cases,
@@ -583,9 +583,9 @@ fn fuzz(name: &str, cfg: NavConfig<f32>) {
 fn fixed_model_step_survives_any_rows() {
     fuzz(
         "fixed",
-        NavConfig {
+        StepConfig {
             max_bridge: MAX_BRIDGE,
-            ..NavConfig::default()
+            ..StepConfig::default()
         },
     );
 }
@@ -594,24 +594,24 @@ fn fixed_model_step_survives_any_rows() {
 fn adaptive_step_survives_any_rows() {
     fuzz(
         "adaptive",
-        NavConfig {
+        StepConfig {
             adapt: Some(small_adapt()),
             max_bridge: MAX_BRIDGE,
-            ..NavConfig::default()
+            ..StepConfig::default()
         },
     );
 }
 
-/// The adaptive navigator with the gate scale practically unbounded (`g s` up to 3e37, still
+/// The adaptive estimator with the gate scale practically unbounded (`g s` up to 3e37, still
 /// finite in f32), as the fuzzer first ran it: a stuck source then gets through the gate after
 /// a few hundred ticks and drives the identification to its bounds, the path on which the bugs
 /// below were found. With the default bound (1e6) such a source is never taken.
-fn open_gate_config() -> NavConfig<f32> {
-    NavConfig {
+fn open_gate_config() -> StepConfig<f32> {
+    StepConfig {
         adapt: Some(small_adapt()),
         max_bridge: MAX_BRIDGE,
         max_gate_scale: 1.0e36,
-        ..NavConfig::default()
+        ..StepConfig::default()
     }
 }
 
@@ -623,11 +623,11 @@ fn adaptive_step_with_an_open_gate_survives_any_rows() {
 // Reproductions of the bugs the fuzz found (issue 7), smallest inputs found. Each failed before
 // the fix named in RELIABILITY.md (checked again with the bound on the gate scale in place).
 
-fn open_gate_nav() -> Navigator<f32> {
-    Navigator::new(InsModel::paper(), open_gate_config()).expect("valid configuration")
+fn open_gate_nav() -> Estimator<f32> {
+    Estimator::new(InsModel::paper(), open_gate_config()).expect("valid configuration")
 }
 
-fn assert_pd(nav: &Navigator<f32>, k: u32) {
+fn assert_pd(nav: &Estimator<f32>, k: u32) {
     let (p, n) = nav.covariance_scaled();
     assert!(
         is_positive_definite(&imu_ident::linalg::from_mat(&p), n),

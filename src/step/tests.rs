@@ -41,22 +41,22 @@ fn bad_config_is_an_error() {
         (30.0, 1.0e38),
     ];
     for (gate, max_gate_scale) in bad {
-        let cfg = NavConfig {
+        let cfg = StepConfig {
             gate,
             max_gate_scale,
-            ..NavConfig::default()
+            ..StepConfig::default()
         };
         assert_eq!(
-            Navigator::new(InsModel::paper(), cfg).err(),
-            Some(NavError::BadConfig)
+            Estimator::new(InsModel::paper(), cfg).err(),
+            Some(StepError::BadConfig)
         );
     }
 }
 
 #[test]
 fn an_isolated_jump_is_gated_and_a_persistent_one_accepted() {
-    for cfg in [NavConfig::<f32>::default(), NavConfig::adaptive()] {
-        let mut nav = Navigator::new(InsModel::paper(), cfg).unwrap();
+    for cfg in [StepConfig::<f32>::default(), StepConfig::adaptive()] {
+        let mut nav = Estimator::new(InsModel::paper(), cfg).unwrap();
         let mut sink = Collect::default();
         for k in 1..=2000u32 {
             nav.push(f64::from(k), noise(k), &mut sink);
@@ -81,7 +81,7 @@ fn an_isolated_jump_is_gated_and_a_persistent_one_accepted() {
 
 #[test]
 fn gaps_are_bridged_and_non_advancing_rows_skipped() {
-    let mut nav = Navigator::<f32>::new(InsModel::paper(), NavConfig::default()).unwrap();
+    let mut nav = Estimator::<f32>::new(InsModel::paper(), StepConfig::default()).unwrap();
     let mut sink = Collect::default();
     nav.push(10.0, 0.01, &mut sink);
     nav.push(14.0, 0.01, &mut sink);
@@ -110,11 +110,11 @@ fn gaps_are_bridged_and_non_advancing_rows_skipped() {
 
 #[test]
 fn a_gap_longer_than_the_bridge_is_flagged() {
-    let cfg = NavConfig::<f32> {
+    let cfg = StepConfig::<f32> {
         max_bridge: 100,
-        ..NavConfig::default()
+        ..StepConfig::default()
     };
-    let mut nav = Navigator::new(InsModel::paper(), cfg).unwrap();
+    let mut nav = Estimator::new(InsModel::paper(), cfg).unwrap();
     let mut sink = Collect::default();
     nav.push(0.0, 0.0, &mut sink);
     // A real outage of 1e6 s: the first row after it is suspect (skipped), the next confirms.
@@ -143,11 +143,11 @@ fn a_gap_longer_than_the_bridge_is_flagged() {
 
 #[test]
 fn parameters_are_reported_at_start_and_acf_on_schedule() {
-    let cfg = NavConfig::<f32> {
+    let cfg = StepConfig::<f32> {
         acf_every: 500,
-        ..NavConfig::default()
+        ..StepConfig::default()
     };
-    let mut nav = Navigator::new(InsModel::paper(), cfg).unwrap();
+    let mut nav = Estimator::new(InsModel::paper(), cfg).unwrap();
     let mut sink = Collect::default();
     for k in 1..=2500u32 {
         nav.push(f64::from(k), noise(k), &mut sink);
@@ -173,7 +173,7 @@ fn flag_names_cover_the_new_bits() {
 
 #[test]
 fn row_flags_for_missing_infinite_and_unusable_rows() {
-    let mut nav = Navigator::<f64>::new(InsModel::paper(), NavConfig::default()).unwrap();
+    let mut nav = Estimator::<f64>::new(InsModel::paper(), StepConfig::default()).unwrap();
     let mut sink = Collect::default();
     let rows = [
         (1.0, 0.01),
@@ -201,11 +201,11 @@ fn one_corrupted_time_stamp_does_not_stop_the_navigator() {
     // used to become the time base: every later row was skipped as going backwards (or, ahead,
     // a day of blind prediction was bridged). Now it is skipped and the old base kept.
     for bad in [1.0e300, f64::MAX, 1.0e17 + 10.0, -1.0e300, 0.0, 9.0e5] {
-        let cfg = NavConfig::<f32> {
+        let cfg = StepConfig::<f32> {
             max_bridge: 100,
-            ..NavConfig::default()
+            ..StepConfig::default()
         };
-        let mut nav = Navigator::new(InsModel::paper(), cfg).unwrap();
+        let mut nav = Estimator::new(InsModel::paper(), cfg).unwrap();
         let mut sink = Collect::default();
         // Ten rows on a clock that starts at 1000 s, one bad time, ten more rows.
         let t0 = 1000.0;
@@ -228,7 +228,7 @@ fn one_corrupted_time_stamp_does_not_stop_the_navigator() {
 
 #[test]
 fn an_infinite_time_is_skipped_like_nan() {
-    let mut nav = Navigator::<f32>::new(InsModel::paper(), NavConfig::default()).unwrap();
+    let mut nav = Estimator::<f32>::new(InsModel::paper(), StepConfig::default()).unwrap();
     let mut sink = Collect::default();
     nav.push(1.0, 0.0, &mut sink);
     nav.push(f64::INFINITY, 0.0, &mut sink);
@@ -241,7 +241,7 @@ fn an_infinite_time_is_skipped_like_nan() {
 fn the_gate_threshold_stays_finite_under_a_stuck_source() {
     // 3000 s of a source stuck at 1e18 m/s used to grow the gate scale until `g s` overflowed
     // f32 and every observation, even an infinite NIS, passed the gate.
-    let mut nav = Navigator::<f32>::new(InsModel::paper(), NavConfig::default()).unwrap();
+    let mut nav = Estimator::<f32>::new(InsModel::paper(), StepConfig::default()).unwrap();
     let mut sink = Collect::default();
     for k in 1..=6000u32 {
         nav.push(f64::from(k), 1.0e18, &mut sink);
