@@ -157,8 +157,8 @@ enum Command {
         /// Output folder.
         #[arg(long)]
         out: PathBuf,
-        /// Firmware ELF (default: $IMU_IDENT_FIRMWARE_ELF, else
-        /// target/thumbv7em-none-eabihf/release/imu-ident-qemu).
+        /// Firmware ELF (default: $IMU_IDENT_FIRMWARE_ELF, else the QEMU firmware in the target
+        /// folder, built first when it is missing or older than its sources).
         #[arg(long)]
         elf: Option<PathBuf>,
     },
