@@ -92,7 +92,7 @@ impl ImuModelToml {
             hours: None,
             dt: self.dt,
             observation: ObservationToml {
-                sigma_v: crate::identify::SIGMA_V_PLACEHOLDER,
+                sigma_v: crate::model_toml::SIGMA_V_PLACEHOLDER,
                 colored: vec![],
             },
             initial: None,

@@ -22,6 +22,11 @@ use imu_ident::model::{
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
+/// `observation.sigma_v` written to `model.toml`: a static recording has no velocity
+/// reference, so this is a placeholder (the diagnosis' default of 3 cm/s) to be replaced by
+/// the real aiding noise before `hal-sim run` is used on a moving log.
+pub const SIGMA_V_PLACEHOLDER: f64 = 0.03;
+
 /// One component as written in TOML; `kind` selects the variant.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]

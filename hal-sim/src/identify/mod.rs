@@ -31,10 +31,7 @@ use fit::{Kind, Problem, Term};
 /// Most ACF lags computed (before decimation they are samples): 512 covers ~100 periods of
 /// the ADIS 20 Hz line and ~10 of the PSINS sway at 100 Hz, at O(N · 512) cost.
 pub const MAX_LAG: usize = 512;
-/// `observation.sigma_v` written to `model.toml`: a static recording has no velocity
-/// reference, so this is a placeholder (the diagnosis' default of 3 cm/s) to be replaced by
-/// the real aiding noise before `hal-sim run` is used on a moving log.
-pub const SIGMA_V_PLACEHOLDER: f64 = 0.03;
+pub use crate::model_toml::SIGMA_V_PLACEHOLDER;
 
 /// Which sensor the column belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
