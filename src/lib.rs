@@ -11,6 +11,7 @@ pub mod filter;
 pub mod ident;
 pub mod linalg;
 pub mod model;
+pub mod nav;
 #[cfg(all(target_arch = "arm", target_os = "none", feature = "prove-no-panic"))]
 mod panic_proof;
 pub mod real;

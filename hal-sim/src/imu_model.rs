@@ -27,6 +27,9 @@ use crate::model_toml::{ComponentToml, ModelToml, ObservationToml};
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AxesToml {
+    /// Shorthand: components on each of the three axes (before the axis's own ones).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub all: Vec<ComponentToml>,
     #[serde(default)]
     pub x: Vec<ComponentToml>,
     #[serde(default)]
@@ -36,6 +39,12 @@ pub struct AxesToml {
 }
 
 impl AxesToml {
+    /// Every component of axis `a`: the `all` shorthand, then the axis's own.
+    pub fn components(&self, a: char) -> Option<Vec<ComponentToml>> {
+        let own = self.axis(a)?;
+        Some(self.all.iter().chain(own.iter()).cloned().collect())
+    }
+
     /// The components of axis `a` (`x`, `y` or `z`).
     pub fn axis(&self, a: char) -> Option<&Vec<ComponentToml>> {
         match a {
@@ -61,6 +70,7 @@ impl AxesToml {
 #[serde(deny_unknown_fields)]
 pub struct ImuModelToml {
     /// Sample interval [s].
+    #[serde(default = "default_dt")]
     pub dt: f64,
     /// Gyro axes [rad/s].
     #[serde(default)]
@@ -68,6 +78,12 @@ pub struct ImuModelToml {
     /// Accelerometer axes [m/s^2].
     #[serde(default)]
     pub accel: AxesToml,
+}
+
+/// `dt` when a file has none (a navigation model needs none: `hal-sim nav` takes the times from
+/// the IMU log).
+fn default_dt() -> f64 {
+    1.0
 }
 
 /// Axis labels in file order.
@@ -83,9 +99,8 @@ impl ImuModelToml {
             o => return Err(anyhow!("unknown sensor '{o}' (gyro or accel)")),
         };
         let comps = axes
-            .axis(a)
-            .ok_or_else(|| anyhow!("unknown axis '{a}' (x, y or z)"))?
-            .clone();
+            .components(a)
+            .ok_or_else(|| anyhow!("unknown axis '{a}' (x, y or z)"))?;
         let mut m = ModelToml {
             name: None,
             description: None,
@@ -117,6 +132,30 @@ impl ImuModelToml {
             }
         }
         Ok(())
+    }
+
+    /// The strapdown navigator's per-axis noise model (core units: rad/s, m/s^2).
+    pub fn to_nav(&self, origin: &str) -> Result<imu_ident::nav::ImuErrorModel<f64>> {
+        let mut m = imu_ident::nav::ImuErrorModel::default();
+        for (name, axes, out) in [
+            ("gyro", &self.gyro, &mut m.gyro),
+            ("accel", &self.accel, &mut m.accel),
+        ] {
+            for (a, slot) in AXES.iter().zip(out.iter_mut()) {
+                for c in axes.components(*a).unwrap_or_default() {
+                    let core = c
+                        .to_core()
+                        .with_context(|| format!("{origin}: [[{name}.{a}]]"))?;
+                    slot.push(core).map_err(|_| {
+                        anyhow!(
+                            "{origin}: [[{name}.{a}]] has more than {} components",
+                            imu_ident::nav::MAX_AXIS_COMPONENTS
+                        )
+                    })?;
+                }
+            }
+        }
+        Ok(m)
     }
 
     /// The file text: a comment header, then the TOML with readable numbers.

@@ -19,6 +19,7 @@ pub mod kalibr;
 pub mod log;
 pub mod mismatch;
 pub mod model_toml;
+pub mod nav;
 pub mod nav_io;
 pub mod output;
 pub mod qemu;

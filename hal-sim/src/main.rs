@@ -29,6 +29,70 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Strapdown INS/GNSS: an IMU CSV and a GNSS CSV or RTKLIB .pos through the core's
+    /// closed-loop navigator; writes estimates.csv, solution.pos, summary.json (outages.json).
+    Nav {
+        /// IMU CSV (t,gx,gy,gz,ax,ay,az; s, rad/s FRD, m/s^2).
+        #[arg(long)]
+        imu: PathBuf,
+        /// GNSS CSV, or an RTKLIB .pos file.
+        #[arg(long)]
+        gnss: PathBuf,
+        /// Noise model: an IMU model TOML, or drive-datasheet / drive-inflated.
+        #[arg(long)]
+        model: String,
+        /// GNSS outages START,LEN,PERIOD,MARGIN [s] from the first GNSS epoch.
+        #[arg(long)]
+        outages: Option<hal_sim::nav_io::OutageSpec>,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// GNSS antenna from the IMU, forward,right,down [m].
+        #[arg(long, value_delimiter = ',', allow_negative_numbers = true, default_values_t = [0.0, 0.0, 0.0])]
+        lever_arm: Vec<f64>,
+        /// Filter step [s].
+        #[arg(long, default_value_t = 1.0)]
+        step: f64,
+        /// Static levelling window at the start [s].
+        #[arg(long, default_value_t = 20.0)]
+        align: f64,
+        /// Initial yaw [deg] (default: from the GNSS course once moving).
+        #[arg(long, allow_negative_numbers = true)]
+        yaw: Option<f64>,
+        /// Speed [m/s] from which the GNSS course gives the heading.
+        #[arg(long, default_value_t = 2.0)]
+        yaw_speed: f64,
+        /// Do not seed the gyro biases from the mean rate of the static window.
+        #[arg(long)]
+        no_static_gyro_bias: bool,
+        /// Initial attitude uncertainty roll,pitch,yaw [deg].
+        #[arg(long, value_delimiter = ',', default_values_t = [2.0, 2.0, 10.0])]
+        sd_att: Vec<f64>,
+        /// Initial velocity uncertainty [m/s].
+        #[arg(long, default_value_t = 0.1)]
+        sd_vel: f64,
+        /// Initial position uncertainty [m].
+        #[arg(long, default_value_t = 1.0)]
+        sd_pos: f64,
+        /// Gate multiplier on the chi-square 1e-4 quantile (0: no gate).
+        #[arg(long, default_value_t = 1.0)]
+        gate: f64,
+        /// Fuse GNSS positions only.
+        #[arg(long)]
+        no_velocity: bool,
+        /// Run the core in f32.
+        #[arg(long)]
+        f32: bool,
+        /// Keep .pos epochs with 1 <= Q <= MAX_Q.
+        #[arg(long, default_value_t = 2)]
+        max_q: u8,
+        /// First identify the noise model on this log (maximum likelihood), then run with it.
+        #[arg(long)]
+        identify: bool,
+        /// Factors on the GNSS position,velocity standard deviations.
+        #[arg(long, value_delimiter = ',', default_values_t = [1.0, 1.0])]
+        gnss_sd_factor: Vec<f64>,
+    },
     /// Simulate a strapdown drive (figure-eights, climbs): imu.csv, truth.csv, gnss.csv.
     SimulateDrive {
         /// Duration [h].
@@ -193,10 +257,10 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
         /// IMU mounting roll,pitch,yaw [deg].
-        #[arg(long, value_delimiter = ',', num_args = 3, allow_negative_numbers = true, default_values_t = [180.0, 0.0, 180.0])]
+        #[arg(long, value_delimiter = ',', allow_negative_numbers = true, default_values_t = [180.0, 0.0, 180.0])]
         mount: Vec<f64>,
         /// Misalignment roll,pitch,yaw [deg], added angle by angle to --mount.
-        #[arg(long, value_delimiter = ',', num_args = 3, allow_negative_numbers = true, default_values_t = [0.0, -6.79, 5.35])]
+        #[arg(long, value_delimiter = ',', allow_negative_numbers = true, default_values_t = [0.0, -6.79, 5.35])]
         misalign: Vec<f64>,
         /// Added to every IMU time [s] (logging delay).
         #[arg(long, allow_negative_numbers = true, default_value_t = -0.125)]
@@ -208,10 +272,10 @@ enum Command {
         #[arg(long, default_value_t = 2)]
         max_q: u8,
         /// IMU position from the body origin, forward,right,down [m].
-        #[arg(long, value_delimiter = ',', num_args = 3, allow_negative_numbers = true, default_values_t = [0.0, 0.0, -0.65])]
+        #[arg(long, value_delimiter = ',', allow_negative_numbers = true, default_values_t = [0.0, 0.0, -0.65])]
         imu_lever: Vec<f64>,
         /// Antenna position from the body origin, forward,right,down [m].
-        #[arg(long, value_delimiter = ',', num_args = 3, allow_negative_numbers = true, default_values_t = [0.0, -0.05, -0.65])]
+        #[arg(long, value_delimiter = ',', allow_negative_numbers = true, default_values_t = [0.0, -0.05, -0.65])]
         antenna_lever: Vec<f64>,
     },
 }
@@ -227,6 +291,74 @@ fn main() -> Result<()> {
         } => {
             let n = commands::simulate(&scenario, hours, seed, &out)?;
             eprintln!("wrote {n} rows to {}", out.display());
+        }
+        Command::Nav {
+            imu,
+            gnss,
+            model,
+            outages,
+            out,
+            lever_arm,
+            step,
+            align,
+            yaw,
+            yaw_speed,
+            no_static_gyro_bias,
+            sd_att,
+            sd_vel,
+            sd_pos,
+            gate,
+            no_velocity,
+            f32,
+            max_q,
+            gnss_sd_factor,
+            identify,
+        } => {
+            let three = |v: Vec<f64>, name: &str| -> Result<[f64; 3]> {
+                <[f64; 3]>::try_from(v)
+                    .map_err(|_| anyhow::anyhow!("--{name}: expected three numbers"))
+            };
+            let sd_att = three(sd_att, "sd-att")?;
+            let args = hal_sim::nav::NavArgs {
+                imu,
+                gnss,
+                max_q,
+                model: hal_sim::nav::model::load(&model)?,
+                model_name: model,
+                outages,
+                lever_arm: three(lever_arm, "lever-arm")?,
+                step,
+                align,
+                yaw_deg: yaw,
+                yaw_speed,
+                static_gyro_bias: !no_static_gyro_bias,
+                init: imu_ident::nav::NavInit {
+                    sd_att: nalgebra::Vector3::from(sd_att.map(f64::to_radians)),
+                    sd_vel,
+                    sd_pos,
+                },
+                gate: (gate > 0.0).then_some(gate),
+                use_velocity: !no_velocity,
+                single: f32,
+                gnss_sd_factor: <[f64; 2]>::try_from(gnss_sd_factor)
+                    .map_err(|_| anyhow::anyhow!("--gnss-sd-factor: expected two numbers"))?,
+            };
+            let run = if identify {
+                let (run, id) = hal_sim::nav::run_identified(&args, &out)?;
+                eprintln!(
+                    "identified: factors {:?} ({}), loglik {:.1} -> {:.1} in {} runs",
+                    id.factors,
+                    hal_sim::nav::identify::FACTORS.join(", "),
+                    id.loglik_start,
+                    id.loglik,
+                    id.evaluations
+                );
+                run
+            } else {
+                hal_sim::nav::run(&args)?
+            };
+            hal_sim::nav::records::write_all(&out, &run)?;
+            println!("{}", serde_json::to_string_pretty(&run.summary)?);
         }
         Command::SimulateDrive {
             hours,

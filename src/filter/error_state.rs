@@ -60,6 +60,10 @@ pub struct Fused<T, const Z: usize> {
     pub dof: usize,
     /// The gate rejected the observation.
     pub gated: bool,
+    /// Log-likelihood of the fused axes, the sum of their sequential scalar innovations'
+    /// `-1/2 (ln S + nu^2 / S)` (without `ln 2 pi`): with independent axes the exact
+    /// Gaussian log-likelihood of the vector. Zero when nothing was fused.
+    pub loglik: T,
 }
 
 /// A Kalman filter of an [`ErrorModel`] with `N` states and `Z` observation axes.
@@ -136,89 +140,7 @@ impl<T: Real, M: ErrorModel<T, N, Z>, const N: usize, const Z: usize> ErrorState
     /// Fuses the vector observation `z` (non-finite axes missing) after the vector gate
     /// `gate(m)` on the NIS of its `m` finite axes (`None`: no gate).
     pub fn update(&mut self, z: &[T; Z], gate: Option<&dyn Fn(usize) -> T>) -> Fused<T, Z> {
-        let nan = T::lit(f64::NAN);
-        let mut out = Fused {
-            axes: [AxisStatus::Missing; Z],
-            innovation: [nan; Z],
-            variance: [nan; Z],
-            nis: nan,
-            dof: 0,
-            gated: false,
-        };
-        // Innovations and their joint covariance over the finite axes, before any update.
-        let mut nu = [T::zero(); Z];
-        let mut s = [[T::zero(); Z]; Z];
-        let mut idx = [0usize; Z];
-        let mut m = 0;
-        for (i, zi) in z.iter().enumerate() {
-            let (v, var) = self.kf.innovation(*zi, &self.sys.H[i], self.sys.R[i]);
-            out.variance[i] = var;
-            if zi.is_finite() {
-                out.innovation[i] = v;
-                if let (Some(slot), Some(n)) = (idx.get_mut(m), nu.get_mut(m)) {
-                    *slot = i;
-                    *n = v;
-                    m += 1;
-                }
-            }
-        }
-        out.dof = m;
-        let n = self.kf.active();
-        for a in 0..m {
-            for b in 0..m {
-                let (ia, ib) = (idx[a], idx[b]);
-                let mut v = if ia == ib { self.sys.R[ia] } else { T::zero() };
-                // H_a P H_b^T over the active block.
-                for (k, hk) in self.sys.H[ia].iter().enumerate().take(n) {
-                    let mut ph = T::zero();
-                    for (l, hl) in self.sys.H[ib].iter().enumerate().take(n) {
-                        ph += self.kf.P[k][l] * *hl;
-                    }
-                    v += *hk * ph;
-                }
-                s[a][b] = v;
-            }
-        }
-        if m > 0 {
-            if let Some(l) = cholesky(&s, m) {
-                // nu^T S^-1 nu = |L^-1 nu|^2 (forward substitution).
-                let mut y = [T::zero(); Z];
-                let mut nis = T::zero();
-                for a in 0..m {
-                    let mut v = nu[a];
-                    for b in 0..a {
-                        v -= l[a][b] * y[b];
-                    }
-                    y[a] = v / l[a][a];
-                    nis += y[a] * y[a];
-                }
-                out.nis = nis;
-            }
-            if let Some(g) = gate {
-                // A NaN NIS (S not positive definite) fails the gate too.
-                let within = out.nis <= g(m);
-                if !within {
-                    out.gated = true;
-                    for &i in idx.iter().take(m) {
-                        out.axes[i] = AxisStatus::Gated;
-                    }
-                    return out;
-                }
-            }
-        }
-        for (i, zi) in z.iter().enumerate() {
-            if !zi.is_finite() {
-                continue;
-            }
-            let r = self.kf.update(*zi, &self.sys.H[i], self.sys.R[i], None);
-            out.axes[i] = match r.status {
-                UpdateStatus::Updated => AxisStatus::Used,
-                UpdateStatus::Missing => AxisStatus::Missing,
-                UpdateStatus::Gated => AxisStatus::Gated,
-                UpdateStatus::BadInnovationVariance => AxisStatus::BadVariance,
-            };
-        }
-        out
+        fuse(&mut self.kf, z, &self.sys.H, &self.sys.R, gate)
     }
 
     /// One cycle: predict, then fuse `z`.
@@ -254,4 +176,105 @@ impl<T: Real, M: ErrorModel<T, N, Z>, const N: usize, const Z: usize> ErrorState
         }
         out
     }
+}
+
+/// Fuses the vector observation `z = H x + v`, `v ~ N(0, diag(R))` (non-finite axes missing)
+/// into `kf` after the vector gate `gate(m)` on the NIS of its `m` finite axes (`None`: no
+/// gate), as sequential scalar Joseph updates (module docs). The one fusion routine of the
+/// crate: [`ErrorStateFilter::update`] and the strapdown navigator both call it.
+#[allow(non_snake_case)]
+pub fn fuse<T: Real, const N: usize, const Z: usize>(
+    kf: &mut Kalman<T, N>,
+    z: &[T; Z],
+    H: &[[T; N]; Z],
+    R: &[T; Z],
+    gate: Option<&dyn Fn(usize) -> T>,
+) -> Fused<T, Z> {
+    let nan = T::lit(f64::NAN);
+    let mut out = Fused {
+        axes: [AxisStatus::Missing; Z],
+        innovation: [nan; Z],
+        variance: [nan; Z],
+        nis: nan,
+        dof: 0,
+        gated: false,
+        loglik: T::zero(),
+    };
+    // Innovations and their joint covariance over the finite axes, before any update.
+    let mut nu = [T::zero(); Z];
+    let mut s = [[T::zero(); Z]; Z];
+    let mut idx = [0usize; Z];
+    let mut m = 0;
+    for (i, zi) in z.iter().enumerate() {
+        let (v, var) = kf.innovation(*zi, &H[i], R[i]);
+        out.variance[i] = var;
+        if zi.is_finite() {
+            out.innovation[i] = v;
+            if let (Some(slot), Some(n)) = (idx.get_mut(m), nu.get_mut(m)) {
+                *slot = i;
+                *n = v;
+                m += 1;
+            }
+        }
+    }
+    out.dof = m;
+    let n = kf.active();
+    for a in 0..m {
+        for b in 0..m {
+            let (ia, ib) = (idx[a], idx[b]);
+            let mut v = if ia == ib { R[ia] } else { T::zero() };
+            // H_a P H_b^T over the active block.
+            for (k, hk) in H[ia].iter().enumerate().take(n) {
+                let mut ph = T::zero();
+                for (l, hl) in H[ib].iter().enumerate().take(n) {
+                    ph += kf.P[k][l] * *hl;
+                }
+                v += *hk * ph;
+            }
+            s[a][b] = v;
+        }
+    }
+    if m > 0 {
+        if let Some(l) = cholesky(&s, m) {
+            // nu^T S^-1 nu = |L^-1 nu|^2 (forward substitution).
+            let mut y = [T::zero(); Z];
+            let mut nis = T::zero();
+            for a in 0..m {
+                let mut v = nu[a];
+                for b in 0..a {
+                    v -= l[a][b] * y[b];
+                }
+                y[a] = v / l[a][a];
+                nis += y[a] * y[a];
+            }
+            out.nis = nis;
+        }
+        if let Some(g) = gate {
+            // A NaN NIS (S not positive definite) fails the gate too.
+            let within = out.nis <= g(m);
+            if !within {
+                out.gated = true;
+                for &i in idx.iter().take(m) {
+                    out.axes[i] = AxisStatus::Gated;
+                }
+                return out;
+            }
+        }
+    }
+    for (i, zi) in z.iter().enumerate() {
+        if !zi.is_finite() {
+            continue;
+        }
+        let r = kf.update(*zi, &H[i], R[i], None);
+        if r.status == UpdateStatus::Updated {
+            out.loglik += r.loglik();
+        }
+        out.axes[i] = match r.status {
+            UpdateStatus::Updated => AxisStatus::Used,
+            UpdateStatus::Missing => AxisStatus::Missing,
+            UpdateStatus::Gated => AxisStatus::Gated,
+            UpdateStatus::BadInnovationVariance => AxisStatus::BadVariance,
+        };
+    }
+    out
 }

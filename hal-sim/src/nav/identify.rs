@@ -1,0 +1,120 @@
+//! Offline maximum-likelihood identification of the navigator's noise model on one log
+//! (`hal-sim nav --identify`): factors on the standard deviation of every white-noise density
+//! and random-walk intensity of each sensor type (gyro white, accelerometer white, gyro bias
+//! walk, accelerometer bias walk) and on the GNSS position and velocity standard deviations,
+//! chosen to maximise the innovation log-likelihood of the run (the sum of [`EpochRecord`]
+//! `loglik`, the exact Gaussian likelihood of the fused fixes given the model).
+//!
+//! The run sees the same data as the scored run: fixes withheld by the outage schedule are not
+//! used. The search is a pattern search on the base-10 logarithms of the six factors (steps of
+//! 1, 0.5, 0.25, 0.125 decades, every coordinate tried up and down, a move kept when the
+//! likelihood rises), bounded to [1e-2, 1e3]. A hand-written 40-line search rather than a
+//! crate (argmin): six deterministic coordinates, no gradients, and no new dependency in CI.
+//!
+//! [`EpochRecord`]: super::EpochRecord
+
+use super::{run_with, NavArgs};
+use crate::nav_io::{GnssFix, ImuSample};
+use anyhow::Result;
+use imu_ident::model::Component;
+use imu_ident::nav::ImuErrorModel;
+use serde::Serialize;
+
+/// Names of the six factors, in search order.
+pub const FACTORS: [&str; 6] = [
+    "gyro_white",
+    "accel_white",
+    "gyro_bias_walk",
+    "accel_bias_walk",
+    "gnss_pos_sd",
+    "gnss_vel_sd",
+];
+
+/// The result of an identification.
+#[derive(Debug, Clone, Serialize)]
+pub struct Identified {
+    /// Factors on the standard deviations (file order of [`FACTORS`]).
+    pub factors: [f64; 6],
+    /// Log-likelihood at the start and at the end.
+    pub loglik_start: f64,
+    /// Log-likelihood of the identified model.
+    pub loglik: f64,
+    /// Runs of the filter made.
+    pub evaluations: usize,
+    /// The identified noise model.
+    #[serde(skip)]
+    pub model: ImuErrorModel<f64>,
+}
+
+/// `model` with its white densities and random-walk intensities scaled by the factors
+/// (standard deviations: `q` scales by the square).
+pub fn scaled(model: &ImuErrorModel<f64>, f: &[f64; 6]) -> ImuErrorModel<f64> {
+    let mut m = model.clone();
+    for (axes, white, walk) in [(&mut m.gyro, f[0], f[2]), (&mut m.accel, f[1], f[3])] {
+        for axis in axes.iter_mut() {
+            for c in axis.iter_mut() {
+                match c {
+                    Component::White(w) => w.density *= white,
+                    Component::RandomWalk(r) => r.q *= walk * walk,
+                    _ => {}
+                }
+            }
+        }
+    }
+    m
+}
+
+/// Runs the search from `args.model` (gate off during the search: gating would make the
+/// likelihood discontinuous in the parameters).
+pub fn identify(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<Identified> {
+    let mut a = args.clone();
+    a.gate = None;
+    let mut evaluations = 0usize;
+    let mut eval = |lg: &[f64; 6]| -> Result<f64> {
+        let f = lg.map(|x| 10f64.powf(x));
+        a.model = scaled(&args.model, &f);
+        a.gnss_sd_factor = [args.gnss_sd_factor[0] * f[4], args.gnss_sd_factor[1] * f[5]];
+        evaluations += 1;
+        let ll = run_with::<f64>(&a, imu, fixes)?.summary.loglik;
+        Ok(if ll.is_finite() {
+            ll
+        } else {
+            f64::NEG_INFINITY
+        })
+    };
+    let mut x = [0.0f64; 6];
+    let start = eval(&x)?;
+    let mut best = start;
+    for step in [1.0, 0.5, 0.25, 0.125] {
+        let mut improved = true;
+        let mut passes = 0;
+        while improved && passes < 6 {
+            improved = false;
+            passes += 1;
+            for i in 0..6 {
+                for dir in [1.0, -1.0] {
+                    let mut y = x;
+                    y[i] = (y[i] + dir * step).clamp(-2.0, 3.0);
+                    if y[i] == x[i] {
+                        continue;
+                    }
+                    let ll = eval(&y)?;
+                    if ll > best {
+                        best = ll;
+                        x = y;
+                        improved = true;
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    let factors = x.map(|v| 10f64.powf(v));
+    Ok(Identified {
+        factors,
+        loglik_start: start,
+        loglik: best,
+        evaluations,
+        model: scaled(&args.model, &factors),
+    })
+}

@@ -1,0 +1,352 @@
+//! `hal-sim nav`: a recorded or simulated IMU + GNSS log through the core's closed-loop
+//! strapdown INS/GNSS navigator (`imu_ident::nav::Navigator`), with GNSS outages withheld on a
+//! schedule and scored against the GNSS reference.
+//!
+//! The run ([`run`]):
+//! 1. levels from the mean specific force of the first `align` seconds (the vehicle must be at
+//!    rest), and estimates the gyro biases from the mean rate over the same window, less the
+//!    vertical Earth rate (`--static-gyro-bias`);
+//! 2. starts the navigator at the first GNSS position (antenna minus the lever arm) at rest;
+//! 3. fuses the GNSS fixes not withheld, each at its own time, at most one per filter step;
+//!    until the heading is known (from `--yaw`, or the GNSS course once the speed exceeds
+//!    `--yaw-speed`), only static fixes are fused;
+//! 4. records the solution at every GNSS epoch (withheld ones too), the per-axis NIS and the
+//!    estimated sensor errors.
+
+pub mod identify;
+pub mod model;
+pub mod records;
+
+use crate::nav_io::{self, score_outages, GnssFix, ImuSample, OutageSpec, OutageSummary};
+use anyhow::{bail, Context, Result};
+use imu_ident::filter::AxisStatus;
+use imu_ident::nav::{
+    GnssFix as CoreFix, NavConfig, NavInit, NavPoint, Navigator, StrapdownErrorModel, NAV_N,
+};
+use imu_ident::strapdown::{
+    earth, heading_from_course, Geodetic, Increment, Leveller, Quat, Strapdown,
+};
+use imu_ident::Real;
+use nalgebra::Vector3;
+use std::path::PathBuf;
+
+pub use records::{EpochRecord, NavSummary};
+
+/// Options of one run.
+#[derive(Debug, Clone)]
+pub struct NavArgs {
+    /// IMU CSV.
+    pub imu: PathBuf,
+    /// GNSS CSV or RTKLIB `.pos`.
+    pub gnss: PathBuf,
+    /// Keep `.pos` epochs with `1 <= Q <= max_q`.
+    pub max_q: u8,
+    /// The noise model.
+    pub model: imu_ident::nav::ImuErrorModel<f64>,
+    /// Where the model came from (for the summary).
+    pub model_name: String,
+    /// Outage schedule.
+    pub outages: Option<OutageSpec>,
+    /// Antenna from the IMU, body FRD [m].
+    pub lever_arm: [f64; 3],
+    /// Filter step [s].
+    pub step: f64,
+    /// Static levelling window at the start [s].
+    pub align: f64,
+    /// Initial yaw [deg] (else from the GNSS course).
+    pub yaw_deg: Option<f64>,
+    /// Speed [m/s] above which the GNSS course gives the heading.
+    pub yaw_speed: f64,
+    /// Initial gyro biases from the static window.
+    pub static_gyro_bias: bool,
+    /// Initial uncertainty.
+    pub init: NavInit<f64>,
+    /// Gate multiplier (`None`: no gate).
+    pub gate: Option<f64>,
+    /// Fuse GNSS velocity too.
+    pub use_velocity: bool,
+    /// Run the core in `f32`.
+    pub single: bool,
+    /// Factors on the GNSS position and velocity standard deviations.
+    pub gnss_sd_factor: [f64; 2],
+}
+
+/// Everything a run produced.
+#[derive(Debug, Clone)]
+pub struct NavRun {
+    /// One record per GNSS epoch after the start.
+    pub epochs: Vec<EpochRecord>,
+    /// Outage scores (when a schedule was given).
+    pub outages: Option<OutageSummary>,
+    /// GNSS epochs read.
+    pub fixes: Vec<GnssFix>,
+    /// Summary.
+    pub summary: NavSummary,
+}
+
+/// Reads the inputs and runs (f64 or f32 core).
+pub fn run(args: &NavArgs) -> Result<NavRun> {
+    let imu = nav_io::read_imu_csv(&args.imu)?;
+    let fixes = nav_io::read_gnss_any(&args.gnss, args.max_q)?;
+    if args.single {
+        run_with::<f32>(args, &imu, &fixes)
+    } else {
+        run_with::<f64>(args, &imu, &fixes)
+    }
+}
+
+/// Identifies the noise model on the log ([`identify::identify`]), then runs with it; writes
+/// `identified.json` and `identified-model.toml` into `out` besides the run's files.
+pub fn run_identified(
+    args: &NavArgs,
+    out: &std::path::Path,
+) -> Result<(NavRun, identify::Identified)> {
+    let imu = nav_io::read_imu_csv(&args.imu)?;
+    let fixes = nav_io::read_gnss_any(&args.gnss, args.max_q)?;
+    let id = identify::identify(args, &imu, &fixes)?;
+    let mut a = args.clone();
+    a.model = id.model.clone();
+    a.model_name = format!(
+        "{} identified on this log (factors {:?})",
+        args.model_name, id.factors
+    );
+    a.gnss_sd_factor = [
+        args.gnss_sd_factor[0] * id.factors[4],
+        args.gnss_sd_factor[1] * id.factors[5],
+    ];
+    let run = if a.single {
+        run_with::<f32>(&a, &imu, &fixes)?
+    } else {
+        run_with::<f64>(&a, &imu, &fixes)?
+    };
+    std::fs::create_dir_all(out)?;
+    crate::output::write_string(
+        &out.join("identified.json"),
+        &serde_json::to_string_pretty(&id)?,
+    )?;
+    let toml = model::to_toml(&id.model)?;
+    crate::output::write_string(
+        &out.join("identified-model.toml"),
+        &toml.to_text(&format!(
+            "# Identified by hal-sim nav --identify from {} on {}\n# factors on the standard deviations ({}): {:?}\n",
+            args.model_name,
+            args.imu.display(),
+            identify::FACTORS.join(", "),
+            id.factors
+        ))?,
+    )?;
+    Ok((run, id))
+}
+
+/// The run on samples and fixes already read.
+pub fn run_with<T: Real>(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<NavRun> {
+    let started = std::time::Instant::now();
+    if imu.len() < 2 || fixes.is_empty() {
+        bail!("nav: need at least two IMU samples and one GNSS fix");
+    }
+    let t_first_fix = fixes[0].t;
+    let t_last_fix = fixes[fixes.len() - 1].t;
+    let outages = args
+        .outages
+        .map(|o| o.schedule(t_first_fix, t_last_fix))
+        .unwrap_or_default();
+    // 1. Levelling and static gyro bias.
+    let t0 = imu[0].t;
+    let mut lev = Leveller::<f64>::new();
+    let mut sum_w = Vector3::zeros();
+    let mut n_w = 0usize;
+    let mut k = 1;
+    while k < imu.len() && imu[k].t <= t0 + args.align {
+        let dt = imu[k].t - imu[k - 1].t;
+        let s = &imu[k];
+        lev.add(
+            &Increment::from_rates(&Vector3::from(s.gyro), &Vector3::from(s.accel), dt),
+            dt,
+        );
+        sum_w += Vector3::from(s.gyro);
+        n_w += 1;
+        k += 1;
+    }
+    let (roll, pitch) = lev.level().map_err(|e| {
+        anyhow::anyhow!(
+            "{}: levelling over the first {} s: {e:?}",
+            args.imu.display(),
+            args.align
+        )
+    })?;
+    let t_start = imu[k.min(imu.len() - 1)].t;
+    let start_fix = fixes
+        .iter()
+        .min_by(|a, b| (a.t - t_start).abs().total_cmp(&(b.t - t_start).abs()))
+        .copied()
+        .context("no GNSS fix")?;
+    let yaw0 = args.yaw_deg.map(f64::to_radians).unwrap_or(0.0);
+    let q0 = Quat::from_euler(roll, pitch, yaw0);
+    let lever = Vector3::from(args.lever_arm);
+    let ant = Geodetic {
+        lat: start_fix.lat_deg.to_radians(),
+        lon: start_fix.lon_deg.to_radians(),
+        h: start_fix.h,
+    };
+    let pos0 = move_by(&ant, &-(q0.dcm() * lever));
+    let ins = Strapdown::<T>::new(pos0, Vector3::zeros(), q0.cast())
+        .map_err(|e| anyhow::anyhow!("nav: initial state refused: {e:?}"))?;
+
+    // 2. The model and the navigator.
+    let model = StrapdownErrorModel::<T> {
+        imu: args.model.cast(),
+        init: NavInit {
+            sd_att: args.init.sd_att.map(T::lit),
+            sd_vel: T::lit(args.init.sd_vel),
+            sd_pos: T::lit(args.init.sd_pos),
+        },
+        lever_arm: lever.map(T::lit),
+        obs_sd: [
+            T::lit(0.5),
+            T::lit(0.5),
+            T::lit(1.0),
+            T::lit(0.1),
+            T::lit(0.1),
+            T::lit(0.2),
+        ],
+        point: NavPoint::at_rest(T::lit(pos0.lat), T::lit(pos0.h)),
+        dt: T::lit(args.step),
+    };
+    let cfg = NavConfig {
+        step: T::lit(args.step),
+        gate: args.gate.map(T::lit),
+        max_imu_gap: T::lit(0.1),
+        max_rejections: 3,
+    };
+    let mut nav = Navigator::<T, NAV_N>::new(ins, t_start, model, cfg)
+        .map_err(|e| anyhow::anyhow!("nav: {e:?} (the model needs more than {NAV_N} states?)"))?;
+    if args.static_gyro_bias && n_w > 0 {
+        // Mean rate at rest = bias + Earth rate; only the vertical part of the Earth rate is
+        // known before the heading (the horizontal part, <= 7.3e-5 rad/s, stays in the bias).
+        let c = q0.dcm();
+        let w_ie_n = earth::earth_rate_ned(pos0.lat);
+        let w_down_b = c.transpose() * Vector3::new(0.0, 0.0, w_ie_n.z);
+        let b = sum_w / n_w as f64 - w_down_b;
+        nav.seed_gyro_bias(&b.map(T::lit))
+            .map_err(|e| anyhow::anyhow!("nav: {e:?}"))?;
+    }
+
+    // 3. The loop.
+    let mut heading_known = args.yaw_deg.is_some();
+    let mut fix_k = fixes.partition_point(|f| f.t < t_start);
+    let mut last_fused = f64::NEG_INFINITY;
+    let mut epochs = Vec::with_capacity(fixes.len());
+    for w in imu[k..].windows(2) {
+        let (a, b) = (&w[0], &w[1]);
+        let dt = b.t - a.t;
+        if dt.is_nan() || dt <= 0.0 {
+            bail!(
+                "{}: IMU time does not increase at t = {}",
+                args.imu.display(),
+                b.t
+            );
+        }
+        let inc = Increment::from_rates(
+            &Vector3::from(b.gyro).map(T::lit),
+            &Vector3::from(b.accel).map(T::lit),
+            T::lit(dt),
+        );
+        nav.imu(b.t, &inc)
+            .map_err(|e| anyhow::anyhow!("nav: IMU sample at t = {}: {e:?}", b.t))?;
+        while fix_k < fixes.len() && fixes[fix_k].t <= b.t {
+            let f = fixes[fix_k];
+            fix_k += 1;
+            let withheld = nav_io::outages::withheld(&outages, f.t);
+            let vel = f.vel_ned.map(Vector3::from);
+            let speed = vel.map(|v| v.xy().norm()).unwrap_or(0.0);
+            if !heading_known && !withheld {
+                if let Some(v) = vel {
+                    if speed >= args.yaw_speed {
+                        let yaw = heading_from_course(&v, args.yaw_speed)
+                            .map_err(|e| anyhow::anyhow!("heading: {e:?}"))?;
+                        nav.set_heading(
+                            T::lit(yaw),
+                            T::lit(2f64.to_radians()),
+                            Some(v.map(T::lit)),
+                        )
+                        .map_err(|e| anyhow::anyhow!("nav: {e:?}"))?;
+                        heading_known = true;
+                    }
+                }
+            }
+            let due = f.t - last_fused >= args.step - 0.02;
+            let usable = !withheld && due && (heading_known || speed < 0.2 * args.yaw_speed);
+            let mut rec = EpochRecord::blank(f.t, withheld);
+            if usable {
+                let mut core = to_core_fix::<T>(&f, args.use_velocity);
+                core.sd_pos *= T::lit(args.gnss_sd_factor[0]);
+                core.sd_vel *= T::lit(args.gnss_sd_factor[1]);
+                let fused = nav
+                    .gnss(&core)
+                    .map_err(|e| anyhow::anyhow!("nav: GNSS fix at t = {}: {e:?}", f.t))?;
+                last_fused = f.t;
+                rec.fused = true;
+                rec.gated = fused.gated;
+                for i in 0..6 {
+                    rec.innovation[i] = fused.innovation[i].as_f64();
+                    rec.nis_axis[i] =
+                        fused.innovation[i].as_f64().powi(2) / fused.variance[i].as_f64();
+                    rec.used[i] = fused.axes[i] == AxisStatus::Used;
+                }
+                rec.nis = fused.nis.as_f64();
+                rec.loglik = fused.loglik.as_f64();
+                rec.dof = fused.dof;
+            }
+            rec.fill_solution(&nav, f.t, b.t);
+            epochs.push(rec);
+        }
+    }
+    let scores = args.outages.map(|_| {
+        let track: Vec<(f64, f64, f64)> =
+            epochs.iter().map(|e| (e.t, e.lat_deg, e.lon_deg)).collect();
+        let reference: Vec<GnssFix> = fixes.to_vec();
+        score_outages(&track, &reference, &outages)
+    });
+    let summary = NavSummary::new(
+        args,
+        &epochs,
+        scores.as_ref(),
+        nav.gaps(),
+        started.elapsed().as_secs_f64(),
+        heading_known,
+    );
+    Ok(NavRun {
+        epochs,
+        outages: scores,
+        fixes: fixes.to_vec(),
+        summary,
+    })
+}
+
+/// The core's fix from a host fix (velocity optional).
+fn to_core_fix<T: Real>(f: &GnssFix, use_velocity: bool) -> CoreFix<T> {
+    let nan3 = Vector3::repeat(T::lit(f64::NAN));
+    let v3 = |a: Option<[f64; 3]>| a.map(|a| Vector3::from(a).map(T::lit)).unwrap_or(nan3);
+    CoreFix {
+        t: f.t,
+        pos: Geodetic {
+            lat: f.lat_deg.to_radians(),
+            lon: f.lon_deg.to_radians(),
+            h: f.h,
+        },
+        vel: if use_velocity { v3(f.vel_ned) } else { nan3 },
+        sd_pos: v3(f.sd_pos_ned),
+        sd_vel: v3(f.sd_vel_ned),
+    }
+}
+
+/// `p` moved by the NED offset `d` [m] (first order; offsets of metres).
+pub fn move_by(p: &Geodetic, d: &Vector3<f64>) -> Geodetic {
+    let rn = earth::radius_north(p.lat) + p.h;
+    let re = earth::radius_east(p.lat) + p.h;
+    Geodetic {
+        lat: p.lat + d.x / rn,
+        lon: p.lon + d.y / (re * p.lat.cos()),
+        h: p.h - d.z,
+    }
+}

@@ -1,0 +1,329 @@
+//! What `hal-sim nav` writes: one record per GNSS epoch (`estimates.csv`), the solution in
+//! RTKLIB's format (`solution.pos`) and `summary.json`.
+
+use super::NavArgs;
+use crate::nav_io::{write_solution_pos, GnssFix, OutageSummary, PosEpoch};
+use crate::output::{write_csv, write_string};
+use anyhow::Result;
+use imu_ident::nav::{nav_idx, Navigator};
+use imu_ident::Real;
+use serde::Serialize;
+use std::path::Path;
+
+/// The solution and the filter's view at one GNSS epoch.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct EpochRecord {
+    /// GNSS epoch time [s].
+    pub t: f64,
+    /// Withheld by the outage schedule.
+    pub withheld: bool,
+    /// Fused (not withheld, due, heading known).
+    pub fused: bool,
+    /// Rejected by the vector gate.
+    pub gated: bool,
+    /// Solution (IMU position moved back to the epoch) [deg, deg, m].
+    pub lat_deg: f64,
+    /// Longitude [deg].
+    pub lon_deg: f64,
+    /// Height [m].
+    pub h: f64,
+    /// NED velocity [m/s].
+    pub vel: [f64; 3],
+    /// Roll, pitch, yaw [deg].
+    pub rpy_deg: [f64; 3],
+    /// 1-sigma of the attitude error N, E, D [deg].
+    pub sd_att_deg: [f64; 3],
+    /// 1-sigma of the velocity error [m/s].
+    pub sd_vel: [f64; 3],
+    /// 1-sigma of the position error N, E, D [m].
+    pub sd_pos: [f64; 3],
+    /// Estimated gyro errors [rad/s].
+    pub bg: [f64; 3],
+    /// Estimated accelerometer errors [m/s^2].
+    pub ba: [f64; 3],
+    /// Innovations position N, E, D [m], velocity N, E, D [m/s] (NaN: not fused).
+    pub innovation: [f64; 6],
+    /// Per-axis NIS `nu_i^2 / S_ii`.
+    pub nis_axis: [f64; 6],
+    /// Per-axis used flag.
+    pub used: [bool; 6],
+    /// Vector NIS and its degrees of freedom.
+    pub nis: f64,
+    /// Degrees of freedom of `nis`.
+    pub dof: usize,
+    /// Log-likelihood of the fused axes (0 when none).
+    pub loglik: f64,
+}
+
+impl EpochRecord {
+    /// A record with no fusion yet.
+    pub fn blank(t: f64, withheld: bool) -> Self {
+        let nan = f64::NAN;
+        Self {
+            t,
+            withheld,
+            fused: false,
+            gated: false,
+            lat_deg: nan,
+            lon_deg: nan,
+            h: nan,
+            vel: [nan; 3],
+            rpy_deg: [nan; 3],
+            sd_att_deg: [nan; 3],
+            sd_vel: [nan; 3],
+            sd_pos: [nan; 3],
+            bg: [nan; 3],
+            ba: [nan; 3],
+            innovation: [nan; 6],
+            nis_axis: [nan; 6],
+            used: [false; 6],
+            nis: nan,
+            dof: 0,
+            loglik: 0.0,
+        }
+    }
+
+    /// Fills the solution from the navigator at `t_now`, moved back to the epoch `t`.
+    pub fn fill_solution<T: Real, const N: usize>(
+        &mut self,
+        nav: &Navigator<T, N>,
+        t: f64,
+        t_now: f64,
+    ) {
+        let ins = nav.ins();
+        let v = ins.velocity().map(|x| x.as_f64());
+        let back = super::move_by(&ins.position(), &(-v * (t_now - t)));
+        self.lat_deg = back.lat.to_degrees();
+        self.lon_deg = back.lon.to_degrees();
+        self.h = back.h;
+        self.vel = [v.x, v.y, v.z];
+        let (r, p, y) = ins.attitude_f64().euler();
+        self.rpy_deg = [r.to_degrees(), p.to_degrees(), y.to_degrees()];
+        let sd = nav.sigma_si();
+        for i in 0..3 {
+            self.sd_att_deg[i] = sd[nav_idx::ATT + i].as_f64().to_degrees();
+            self.sd_vel[i] = sd[nav_idx::VEL + i].as_f64();
+            self.sd_pos[i] = sd[nav_idx::POS + i].as_f64();
+        }
+        let (bg, ba) = nav.sensor_errors();
+        self.bg = [bg.x.as_f64(), bg.y.as_f64(), bg.z.as_f64()];
+        self.ba = [ba.x.as_f64(), ba.y.as_f64(), ba.z.as_f64()];
+    }
+}
+
+/// `summary.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct NavSummary {
+    /// The noise model's name.
+    pub model: String,
+    /// Inputs.
+    pub imu: String,
+    /// GNSS input.
+    pub gnss: String,
+    /// Core precision.
+    pub precision: &'static str,
+    /// GNSS epochs after the start.
+    pub epochs: usize,
+    /// Fused epochs.
+    pub fused: usize,
+    /// Gated epochs.
+    pub gated: usize,
+    /// Withheld epochs.
+    pub withheld: usize,
+    /// Mean per-axis NIS over the fused epochs (pos N, E, D, vel N, E, D); 1 for a
+    /// consistent filter.
+    pub mean_nis_axis: [f64; 6],
+    /// Innovation log-likelihood summed over the fused epochs (without `ln 2 pi`).
+    pub loglik: f64,
+    /// Heading was aligned.
+    pub heading_known: bool,
+    /// IMU gaps longer than 0.1 s.
+    pub imu_gaps: u32,
+    /// Host run time [s] (reading excluded).
+    pub run_seconds: f64,
+    /// Horizontal error at the end of each outage, RMS / median / max [m].
+    pub outage_rms_m: Option<f64>,
+    /// Median [m].
+    pub outage_median_m: Option<f64>,
+    /// Max [m].
+    pub outage_max_m: Option<f64>,
+    /// Scored outages.
+    pub outages_scored: Option<usize>,
+}
+
+impl NavSummary {
+    /// From the records.
+    pub fn new(
+        args: &NavArgs,
+        epochs: &[EpochRecord],
+        scores: Option<&OutageSummary>,
+        imu_gaps: u32,
+        run_seconds: f64,
+        heading_known: bool,
+    ) -> Self {
+        let fused: Vec<&EpochRecord> = epochs.iter().filter(|e| e.fused && !e.gated).collect();
+        let mut mean = [0.0; 6];
+        for (i, m) in mean.iter_mut().enumerate() {
+            let v: Vec<f64> = fused
+                .iter()
+                .map(|e| e.nis_axis[i])
+                .filter(|x| x.is_finite())
+                .collect();
+            *m = v.iter().sum::<f64>() / v.len().max(1) as f64;
+        }
+        Self {
+            model: args.model_name.clone(),
+            imu: args.imu.display().to_string(),
+            gnss: args.gnss.display().to_string(),
+            precision: if args.single { "f32" } else { "f64" },
+            epochs: epochs.len(),
+            fused: epochs.iter().filter(|e| e.fused).count(),
+            gated: epochs.iter().filter(|e| e.gated).count(),
+            withheld: epochs.iter().filter(|e| e.withheld).count(),
+            mean_nis_axis: mean,
+            loglik: epochs.iter().map(|e| e.loglik).sum(),
+            heading_known,
+            imu_gaps,
+            run_seconds,
+            outage_rms_m: scores.map(|s| s.rms),
+            outage_median_m: scores.map(|s| s.median),
+            outage_max_m: scores.map(|s| s.max),
+            outages_scored: scores.map(|s| s.outages.len()),
+        }
+    }
+}
+
+#[derive(Serialize)]
+struct Row {
+    t: f64,
+    withheld: u8,
+    fused: u8,
+    gated: u8,
+    lat: f64,
+    lon: f64,
+    h: f64,
+    vn: f64,
+    ve: f64,
+    vd: f64,
+    roll: f64,
+    pitch: f64,
+    yaw: f64,
+    sd_att_n: f64,
+    sd_att_e: f64,
+    sd_att_d: f64,
+    sd_vn: f64,
+    sd_ve: f64,
+    sd_vd: f64,
+    sd_n: f64,
+    sd_e: f64,
+    sd_d: f64,
+    bg_x: f64,
+    bg_y: f64,
+    bg_z: f64,
+    ba_x: f64,
+    ba_y: f64,
+    ba_z: f64,
+    inn_n: f64,
+    inn_e: f64,
+    inn_d: f64,
+    inn_vn: f64,
+    inn_ve: f64,
+    inn_vd: f64,
+    nis_n: f64,
+    nis_e: f64,
+    nis_d: f64,
+    nis_vn: f64,
+    nis_ve: f64,
+    nis_vd: f64,
+    nis: f64,
+    dof: usize,
+}
+
+/// Writes `estimates.csv`, `solution.pos` and `summary.json` (and `outages.json`) into `out`.
+pub fn write_all(out: &Path, run: &super::NavRun) -> Result<()> {
+    std::fs::create_dir_all(out)?;
+    let rows: Vec<Row> = run
+        .epochs
+        .iter()
+        .map(|e| Row {
+            t: e.t,
+            withheld: e.withheld.into(),
+            fused: e.fused.into(),
+            gated: e.gated.into(),
+            lat: e.lat_deg,
+            lon: e.lon_deg,
+            h: e.h,
+            vn: e.vel[0],
+            ve: e.vel[1],
+            vd: e.vel[2],
+            roll: e.rpy_deg[0],
+            pitch: e.rpy_deg[1],
+            yaw: e.rpy_deg[2],
+            sd_att_n: e.sd_att_deg[0],
+            sd_att_e: e.sd_att_deg[1],
+            sd_att_d: e.sd_att_deg[2],
+            sd_vn: e.sd_vel[0],
+            sd_ve: e.sd_vel[1],
+            sd_vd: e.sd_vel[2],
+            sd_n: e.sd_pos[0],
+            sd_e: e.sd_pos[1],
+            sd_d: e.sd_pos[2],
+            bg_x: e.bg[0],
+            bg_y: e.bg[1],
+            bg_z: e.bg[2],
+            ba_x: e.ba[0],
+            ba_y: e.ba[1],
+            ba_z: e.ba[2],
+            inn_n: e.innovation[0],
+            inn_e: e.innovation[1],
+            inn_d: e.innovation[2],
+            inn_vn: e.innovation[3],
+            inn_ve: e.innovation[4],
+            inn_vd: e.innovation[5],
+            nis_n: e.nis_axis[0],
+            nis_e: e.nis_axis[1],
+            nis_d: e.nis_axis[2],
+            nis_vn: e.nis_axis[3],
+            nis_ve: e.nis_axis[4],
+            nis_vd: e.nis_axis[5],
+            nis: e.nis,
+            dof: e.dof,
+        })
+        .collect();
+    write_csv(&out.join("estimates.csv"), &rows)?;
+    let pos: Vec<PosEpoch> = run
+        .epochs
+        .iter()
+        .map(|e| PosEpoch {
+            fix: GnssFix {
+                t: e.t,
+                lat_deg: e.lat_deg,
+                lon_deg: e.lon_deg,
+                h: e.h,
+                vel_ned: Some(e.vel),
+                sd_pos_ned: Some(e.sd_pos),
+                sd_vel_ned: Some(e.sd_vel),
+            },
+            // RTKLIB has no "INS" quality; 5 (single) marks every epoch as not RTK.
+            q: 5,
+            ns: 0,
+            sd_cross: [0.0; 3],
+            age: 0.0,
+            ratio: 0.0,
+            sd_vel_cross: [0.0; 3],
+        })
+        .collect();
+    write_solution_pos(
+        &out.join("solution.pos"),
+        &pos,
+        "hal-sim nav (imu-ident strapdown INS/GNSS)",
+    )?;
+    write_string(
+        &out.join("summary.json"),
+        &serde_json::to_string_pretty(&run.summary)?,
+    )?;
+    if let Some(o) = &run.outages {
+        write_string(&out.join("outages.json"), &serde_json::to_string_pretty(o)?)?;
+    }
+    Ok(())
+}

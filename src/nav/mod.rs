@@ -1,0 +1,21 @@
+//! Strapdown INS/GNSS navigation with the seed's noise models on every sensor axis (issue 16):
+//! the per-axis IMU noise model ([`imu_model`]), the multi-axis error-state model
+//! ([`error_model`], phi-angle form, an [`ErrorModel`](crate::model::ErrorModel) with six
+//! observation axes) and the closed-loop navigator ([`navigator`]) that runs the
+//! [`Strapdown`](crate::strapdown::Strapdown) mechanisation at the IMU rate and the one
+//! Kalman kernel at the filter rate.
+//!
+//! `no_std`, heap-free; the capacity `N` of the filter is a const generic ([`NAV_N`] by
+//! default).
+
+pub mod error_model;
+pub mod imu_model;
+pub mod navigator;
+
+pub use error_model::{nav_idx, NavInit, NavPoint, StrapdownErrorModel, NAV_Z};
+pub use imu_model::{AxisModel, ImuErrorModel, ImuSensor, MAX_AXIS_COMPONENTS};
+pub use navigator::{GnssFix, NavConfig, NavError, Navigator, CHI2_9999};
+
+/// Default filter capacity: 9 navigation errors plus up to 15 sensor-component states (for
+/// example a Gauss-Markov and a random constant on each of the six axes, plus three more).
+pub const NAV_N: usize = 24;

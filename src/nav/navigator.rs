@@ -1,0 +1,498 @@
+//! The closed-loop INS/GNSS navigator: the strapdown mechanisation at the IMU rate, the
+//! error-state Kalman filter of [`StrapdownErrorModel`] stepped at the filter rate (1 Hz by
+//! default), GNSS position/velocity and zero-velocity updates, and the closed-loop correction.
+//!
+//! Time is passed in (seconds, `f64`, any epoch); the navigator never reads a clock.
+//!
+//! # The loop
+//! - [`Navigator::imu`]: the increment is compensated by the current estimate of the sensor
+//!   errors (`dtheta - b_g dt`, `dv - b_a dt`), mechanised, and its specific force accumulated
+//!   in NED. When a filter step has elapsed the filter is propagated ([`Navigator::propagate`]):
+//!   the model is linearised about the solution at the end of the step with the step's mean
+//!   specific force, discretised exactly over the elapsed time, and `x, P` are predicted.
+//! - The navigation-error part of `x` is zero after every correction and stays zero over a
+//!   prediction: the mechanisation has already removed the estimated sensor errors, so the
+//!   mean of `dphi, dv, dp` is only driven by the change of the estimated sensor errors within
+//!   the step (`(1 - e^{-dt/tau}) b`, below 0.4 % of `b` for `tau >= 300 s` at 1 Hz), which is
+//!   dropped. The sensor-error part of `x` is predicted as usual.
+//! - [`Navigator::gnss`]: a fix is fused at its own time `t_f <= t` (the solution is moved back
+//!   along its velocity by `t - t_f`, at most one IMU interval); the filter is first propagated
+//!   over the part of the step already elapsed. The six axes pass a vector chi-square gate, then
+//!   are fused one by one ([`fuse`]); the estimated navigation errors are then removed from the
+//!   mechanisation ([`Strapdown::correct`]) and zeroed in `x`.
+
+use super::error_model::{nav_idx, NavPoint, StrapdownErrorModel, NAV_Z};
+use crate::filter::{fuse, Fused, Kalman};
+use crate::linalg::Arr;
+use crate::model::discretise::discretise_block;
+use crate::model::{ErrorModel, ModelError};
+use crate::strapdown::{earth, Geodetic, Increment, Strapdown, StrapdownError};
+use crate::Real;
+use nalgebra::Vector3;
+
+/// Chi-square quantiles at `1 - 1e-4` for 1 to 6 degrees of freedom (the default gate).
+pub const CHI2_9999: [f64; 6] = [15.137, 18.421, 21.108, 23.513, 25.745, 27.856];
+
+/// Navigator settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NavConfig<T: Real> {
+    /// Filter step [s] (1 s: the design card's loop).
+    pub step: T,
+    /// Gate multiplier on [`CHI2_9999`] (`None`: no gate).
+    pub gate: Option<T>,
+    /// Longest IMU interval accepted as one step [s]; a longer gap restarts the
+    /// coning/sculling history and is still integrated, but is reported.
+    pub max_imu_gap: T,
+    /// Consecutive gated fixes after which the next one is fused without the gate (a filter
+    /// that drifted beyond its covariance, e.g. after an outage, would otherwise reject every
+    /// later fix).
+    pub max_rejections: u8,
+}
+
+impl<T: Real> Default for NavConfig<T> {
+    fn default() -> Self {
+        Self {
+            step: T::one(),
+            gate: Some(T::one()),
+            max_imu_gap: T::lit(0.1),
+            max_rejections: 3,
+        }
+    }
+}
+
+/// Why the navigator refused an input.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NavError {
+    /// The mechanisation refused the input.
+    Strapdown(StrapdownError),
+    /// The error model could not be built or discretised.
+    Model(ModelError),
+    /// A time was not finite, or went backwards.
+    BadTime,
+}
+
+impl From<StrapdownError> for NavError {
+    fn from(e: StrapdownError) -> Self {
+        Self::Strapdown(e)
+    }
+}
+
+impl From<ModelError> for NavError {
+    fn from(e: ModelError) -> Self {
+        Self::Model(e)
+    }
+}
+
+/// One GNSS fix. Non-finite velocity or standard deviations mean missing (the model's defaults
+/// are then used for the standard deviations).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GnssFix<T: Real> {
+    /// Time of validity [s], same time scale as the IMU samples.
+    pub t: f64,
+    /// Antenna position.
+    pub pos: Geodetic,
+    /// Antenna NED velocity [m/s] (NaN: not given).
+    pub vel: Vector3<T>,
+    /// Position standard deviations N, E, D [m].
+    pub sd_pos: Vector3<T>,
+    /// Velocity standard deviations N, E, D [m/s].
+    pub sd_vel: Vector3<T>,
+}
+
+/// The INS/GNSS navigator with at most `N` filter states.
+#[derive(Debug, Clone)]
+pub struct Navigator<T: Real, const N: usize> {
+    ins: Strapdown<T>,
+    model: StrapdownErrorModel<T>,
+    scale: [T; N],
+    p0: Arr<T, N>,
+    kf: Kalman<T, N>,
+    cfg: NavConfig<T>,
+    t: f64,
+    t_kf: f64,
+    sum_fn: Vector3<T>,
+    sum_dt: T,
+    w_b: Vector3<T>,
+    b_g: Vector3<T>,
+    b_a: Vector3<T>,
+    gaps: u32,
+    rejected: u8,
+}
+
+impl<T: Real, const N: usize> Navigator<T, N> {
+    /// Starts at time `t` from the aligned mechanisation `ins`, with the error model `model`
+    /// (its `point` is replaced by the solution of `ins`).
+    pub fn new(
+        ins: Strapdown<T>,
+        t: f64,
+        mut model: StrapdownErrorModel<T>,
+        cfg: NavConfig<T>,
+    ) -> Result<Self, NavError> {
+        if !(t.is_finite() && cfg.step.is_finite() && cfg.step > T::zero()) {
+            return Err(NavError::BadTime);
+        }
+        let (lat, h) = ins.lat_h();
+        model.point = NavPoint::at_rest(lat, h);
+        model.point.v = ins.velocity();
+        model.point.c_bn = ins.dcm();
+        model.dt = cfg.step;
+        let scale = <StrapdownErrorModel<T> as ErrorModel<T, N, NAV_Z>>::scaling(&model)?;
+        let sys = <StrapdownErrorModel<T> as ErrorModel<T, N, NAV_Z>>::system(&model, &scale)?;
+        let kf = Kalman::new(&sys.P0, sys.n);
+        Ok(Self {
+            ins,
+            model,
+            scale,
+            p0: sys.P0,
+            kf,
+            cfg,
+            t,
+            t_kf: t,
+            sum_fn: Vector3::zeros(),
+            sum_dt: T::zero(),
+            w_b: Vector3::zeros(),
+            b_g: Vector3::zeros(),
+            b_a: Vector3::zeros(),
+            gaps: 0,
+            rejected: 0,
+        })
+    }
+
+    /// The mechanisation (solution at [`time`](Self::time)).
+    pub fn ins(&self) -> &Strapdown<T> {
+        &self.ins
+    }
+
+    /// The error model (linearised at the last filter step).
+    pub fn model(&self) -> &StrapdownErrorModel<T> {
+        &self.model
+    }
+
+    /// The Kalman filter, in scaled states.
+    pub fn kalman(&self) -> &Kalman<T, N> {
+        &self.kf
+    }
+
+    /// Time of the solution [s].
+    pub fn time(&self) -> f64 {
+        self.t
+    }
+
+    /// IMU gaps longer than the configured limit so far.
+    pub fn gaps(&self) -> u32 {
+        self.gaps
+    }
+
+    /// Estimated sensor errors `(b_g, b_a)` now being removed from the IMU (rad/s, m/s^2).
+    pub fn sensor_errors(&self) -> (Vector3<T>, Vector3<T>) {
+        (self.b_g, self.b_a)
+    }
+
+    /// Physical state estimate `S x`.
+    pub fn state_si(&self) -> [T; N] {
+        let mut x = self.kf.x;
+        for (v, s) in x.iter_mut().zip(self.scale.iter()) {
+            *v *= *s;
+        }
+        x
+    }
+
+    /// Physical standard deviation of each state.
+    pub fn sigma_si(&self) -> [T; N] {
+        let mut out = [T::zero(); N];
+        for (i, (o, s)) in out.iter_mut().zip(self.scale.iter()).enumerate() {
+            let p = self.kf.P.get(i).and_then(|r| r.get(i)).copied();
+            *o = p.unwrap_or_else(T::zero).max(T::zero()).sqrt() * *s;
+        }
+        out
+    }
+
+    /// Replaces the sensor noise model (same layout: same kinds on the same axes), keeping
+    /// `x` and `P`.
+    pub fn set_imu_model(&mut self, imu: super::ImuErrorModel<T>) -> Result<(), NavError> {
+        let mut m = self.model.clone();
+        m.imu = imu;
+        if !<StrapdownErrorModel<T> as ErrorModel<T, N, NAV_Z>>::same_layout(&self.model, &m) {
+            return Err(NavError::Model(ModelError::TooManyStates));
+        }
+        <StrapdownErrorModel<T> as ErrorModel<T, N, NAV_Z>>::system(&m, &self.scale)?;
+        self.model = m;
+        Ok(())
+    }
+
+    /// Heading alignment (for example from the GNSS course once moving): replaces the yaw,
+    /// keeping roll and pitch, optionally the velocity (NED, m/s), and restarts the heading
+    /// error `phi_D` with standard deviation `sd` [rad], uncorrelated with the other states.
+    pub fn set_heading(&mut self, yaw: T, sd: T, vel: Option<Vector3<T>>) -> Result<(), NavError> {
+        let (roll, pitch, _) = self.ins.attitude().euler();
+        self.ins
+            .set_attitude(crate::strapdown::Quat::from_euler(roll, pitch, yaw))?;
+        if let Some(v) = vel {
+            self.ins.set_velocity(v)?;
+        }
+        let k = nav_idx::ATT + 2;
+        let s = self.scale.get(k).copied().unwrap_or_else(T::one);
+        for (i, row) in self.kf.P.iter_mut().enumerate() {
+            if let Some(v) = row.get_mut(k) {
+                *v = if i == k {
+                    (sd / s) * (sd / s)
+                } else {
+                    T::zero()
+                };
+            }
+        }
+        if let Some(row) = self.kf.P.get_mut(k) {
+            for (j, v) in row.iter_mut().enumerate() {
+                if j != k {
+                    *v = T::zero();
+                }
+            }
+        }
+        if vel.is_some() {
+            // The velocity error of the new velocity is not correlated with the rest either.
+            for i in nav_idx::VEL..nav_idx::VEL + 3 {
+                let sv = self.scale.get(i).copied().unwrap_or_else(T::one);
+                let keep = self
+                    .kf
+                    .P
+                    .get(i)
+                    .and_then(|r| r.get(i))
+                    .copied()
+                    .unwrap_or_else(T::zero);
+                for (r, row) in self.kf.P.iter_mut().enumerate() {
+                    if let Some(v) = row.get_mut(i) {
+                        *v = if r == i {
+                            keep.max(T::lit(0.01) / (sv * sv))
+                        } else {
+                            T::zero()
+                        };
+                    }
+                }
+                if let Some(row) = self.kf.P.get_mut(i) {
+                    for (j, v) in row.iter_mut().enumerate() {
+                        if j != i {
+                            *v = T::zero();
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Seeds the estimate of the gyro errors (for example the mean rate at rest less the
+    /// Earth rate): on each axis, the first Gauss-Markov, random-walk or random-constant
+    /// component takes `b_g` [rad/s]; axes without one are left alone.
+    pub fn seed_gyro_bias(&mut self, b_g: &Vector3<T>) -> Result<(), NavError> {
+        if !b_g.iter().all(|v| v.is_finite()) {
+            return Err(NavError::Strapdown(StrapdownError::NonFiniteInput));
+        }
+        let mut done = [false; 3];
+        let scale = self.scale;
+        let x = &mut self.kf.x;
+        self.model.for_each_component(&mut |s, axis, k, c| {
+            use crate::model::ComponentKind as K;
+            let bias_like = matches!(c.kind(), K::GaussMarkov | K::RandomWalk | K::RandomConstant);
+            if s == super::ImuSensor::Gyro && bias_like && !done[axis] {
+                if let (Some(v), Some(sc)) = (x.get_mut(k), scale.get(k)) {
+                    *v = b_g[axis] / *sc;
+                    done[axis] = true;
+                }
+            }
+        });
+        self.refresh_compensation();
+        Ok(())
+    }
+
+    /// One IMU sample ending at time `t`. Returns true when a filter step was taken.
+    pub fn imu(&mut self, t: f64, inc: &Increment<T>) -> Result<bool, NavError> {
+        let dt64 = t - self.t;
+        if !(dt64.is_finite() && dt64 > 0.0) {
+            return Err(NavError::BadTime);
+        }
+        let dt = T::lit(dt64);
+        if dt > self.cfg.max_imu_gap {
+            self.gaps = self.gaps.saturating_add(1);
+            self.ins.restart_increments();
+        }
+        let comp = Increment {
+            dtheta: inc.dtheta - self.b_g * dt,
+            dv: inc.dv - self.b_a * dt,
+        };
+        let c = self.ins.dcm();
+        self.ins.step(&comp, dt)?;
+        self.t = t;
+        self.sum_fn += c * comp.dv;
+        self.sum_dt += dt;
+        self.w_b = comp.dtheta / dt;
+        if self.t - self.t_kf >= self.cfg.step.as_f64() - 1e-6 {
+            self.propagate()?;
+            return Ok(true);
+        }
+        Ok(false)
+    }
+
+    /// Propagates the filter from its last time to the solution's time.
+    #[allow(non_snake_case)]
+    pub fn propagate(&mut self) -> Result<(), NavError> {
+        let dt64 = self.t - self.t_kf;
+        if dt64 <= 0.0 {
+            return Ok(());
+        }
+        self.linearise();
+        if self.sum_dt > T::zero() {
+            self.model.point.f_n = self.sum_fn / self.sum_dt;
+        }
+        self.model.dt = T::lit(dt64);
+        let sys =
+            <StrapdownErrorModel<T> as ErrorModel<T, N, NAV_Z>>::system(&self.model, &self.scale)?;
+        let (Phi, Qd) = discretise_block(&sys.A, &sys.Qc, self.model.dt, sys.n)?;
+        self.kf.predict(&Phi, &Qd);
+        for v in self.kf.x.iter_mut().take(nav_idx::SENSOR) {
+            *v = T::zero();
+        }
+        if !self.kf.diagonal_healthy() {
+            self.kf.repair(&self.p0);
+        }
+        self.t_kf = self.t;
+        self.sum_fn = Vector3::zeros();
+        self.sum_dt = T::zero();
+        self.refresh_compensation();
+        Ok(())
+    }
+
+    /// Fuses a GNSS fix (its time must not be after the solution's). Returns the per-axis
+    /// fusion result (position N, E, D, velocity N, E, D).
+    pub fn gnss(&mut self, fix: &GnssFix<T>) -> Result<Fused<T, NAV_Z>, NavError> {
+        let lag = self.t - fix.t;
+        if !(lag.is_finite() && lag >= -1e-6) {
+            return Err(NavError::BadTime);
+        }
+        self.propagate()?;
+        self.linearise();
+        let sys =
+            <StrapdownErrorModel<T> as ErrorModel<T, N, NAV_Z>>::system(&self.model, &self.scale)?;
+        let c = self.ins.dcm();
+        let v = self.ins.velocity();
+        // Antenna position at the fix time, minus the fix, in NED metres (f64: the difference
+        // of two latitudes must not be rounded to f32 first).
+        let p = self.ins.position();
+        let lever_n = c * self.model.lever_arm;
+        let (rn, re) = (
+            earth::radius_north(p.lat) + p.h,
+            earth::radius_east(p.lat) + p.h,
+        );
+        let back = |i: usize| v[i].as_f64() * lag;
+        let d = [
+            (p.lat - fix.pos.lat) * rn + lever_n.x.as_f64() - back(0),
+            (p.lon - fix.pos.lon) * re * libm::cos(p.lat) + lever_n.y.as_f64() - back(1),
+            -(p.h - fix.pos.h) + lever_n.z.as_f64() - back(2),
+        ];
+        let v_ant = v + c * self.w_b.cross(&self.model.lever_arm);
+        let mut z = [T::zero(); NAV_Z];
+        let mut r = sys.R;
+        for i in 0..3 {
+            z[i] = T::lit(d[i]);
+            z[3 + i] = v_ant[i] - fix.vel[i];
+            let (sp, sv) = (fix.sd_pos[i], fix.sd_vel[i]);
+            if sp.is_finite() && sp > T::zero() {
+                r[i] = sp * sp;
+            }
+            if sv.is_finite() && sv > T::zero() {
+                r[3 + i] = sv * sv;
+            }
+        }
+        let fused = self.fuse_gated(&z, &sys.H, &r);
+        self.close_loop()?;
+        Ok(fused)
+    }
+
+    /// Zero-velocity update with standard deviation `sd` [m/s] on each axis.
+    pub fn zupt(&mut self, sd: T) -> Result<Fused<T, 3>, NavError> {
+        self.propagate()?;
+        let v = self.ins.velocity();
+        let mut h = [[T::zero(); N]; 3];
+        for (i, row) in h.iter_mut().enumerate() {
+            if let (Some(x), Some(s)) = (
+                row.get_mut(nav_idx::VEL + i),
+                self.scale.get(nav_idx::VEL + i),
+            ) {
+                *x = *s;
+            }
+        }
+        let z = [v.x, v.y, v.z];
+        let r = [sd * sd; 3];
+        let fused = self.fuse_gated(&z, &h, &r);
+        self.close_loop()?;
+        Ok(fused)
+    }
+
+    /// [`fuse`] with the configured gate, skipped after `max_rejections` consecutive
+    /// rejections.
+    #[allow(non_snake_case)]
+    fn fuse_gated<const Z: usize>(
+        &mut self,
+        z: &[T; Z],
+        H: &[[T; N]; Z],
+        r: &[T; Z],
+    ) -> Fused<T, Z> {
+        let gate = if self.rejected >= self.cfg.max_rejections {
+            None
+        } else {
+            self.cfg.gate
+        };
+        let fused = match gate {
+            Some(k) => fuse(
+                &mut self.kf,
+                z,
+                H,
+                r,
+                Some(&move |m: usize| T::lit(CHI2_9999[m.clamp(1, 6) - 1]) * k),
+            ),
+            None => fuse(&mut self.kf, z, H, r, None),
+        };
+        self.rejected = if fused.gated {
+            self.rejected.saturating_add(1)
+        } else {
+            0
+        };
+        fused
+    }
+
+    /// The linearisation point from the current solution (specific force kept).
+    fn linearise(&mut self) {
+        let (lat, h) = self.ins.lat_h();
+        let pt = &mut self.model.point;
+        pt.lat = lat;
+        pt.h = h;
+        pt.v = self.ins.velocity();
+        pt.c_bn = self.ins.dcm();
+        pt.w_b = self.w_b;
+    }
+
+    /// Removes the estimated navigation errors from the mechanisation and zeroes them in `x`.
+    fn close_loop(&mut self) -> Result<(), NavError> {
+        let x = self.state_si();
+        let v3 = |k: usize| Vector3::new(x[k], x[k + 1], x[k + 2]);
+        let (phi, dv, dp) = (v3(nav_idx::ATT), v3(nav_idx::VEL), v3(nav_idx::POS));
+        self.ins.correct(&phi, &dv, &dp)?;
+        for v in self.kf.x.iter_mut().take(nav_idx::SENSOR) {
+            *v = T::zero();
+        }
+        if !self.kf.diagonal_healthy() {
+            self.kf.repair(&self.p0);
+        }
+        self.refresh_compensation();
+        Ok(())
+    }
+
+    fn refresh_compensation(&mut self) {
+        let x = self.state_si();
+        let (bg, ba) = self.model.sensor_errors(&x);
+        if bg.iter().chain(ba.iter()).all(|v| v.is_finite()) {
+            self.b_g = bg;
+            self.b_a = ba;
+        }
+    }
+}
