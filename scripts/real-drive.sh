@@ -4,10 +4,12 @@
 # 1. `hal-sim import-drive` turns ../shared/data/real/rtklib-drive-0708 (override with DATA=DIR)
 #    into OUT/import/{imu.csv,gnss.csv,meta.json} (GPST seconds since 1980-01-06, SI, body FRD);
 # 2. `hal-sim nav --imu OUT/import/imu.csv --gnss OUT/import/gnss.csv --outages 40,15,45,30
-#    --out OUT [extra options]`, with `--model "$MODEL"` added when MODEL is set: GNSS withheld
-#    15 s every 45 s from 40 s after the first epoch while the outage starts more than 30 s
-#    before the last (11 outages), scored against the RTK fixes.
-# When this build has no `nav` command yet, it stops after step 1 and says so (exit 2).
+#    --model "${MODEL:-drive-datasheet}" --lever-arm <antenna from IMU, from meta.json>
+#    --out OUT [extra options]`: GNSS withheld 15 s every 45 s from 40 s after the first epoch
+#    while the outage starts more than 30 s before the last (11 outages), scored against the
+#    RTK fixes (OUT/summary.json, OUT/outages.json); the solution is OUT/solution.pos.
+#    The three runs of issue 16: no extra option (datasheet), MODEL=drive-inflated, and
+#    `--identify` (the noise identified on the log by maximum likelihood).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if [ $# -lt 1 ]; then
@@ -27,10 +29,7 @@ cargo build --release -q -j 2 -p hal-sim
 bin=target/release/hal-sim
 "$bin" import-drive --imu "$data/imu_1934.csv" --tag "$data/imu_1934.csv.tag" \
     --pos "$data/gnss_1934_sf.pos" --out "$out/import"
-if ! "$bin" nav --help >/dev/null 2>&1; then
-    echo "real-drive: imported into $out/import; this hal-sim has no 'nav' command yet (issue 16: the strapdown filter), so the run stops here" >&2
-    exit 2
-fi
-args=(nav --imu "$out/import/imu.csv" --gnss "$out/import/gnss.csv" --outages 40,15,45,30 --out "$out")
-[ -n "${MODEL:-}" ] && args+=(--model "$MODEL")
+lever=$(python3 -c 'import json,sys; print(",".join(str(x) for x in json.load(open(sys.argv[1]))["antenna_from_imu"]))' "$out/import/meta.json")
+args=(nav --imu "$out/import/imu.csv" --gnss "$out/import/gnss.csv" --outages 40,15,45,30
+    --model "${MODEL:-drive-datasheet}" --lever-arm "$lever" --out "$out")
 "$bin" "${args[@]}" "$@"

@@ -86,6 +86,13 @@ enum Command {
         /// Keep .pos epochs with 1 <= Q <= MAX_Q.
         #[arg(long, default_value_t = 2)]
         max_q: u8,
+        /// Estimate gyro and accelerometer scale-factor errors, random constants with these
+        /// standard deviations GYRO,ACCEL (dimensionless: 0.01 = 1 %).
+        #[arg(long, value_delimiter = ',')]
+        scale_factors: Option<Vec<f64>>,
+        /// Added to every IMU time [s] (a residual logging delay).
+        #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
+        imu_time_shift: f64,
         /// First identify the noise model on this log (maximum likelihood), then run with it.
         #[arg(long)]
         identify: bool,
@@ -313,6 +320,8 @@ fn main() -> Result<()> {
             max_q,
             gnss_sd_factor,
             identify,
+            scale_factors,
+            imu_time_shift,
         } => {
             let three = |v: Vec<f64>, name: &str| -> Result<[f64; 3]> {
                 <[f64; 3]>::try_from(v)
@@ -342,13 +351,21 @@ fn main() -> Result<()> {
                 single: f32,
                 gnss_sd_factor: <[f64; 2]>::try_from(gnss_sd_factor)
                     .map_err(|_| anyhow::anyhow!("--gnss-sd-factor: expected two numbers"))?,
+                scale_factor_sd: scale_factors
+                    .map(|v| {
+                        <[f64; 2]>::try_from(v)
+                            .map_err(|_| anyhow::anyhow!("--scale-factors: expected two numbers"))
+                    })
+                    .transpose()?,
+                imu_time_shift,
             };
             let run = if identify {
                 let (run, id) = hal_sim::nav::run_identified(&args, &out)?;
                 eprintln!(
-                    "identified: factors {:?} ({}), loglik {:.1} -> {:.1} in {} runs",
+                    "identified: factors {:?} ({}), IMU time shift {:+.4} s, loglik {:.1} -> {:.1} in {} runs",
                     id.factors,
                     hal_sim::nav::identify::FACTORS.join(", "),
+                    id.imu_time_shift,
                     id.loglik_start,
                     id.loglik,
                     id.evaluations

@@ -129,6 +129,8 @@ fn navigator_is_consistent_on_a_simulated_drive() {
         use_velocity: true,
         single: false,
         gnss_sd_factor: [1.0, 1.0],
+        scale_factor_sd: None,
+        imu_time_shift: 0.0,
     };
     let run = run_with::<f64>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let e = errors(&run, &truth, 60.0);

@@ -86,6 +86,11 @@ pub struct NavPoint<T: Real> {
     pub f_n: Vector3<T>,
     /// Body angular rate `w_ib^b` [rad/s] (for the velocity lever arm).
     pub w_b: Vector3<T>,
+    /// Mean body angular rate over the step [rad/s] (drives the gyro scale-factor errors).
+    pub mean_w_b: Vector3<T>,
+    /// Mean body specific force over the step [m/s^2] (drives the accelerometer scale-factor
+    /// errors).
+    pub mean_f_b: Vector3<T>,
 }
 
 impl<T: Real> NavPoint<T> {
@@ -98,6 +103,8 @@ impl<T: Real> NavPoint<T> {
             c_bn: Matrix3::identity(),
             f_n: Vector3::new(T::zero(), T::zero(), -earth::normal_gravity(lat, h)),
             w_b: Vector3::zeros(),
+            mean_w_b: Vector3::zeros(),
+            mean_f_b: Vector3::new(T::zero(), T::zero(), -earth::normal_gravity(lat, h)),
         }
     }
 }
@@ -129,12 +136,34 @@ pub struct StrapdownErrorModel<T: Real> {
     pub point: NavPoint<T>,
     /// Filter step [s].
     pub dt: T,
+    /// Scale-factor errors of the gyros and the accelerometers as random constants with these
+    /// standard deviations (dimensionless, e.g. `0.01` for 1 %), or none. They are sensor
+    /// errors proportional to the input, `b = s w` (not noise components: the input drives
+    /// them), and add six states after the noise components.
+    pub scale_factor_sd: Option<[T; 2]>,
 }
 
 impl<T: Real> StrapdownErrorModel<T> {
     /// Number of active states: 9 navigation errors plus the components' states.
     pub fn states(&self) -> usize {
+        self.scale_factor_start() + if self.scale_factor_sd.is_some() { 6 } else { 0 }
+    }
+
+    /// First scale-factor state (gyro x, y, z then accelerometer x, y, z).
+    pub fn scale_factor_start(&self) -> usize {
         nav_idx::SENSOR + self.imu.states()
+    }
+
+    /// The scale-factor errors `(s_g, s_a)` of the physical state `x` (zero without them).
+    pub fn scale_factors<const N: usize>(&self, x: &[T; N]) -> (Vector3<T>, Vector3<T>) {
+        let mut s = [Vector3::zeros(), Vector3::zeros()];
+        if self.scale_factor_sd.is_some() {
+            let k = self.scale_factor_start();
+            for (j, v) in x.iter().skip(k).take(6).enumerate() {
+                s[j / 3][j % 3] = *v;
+            }
+        }
+        (s[0], s[1])
     }
 
     /// Calls `f(sensor, axis, first_state, component)` for each component with states, in state
@@ -266,6 +295,19 @@ impl<T: Real> StrapdownErrorModel<T> {
                 }
             }
         });
+        // Scale factors: phi' += C diag(w_b) s_g, dv' += C diag(f_b) s_a (Groves eq. 14.64
+        // with the scale-factor terms of eq. 4.18).
+        if let Some(sd) = self.scale_factor_sd {
+            let k = self.scale_factor_start();
+            for j in 0..3 {
+                for r in 0..3 {
+                    a[ATT + r][k + j] = c[(r, j)] * p.mean_w_b[j];
+                    a[VEL + r][k + 3 + j] = c[(r, j)] * p.mean_f_b[j];
+                }
+                p0[k + j][k + j] = sd[0] * sd[0];
+                p0[k + 3 + j][k + 3 + j] = sd[1] * sd[1];
+            }
+        }
         let ini = &self.init;
         for i in 0..3 {
             p0[ATT + i][ATT + i] = ini.sd_att[i] * ini.sd_att[i];
@@ -314,6 +356,14 @@ impl<T: Real, const N: usize> ErrorModel<T, N, NAV_Z> for StrapdownErrorModel<T>
                 }
             }
         });
+        if let Some(sd) = self.scale_factor_sd {
+            let k = self.scale_factor_start();
+            for j in 0..6 {
+                if let Some(v) = s.get_mut(k + j) {
+                    *v = pow2_near(sd[j / 3]);
+                }
+            }
+        }
         if s.iter().all(|v| v.is_finite() && *v > T::zero()) {
             Ok(s)
         } else {
@@ -370,6 +420,17 @@ impl<T: Real, const N: usize> ErrorModel<T, N, NAV_Z> for StrapdownErrorModel<T>
                 width: c.states() as u8,
             })
         });
+        if self.scale_factor_sd.is_some() {
+            let k = self.scale_factor_start();
+            for (i, name) in ["gyro_sf", "accel_sf"].into_iter().enumerate() {
+                f(StateBlock {
+                    name,
+                    component: Some(crate::model::ComponentKind::RandomConstant),
+                    start: (k + 3 * i) as u8,
+                    width: 3,
+                });
+            }
+        }
     }
 
     fn same_layout(&self, other: &Self) -> bool {
@@ -381,5 +442,6 @@ impl<T: Real, const N: usize> ErrorModel<T, N, NAV_Z> for StrapdownErrorModel<T>
             v
         };
         kinds(self) == kinds(other)
+            && self.scale_factor_sd.is_some() == other.scale_factor_sd.is_some()
     }
 }

@@ -113,7 +113,11 @@ pub struct Navigator<T: Real, const N: usize> {
     t_kf: f64,
     sum_fn: Vector3<T>,
     sum_dt: T,
+    sum_dtheta: Vector3<T>,
+    sum_dv: Vector3<T>,
     w_b: Vector3<T>,
+    s_g: Vector3<T>,
+    s_a: Vector3<T>,
     b_g: Vector3<T>,
     b_a: Vector3<T>,
     gaps: u32,
@@ -151,7 +155,11 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             t_kf: t,
             sum_fn: Vector3::zeros(),
             sum_dt: T::zero(),
+            sum_dtheta: Vector3::zeros(),
+            sum_dv: Vector3::zeros(),
             w_b: Vector3::zeros(),
+            s_g: Vector3::zeros(),
+            s_a: Vector3::zeros(),
             b_g: Vector3::zeros(),
             b_a: Vector3::zeros(),
             gaps: 0,
@@ -187,6 +195,11 @@ impl<T: Real, const N: usize> Navigator<T, N> {
     /// Estimated sensor errors `(b_g, b_a)` now being removed from the IMU (rad/s, m/s^2).
     pub fn sensor_errors(&self) -> (Vector3<T>, Vector3<T>) {
         (self.b_g, self.b_a)
+    }
+
+    /// Estimated scale-factor errors `(s_g, s_a)` now being removed (zero without them).
+    pub fn scale_factors(&self) -> (Vector3<T>, Vector3<T>) {
+        (self.s_g, self.s_a)
     }
 
     /// Physical state estimate `S x`.
@@ -316,15 +329,18 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             self.gaps = self.gaps.saturating_add(1);
             self.ins.restart_increments();
         }
+        // Measured = (1 + s) true + b: true ~ measured - b - s measured (first order in s).
         let comp = Increment {
-            dtheta: inc.dtheta - self.b_g * dt,
-            dv: inc.dv - self.b_a * dt,
+            dtheta: inc.dtheta - self.b_g * dt - self.s_g.component_mul(&inc.dtheta),
+            dv: inc.dv - self.b_a * dt - self.s_a.component_mul(&inc.dv),
         };
         let c = self.ins.dcm();
         self.ins.step(&comp, dt)?;
         self.t = t;
         self.sum_fn += c * comp.dv;
         self.sum_dt += dt;
+        self.sum_dtheta += comp.dtheta;
+        self.sum_dv += comp.dv;
         self.w_b = comp.dtheta / dt;
         if self.t - self.t_kf >= self.cfg.step.as_f64() - 1e-6 {
             self.propagate()?;
@@ -343,6 +359,8 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         self.linearise();
         if self.sum_dt > T::zero() {
             self.model.point.f_n = self.sum_fn / self.sum_dt;
+            self.model.point.mean_w_b = self.sum_dtheta / self.sum_dt;
+            self.model.point.mean_f_b = self.sum_dv / self.sum_dt;
         }
         self.model.dt = T::lit(dt64);
         let sys =
@@ -358,6 +376,8 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         self.t_kf = self.t;
         self.sum_fn = Vector3::zeros();
         self.sum_dt = T::zero();
+        self.sum_dtheta = Vector3::zeros();
+        self.sum_dv = Vector3::zeros();
         self.refresh_compensation();
         Ok(())
     }
@@ -490,9 +510,18 @@ impl<T: Real, const N: usize> Navigator<T, N> {
     fn refresh_compensation(&mut self) {
         let x = self.state_si();
         let (bg, ba) = self.model.sensor_errors(&x);
-        if bg.iter().chain(ba.iter()).all(|v| v.is_finite()) {
+        let (sg, sa) = self.model.scale_factors(&x);
+        if bg
+            .iter()
+            .chain(ba.iter())
+            .chain(sg.iter())
+            .chain(sa.iter())
+            .all(|v| v.is_finite())
+        {
             self.b_g = bg;
             self.b_a = ba;
+            self.s_g = sg;
+            self.s_a = sa;
         }
     }
 }

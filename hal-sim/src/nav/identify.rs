@@ -1,8 +1,9 @@
 //! Offline maximum-likelihood identification of the navigator's noise model on one log
 //! (`hal-sim nav --identify`): factors on the standard deviation of every white-noise density
 //! and random-walk intensity of each sensor type (gyro white, accelerometer white, gyro bias
-//! walk, accelerometer bias walk) and on the GNSS position and velocity standard deviations,
-//! chosen to maximise the innovation log-likelihood of the run (the sum of [`EpochRecord`]
+//! walk, accelerometer bias walk), on the GNSS position and velocity standard deviations and
+//! on a residual IMU time shift (a logging delay makes the innovations grow with the
+//! acceleration), chosen to maximise the innovation log-likelihood of the run (the sum of [`EpochRecord`]
 //! `loglik`, the exact Gaussian likelihood of the fused fixes given the model).
 //!
 //! The run sees the same data as the scored run: fixes withheld by the outage schedule are not
@@ -30,11 +31,19 @@ pub const FACTORS: [&str; 6] = [
     "gnss_vel_sd",
 ];
 
+/// Step of the IMU time shift per decade of the factors' steps [s]: the shift is searched in
+/// steps of 0.1, 0.05, 0.025, 0.0125 s, within [`MAX_SHIFT`].
+const SHIFT_PER_DECADE: f64 = 0.1;
+/// Largest IMU time shift searched [s].
+pub const MAX_SHIFT: f64 = 0.5;
+
 /// The result of an identification.
 #[derive(Debug, Clone, Serialize)]
 pub struct Identified {
     /// Factors on the standard deviations (file order of [`FACTORS`]).
     pub factors: [f64; 6],
+    /// IMU time shift added to `--imu-time-shift` [s] (the seventh coordinate).
+    pub imu_time_shift: f64,
     /// Log-likelihood at the start and at the end.
     pub loglik_start: f64,
     /// Log-likelihood of the identified model.
@@ -70,8 +79,9 @@ pub fn identify(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
     let mut a = args.clone();
     a.gate = None;
     let mut evaluations = 0usize;
-    let mut eval = |lg: &[f64; 6]| -> Result<f64> {
-        let f = lg.map(|x| 10f64.powf(x));
+    let mut eval = |lg: &[f64; 7]| -> Result<f64> {
+        let f: [f64; 6] = std::array::from_fn(|i| 10f64.powf(lg[i]));
+        a.imu_time_shift = args.imu_time_shift + lg[6] * SHIFT_PER_DECADE;
         a.model = scaled(&args.model, &f);
         a.gnss_sd_factor = [args.gnss_sd_factor[0] * f[4], args.gnss_sd_factor[1] * f[5]];
         evaluations += 1;
@@ -82,7 +92,7 @@ pub fn identify(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
             f64::NEG_INFINITY
         })
     };
-    let mut x = [0.0f64; 6];
+    let mut x = [0.0f64; 7];
     let start = eval(&x)?;
     let mut best = start;
     for step in [1.0, 0.5, 0.25, 0.125] {
@@ -91,10 +101,15 @@ pub fn identify(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
         while improved && passes < 6 {
             improved = false;
             passes += 1;
-            for i in 0..6 {
+            for i in 0..7 {
                 for dir in [1.0, -1.0] {
                     let mut y = x;
-                    y[i] = (y[i] + dir * step).clamp(-2.0, 3.0);
+                    let bound = if i == 6 {
+                        MAX_SHIFT / SHIFT_PER_DECADE
+                    } else {
+                        2.0
+                    };
+                    y[i] = (y[i] + dir * step).clamp(-bound, if i == 6 { bound } else { 3.0 });
                     if y[i] == x[i] {
                         continue;
                     }
@@ -109,9 +124,10 @@ pub fn identify(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
             }
         }
     }
-    let factors = x.map(|v| 10f64.powf(v));
+    let factors: [f64; 6] = std::array::from_fn(|i| 10f64.powf(x[i]));
     Ok(Identified {
         factors,
+        imu_time_shift: args.imu_time_shift + x[6] * SHIFT_PER_DECADE,
         loglik_start: start,
         loglik: best,
         evaluations,

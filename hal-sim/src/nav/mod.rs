@@ -69,6 +69,11 @@ pub struct NavArgs {
     pub single: bool,
     /// Factors on the GNSS position and velocity standard deviations.
     pub gnss_sd_factor: [f64; 2],
+    /// Gyro and accelerometer scale-factor errors as random constants with these standard
+    /// deviations (dimensionless), or none.
+    pub scale_factor_sd: Option<[f64; 2]>,
+    /// Added to every IMU time [s] (a residual logging delay; identified by `--identify`).
+    pub imu_time_shift: f64,
 }
 
 /// Everything a run produced.
@@ -114,6 +119,7 @@ pub fn run_identified(
         args.gnss_sd_factor[0] * id.factors[4],
         args.gnss_sd_factor[1] * id.factors[5],
     ];
+    a.imu_time_shift = id.imu_time_shift;
     let run = if a.single {
         run_with::<f32>(&a, &imu, &fixes)?
     } else {
@@ -141,6 +147,19 @@ pub fn run_identified(
 /// The run on samples and fixes already read.
 pub fn run_with<T: Real>(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<NavRun> {
     let started = std::time::Instant::now();
+    let shifted: Vec<ImuSample>;
+    let imu = if args.imu_time_shift != 0.0 {
+        shifted = imu
+            .iter()
+            .map(|s| ImuSample {
+                t: s.t + args.imu_time_shift,
+                ..*s
+            })
+            .collect();
+        &shifted[..]
+    } else {
+        imu
+    };
     if imu.len() < 2 || fixes.is_empty() {
         bail!("nav: need at least two IMU samples and one GNSS fix");
     }
@@ -211,6 +230,7 @@ pub fn run_with<T: Real>(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -
         ],
         point: NavPoint::at_rest(T::lit(pos0.lat), T::lit(pos0.h)),
         dt: T::lit(args.step),
+        scale_factor_sd: args.scale_factor_sd.map(|v| v.map(T::lit)),
     };
     let cfg = NavConfig {
         step: T::lit(args.step),
