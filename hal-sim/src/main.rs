@@ -30,7 +30,9 @@ enum Command {
         out: PathBuf,
     },
     /// Strapdown INS/GNSS: an IMU CSV and a GNSS CSV or RTKLIB .pos through the core's
-    /// closed-loop navigator; writes estimates.csv, solution.pos, summary.json (outages.json).
+    /// closed-loop navigator; writes estimates.csv, solution.pos, summary.json, report.html
+    /// (outages.json; errors.csv with --truth; identified.json, identified-model.toml with
+    /// --identify).
     Nav {
         /// IMU CSV (t,gx,gy,gz,ax,ay,az; s, rad/s FRD, m/s^2).
         #[arg(long)]
@@ -99,6 +101,10 @@ enum Command {
         /// Factors on the GNSS position,velocity standard deviations.
         #[arg(long, value_delimiter = ',', default_values_t = [1.0, 1.0])]
         gnss_sd_factor: Vec<f64>,
+        /// Truth CSV (simulation): write errors.csv and the error statistics (RMS, 3-sigma
+        /// fractions, NEES) into summary.json and the report.
+        #[arg(long)]
+        truth: Option<PathBuf>,
     },
     /// Simulate a strapdown drive (figure-eights, climbs): imu.csv, truth.csv, gnss.csv.
     SimulateDrive {
@@ -322,7 +328,13 @@ fn main() -> Result<()> {
             identify,
             scale_factors,
             imu_time_shift,
+            truth,
         } => {
+            // Read first: a bad truth file should stop the command before the run.
+            let truth_rows = truth
+                .as_deref()
+                .map(hal_sim::nav_io::read_truth_csv)
+                .transpose()?;
             let three = |v: Vec<f64>, name: &str| -> Result<[f64; 3]> {
                 <[f64; 3]>::try_from(v)
                     .map_err(|_| anyhow::anyhow!("--{name}: expected three numbers"))
@@ -359,7 +371,7 @@ fn main() -> Result<()> {
                     .transpose()?,
                 imu_time_shift,
             };
-            let run = if identify {
+            let (mut run, id) = if identify {
                 let (run, id) = hal_sim::nav::run_identified(&args, &out)?;
                 eprintln!(
                     "identified: factors {:?} ({}), IMU time shift {:+.4} s, loglik {:.1} -> {:.1} in {} runs",
@@ -370,11 +382,15 @@ fn main() -> Result<()> {
                     id.loglik,
                     id.evaluations
                 );
-                run
+                (run, Some(id))
             } else {
-                hal_sim::nav::run(&args)?
+                (hal_sim::nav::run(&args)?, None)
             };
-            hal_sim::nav::records::write_all(&out, &run)?;
+            let cmp = match (&truth, &truth_rows) {
+                (Some(p), Some(rows)) => Some(hal_sim::nav::truth::attach(&mut run, rows, p)?),
+                _ => None,
+            };
+            hal_sim::nav::records::write_outputs(&out, &run, cmp.as_ref(), id.as_ref())?;
             println!("{}", serde_json::to_string_pretty(&run.summary)?);
         }
         Command::SimulateDrive {

@@ -15,7 +15,10 @@
 
 pub mod identify;
 pub mod model;
+pub mod plot;
 pub mod records;
+pub mod report;
+pub mod truth;
 
 use crate::nav_io::{self, score_outages, GnssFix, ImuSample, OutageSpec, OutageSummary};
 use anyhow::{bail, Context, Result};
@@ -93,10 +96,11 @@ pub struct NavRun {
 pub fn run(args: &NavArgs) -> Result<NavRun> {
     let imu = nav_io::read_imu_csv(&args.imu)?;
     let fixes = nav_io::read_gnss_any(&args.gnss, args.max_q)?;
+    let bar = records::imu_progress(imu.len());
     if args.single {
-        run_with::<f32>(args, &imu, &fixes)
+        run_observed::<f32>(args, &imu, &fixes, &bar)
     } else {
-        run_with::<f64>(args, &imu, &fixes)
+        run_observed::<f64>(args, &imu, &fixes, &bar)
     }
 }
 
@@ -120,10 +124,11 @@ pub fn run_identified(
         args.gnss_sd_factor[1] * id.factors[5],
     ];
     a.imu_time_shift = id.imu_time_shift;
+    let bar = records::imu_progress(imu.len());
     let run = if a.single {
-        run_with::<f32>(&a, &imu, &fixes)?
+        run_observed::<f32>(&a, &imu, &fixes, &bar)?
     } else {
-        run_with::<f64>(&a, &imu, &fixes)?
+        run_observed::<f64>(&a, &imu, &fixes, &bar)?
     };
     std::fs::create_dir_all(out)?;
     crate::output::write_string(
@@ -146,6 +151,16 @@ pub fn run_identified(
 
 /// The run on samples and fixes already read.
 pub fn run_with<T: Real>(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<NavRun> {
+    run_observed::<T>(args, imu, fixes, &indicatif::ProgressBar::hidden())
+}
+
+/// [`run_with`] advancing `bar` by one per IMU sample ([`records::imu_progress`]).
+pub fn run_observed<T: Real>(
+    args: &NavArgs,
+    imu: &[ImuSample],
+    fixes: &[GnssFix],
+    bar: &indicatif::ProgressBar,
+) -> Result<NavRun> {
     let started = std::time::Instant::now();
     let shifted: Vec<ImuSample>;
     let imu = if args.imu_time_shift != 0.0 {
@@ -256,7 +271,10 @@ pub fn run_with<T: Real>(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -
     let mut fix_k = fixes.partition_point(|f| f.t < t_start);
     let mut last_fused = f64::NEG_INFINITY;
     let mut epochs = Vec::with_capacity(fixes.len());
+    bar.set_length((imu.len() - k).saturating_sub(1) as u64);
+    bar.reset();
     for w in imu[k..].windows(2) {
+        bar.inc(1);
         let (a, b) = (&w[0], &w[1]);
         let dt = b.t - a.t;
         if dt.is_nan() || dt <= 0.0 {
@@ -317,10 +335,12 @@ pub fn run_with<T: Real>(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -
                 rec.loglik = fused.loglik.as_f64();
                 rec.dof = fused.dof;
             }
+            rec.heading_known = heading_known;
             rec.fill_solution(&nav, f.t, b.t);
             epochs.push(rec);
         }
     }
+    bar.finish_and_clear();
     let scores = args.outages.map(|_| {
         let track: Vec<(f64, f64, f64)> =
             epochs.iter().map(|e| (e.t, e.lat_deg, e.lon_deg)).collect();

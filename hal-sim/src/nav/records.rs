@@ -1,14 +1,36 @@
 //! What `hal-sim nav` writes: one record per GNSS epoch (`estimates.csv`), the solution in
-//! RTKLIB's format (`solution.pos`) and `summary.json`.
+//! RTKLIB's format (`solution.pos`) and `summary.json` (README "Strapdown INS/GNSS:
+//! `hal-sim nav`"); and the progress bar over the IMU samples.
 
 use super::NavArgs;
 use crate::nav_io::{write_solution_pos, GnssFix, OutageSummary, PosEpoch};
 use crate::output::{write_csv, write_string};
 use anyhow::Result;
-use imu_ident::nav::{nav_idx, Navigator};
+use imu_ident::nav::{nav_idx, ImuSensor, Navigator};
 use imu_ident::Real;
+use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
+use std::io::IsTerminal;
 use std::path::Path;
+
+/// Navigation error states: attitude `phi` N, E, D [rad], velocity [m/s], position N, E, D [m].
+pub const NAV_ERRORS: usize = 9;
+
+/// A progress bar over `n` IMU samples on stderr, hidden when stderr is not a terminal (CI
+/// logs, pipes), like `hal-sim series`'s.
+pub fn imu_progress(n: usize) -> ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(n as u64);
+    let style = ProgressStyle::with_template(
+        "nav [{bar:40}] {pos}/{len} IMU samples ({elapsed}, eta {eta})",
+    )
+    .unwrap_or_else(|_| ProgressStyle::default_bar())
+    .progress_chars("=> ");
+    bar.set_style(style);
+    bar
+}
 
 /// The solution and the filter's view at one GNSS epoch.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -53,6 +75,19 @@ pub struct EpochRecord {
     pub dof: usize,
     /// Log-likelihood of the fused axes (0 when none).
     pub loglik: f64,
+    /// The heading was known (from `--yaw` or the GNSS course) when the record was taken.
+    pub heading_known: bool,
+    /// Time of the solution the record was taken from (the IMU sample at or just after `t`).
+    pub t_sol: f64,
+    /// Pre-fit innovation standard deviations `sqrt(S_ii)` (NaN: not fused).
+    pub inn_sd: [f64; 6],
+    /// 1-sigma of the estimated gyro errors [rad/s].
+    pub sd_bg: [f64; 3],
+    /// 1-sigma of the estimated accelerometer errors [m/s^2].
+    pub sd_ba: [f64; 3],
+    /// Covariance of the navigation errors (attitude `phi` [rad], velocity [m/s], position
+    /// N, E, D [m]; computed minus true), SI.
+    pub p_nav: [[f64; NAV_ERRORS]; NAV_ERRORS],
 }
 
 impl EpochRecord {
@@ -80,6 +115,12 @@ impl EpochRecord {
             nis: nan,
             dof: 0,
             loglik: 0.0,
+            heading_known: false,
+            t_sol: nan,
+            inn_sd: [nan; 6],
+            sd_bg: [nan; 3],
+            sd_ba: [nan; 3],
+            p_nav: [[nan; NAV_ERRORS]; NAV_ERRORS],
         }
     }
 
@@ -108,6 +149,53 @@ impl EpochRecord {
         let (bg, ba) = nav.sensor_errors();
         self.bg = [bg.x.as_f64(), bg.y.as_f64(), bg.z.as_f64()];
         self.ba = [ba.x.as_f64(), ba.y.as_f64(), ba.z.as_f64()];
+        self.t_sol = t_now;
+        // S_ii = nu_i^2 / NIS_i (the record keeps the NIS; exact unless nu_i = 0).
+        for i in 0..6 {
+            self.inn_sd[i] = self.innovation[i].abs() / self.nis_axis[i].sqrt();
+        }
+        // Physical covariance: P is in scaled states, P_si = s_i s_j P_ij with
+        // s_i = sigma_si_i / sqrt(P_ii).
+        let p = &nav.kalman().P;
+        let scale: Vec<f64> = (0..N)
+            .map(|i| {
+                let pii = p[i][i].as_f64();
+                if pii > 0.0 {
+                    sd[i].as_f64() / pii.sqrt()
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let p_si = |i: usize, j: usize| p[i][j].as_f64() * scale[i] * scale[j];
+        for (i, row) in self.p_nav.iter_mut().enumerate() {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = p_si(i, j);
+            }
+        }
+        // Sensor error of an axis: sum_c C_c x_c, variance c^T P c over its states.
+        let mut rows: [Vec<(usize, f64)>; 6] = Default::default();
+        nav.model().for_each_component(&mut |s, axis, k, c| {
+            let blk = c.block();
+            let si = if s == ImuSensor::Accel { 3 } else { 0 };
+            for j in 0..blk.states {
+                rows[si + axis].push((k + j, blk.c[j].as_f64()));
+            }
+        });
+        for (a, r) in rows.iter().enumerate() {
+            let var: f64 = r
+                .iter()
+                .flat_map(|&(i, ci)| r.iter().map(move |&(j, cj)| (i, j, ci * cj)))
+                .filter(|&(i, j, _)| i < N && j < N)
+                .map(|(i, j, c)| c * p_si(i, j))
+                .sum();
+            let sd = var.max(0.0).sqrt();
+            if a < 3 {
+                self.sd_bg[a] = sd;
+            } else {
+                self.sd_ba[a - 3] = sd;
+            }
+        }
     }
 }
 
@@ -149,6 +237,9 @@ pub struct NavSummary {
     pub outage_max_m: Option<f64>,
     /// Scored outages.
     pub outages_scored: Option<usize>,
+    /// Errors against the truth (`--truth`; README "errors.csv").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub truth: Option<super::truth::TruthSummary>,
 }
 
 impl NavSummary {
@@ -189,6 +280,7 @@ impl NavSummary {
             outage_median_m: scores.map(|s| s.median),
             outage_max_m: scores.map(|s| s.max),
             outages_scored: scores.map(|s| s.outages.len()),
+            truth: None,
         }
     }
 }
@@ -237,6 +329,34 @@ struct Row {
     nis_vd: f64,
     nis: f64,
     dof: usize,
+    heading_known: u8,
+    sd_bg_x: f64,
+    sd_bg_y: f64,
+    sd_bg_z: f64,
+    sd_ba_x: f64,
+    sd_ba_y: f64,
+    sd_ba_z: f64,
+    sd_inn_n: f64,
+    sd_inn_e: f64,
+    sd_inn_d: f64,
+    sd_inn_vn: f64,
+    sd_inn_ve: f64,
+    sd_inn_vd: f64,
+}
+
+/// Everything `hal-sim nav` writes: [`write_all`], `errors.csv` (with a truth comparison) and
+/// `report.html`.
+pub fn write_outputs(
+    out: &Path,
+    run: &super::NavRun,
+    cmp: Option<&super::truth::TruthComparison>,
+    id: Option<&super::identify::Identified>,
+) -> Result<()> {
+    write_all(out, run)?;
+    if let Some(c) = cmp {
+        super::truth::write_errors_csv(&out.join("errors.csv"), &c.rows)?;
+    }
+    super::report::write(out, run, cmp, id)
 }
 
 /// Writes `estimates.csv`, `solution.pos` and `summary.json` (and `outages.json`) into `out`.
@@ -288,6 +408,19 @@ pub fn write_all(out: &Path, run: &super::NavRun) -> Result<()> {
             nis_vd: e.nis_axis[5],
             nis: e.nis,
             dof: e.dof,
+            heading_known: e.heading_known.into(),
+            sd_bg_x: e.sd_bg[0],
+            sd_bg_y: e.sd_bg[1],
+            sd_bg_z: e.sd_bg[2],
+            sd_ba_x: e.sd_ba[0],
+            sd_ba_y: e.sd_ba[1],
+            sd_ba_z: e.sd_ba[2],
+            sd_inn_n: e.inn_sd[0],
+            sd_inn_e: e.inn_sd[1],
+            sd_inn_d: e.inn_sd[2],
+            sd_inn_vn: e.inn_sd[3],
+            sd_inn_ve: e.inn_sd[4],
+            sd_inn_vd: e.inn_sd[5],
         })
         .collect();
     write_csv(&out.join("estimates.csv"), &rows)?;

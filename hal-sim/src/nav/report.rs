@@ -1,0 +1,585 @@
+//! `DIR/report.html` of `hal-sim nav`: a self-contained page with SVG plots (plotters, the
+//! shaded bands of [`crate::report::chart`]) and tables:
+//! - the summary (and the truth statistics with the NEES bands, `--truth`);
+//! - the track, east against north from the first GNSS fix: the GNSS fixes (used and withheld),
+//!   the solution, and the solution during the outages highlighted;
+//! - the position errors N, E, D against the filter's +-3 sigma (with `--truth`), else the
+//!   pre-fit GNSS position innovations against +-3 sqrt(S);
+//! - with `--truth`, the velocity and roll/pitch/yaw errors against +-3 sigma;
+//! - the velocity and attitude sigmas;
+//! - the estimated gyro and accelerometer errors per axis with +-3 sigma (and the truth);
+//! - the outage table (`outages.json`) and the identified factors (`--identify`).
+
+use super::identify::{Identified, FACTORS};
+use super::plot::{break_gaps, chart};
+use super::records::EpochRecord;
+use super::truth::{ErrorRow, TruthComparison};
+use super::NavRun;
+use crate::nav_io::outages::north_east;
+use crate::nav_io::GnssFix;
+use crate::report::sig4;
+use anyhow::{anyhow, Result};
+use plotters::prelude::*;
+use std::path::Path;
+
+type Series = Vec<(String, Vec<(f64, f64)>)>;
+
+/// `(t, value, sigma)` points with breaks where `t` jumps by more than `max_dx`.
+fn broken(pts: &[(f64, f64, f64)], max_dx: f64) -> Vec<(f64, f64, f64)> {
+    let nan = f64::NAN;
+    break_gaps(pts, |p| p.0, max_dx, (nan, nan, nan))
+}
+
+/// Three times the median spacing of the epochs [s] (a longer step is a gap in the plots).
+fn gap_limit(epochs: &[EpochRecord]) -> f64 {
+    let mut dt: Vec<f64> = epochs.windows(2).map(|w| w[1].t - w[0].t).collect();
+    dt.sort_by(f64::total_cmp);
+    3.0 * dt.get(dt.len() / 2).copied().unwrap_or(1.0)
+}
+
+fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow!("plot: {e:?}")
+}
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// The track: east against north [m] from the first GNSS fix, equal scales.
+pub fn track_svg(run: &NavRun) -> Result<String> {
+    let Some(f0) = run.fixes.first() else {
+        return Err(anyhow!("nav report: no GNSS fix"));
+    };
+    let en = |lat: f64, lon: f64| {
+        let ne = north_east(f0.lat_deg, f0.lon_deg, f0.h, lat, lon);
+        (ne[1], ne[0])
+    };
+    let withheld = |t: f64| {
+        let k = run.epochs.partition_point(|e| e.t < t);
+        run.epochs.get(k).is_some_and(|e| e.t == t && e.withheld)
+    };
+    let (used, held): (Vec<&GnssFix>, Vec<&GnssFix>) =
+        run.fixes.iter().partition(|f| !withheld(f.t));
+    let used: Vec<(f64, f64)> = used.iter().map(|f| en(f.lat_deg, f.lon_deg)).collect();
+    let held: Vec<(f64, f64)> = held.iter().map(|f| en(f.lat_deg, f.lon_deg)).collect();
+    let sol: Vec<(f64, f64, bool)> = run
+        .epochs
+        .iter()
+        .filter(|e| e.lat_deg.is_finite() && e.lon_deg.is_finite())
+        .map(|e| {
+            let p = en(e.lat_deg, e.lon_deg);
+            (p.0, p.1, e.withheld)
+        })
+        .collect();
+    let (w, h) = (860u32, 600u32);
+    let all = used
+        .iter()
+        .chain(held.iter())
+        .copied()
+        .chain(sol.iter().map(|p| (p.0, p.1)));
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for p in all.filter(|p| p.0.is_finite() && p.1.is_finite()) {
+        (x0, x1, y0, y1) = (x0.min(p.0), x1.max(p.0), y0.min(p.1), y1.max(p.1));
+    }
+    if x0 > x1 {
+        (x0, x1, y0, y1) = (-1.0, 1.0, -1.0, 1.0);
+    }
+    // Equal metres per pixel on both axes (plot area about (w - 100) x (h - 85) pixels).
+    let (pw, ph) = (f64::from(w - 100), f64::from(h - 85));
+    let m_per_px = ((x1 - x0) / pw).max((y1 - y0) / ph).max(1e-3) * 1.05;
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    let (x0, x1) = (cx - 0.5 * pw * m_per_px, cx + 0.5 * pw * m_per_px);
+    let (y0, y1) = (cy - 0.5 * ph * m_per_px, cy + 0.5 * ph * m_per_px);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let mut c = ChartBuilder::on(&root)
+            .caption(
+                "Track: GNSS fixes and the solution (outages highlighted)",
+                ("sans-serif", 18),
+            )
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(err)?;
+        c.configure_mesh()
+            .x_desc("east [m]")
+            .y_desc("north [m]")
+            .draw()
+            .map_err(err)?;
+        let blue = RGBColor(30, 100, 200);
+        let orange = RGBColor(240, 150, 30);
+        let red = RGBColor(200, 40, 40);
+        c.draw_series(used.iter().map(|p| Circle::new(*p, 2, blue.filled())))
+            .map_err(err)?
+            .label("GNSS fixes (used)")
+            .legend(move |(x, y)| Circle::new((x + 9, y), 3, blue.filled()));
+        if !held.is_empty() {
+            c.draw_series(held.iter().map(|p| Circle::new(*p, 2, orange.filled())))
+                .map_err(err)?
+                .label("GNSS fixes withheld (outages)")
+                .legend(move |(x, y)| Circle::new((x + 9, y), 3, orange.filled()));
+        }
+        c.draw_series(LineSeries::new(sol.iter().map(|p| (p.0, p.1)), BLACK))
+            .map_err(err)?
+            .label("solution")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLACK));
+        // Each outage's solution as one thick red segment run.
+        let mut runs: Vec<Vec<(f64, f64)>> = vec![];
+        let mut prev = false;
+        for p in &sol {
+            if p.2 {
+                if !prev {
+                    runs.push(vec![]);
+                }
+                if let Some(r) = runs.last_mut() {
+                    r.push((p.0, p.1));
+                }
+            }
+            prev = p.2;
+        }
+        for (i, r) in runs.into_iter().enumerate() {
+            let s = c
+                .draw_series(LineSeries::new(r, red.stroke_width(3)))
+                .map_err(err)?;
+            if i == 0 {
+                s.label("solution during outages").legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 18, y)], red.stroke_width(3))
+                });
+            }
+        }
+        c.configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)?;
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
+/// One quantity against `+-3 sigma`: `(t, value, sigma)` points.
+fn against_band(
+    title: &str,
+    unit: &str,
+    pts: &[(f64, f64, f64)],
+    what: &str,
+    max_dx: f64,
+) -> Result<String> {
+    let pts = broken(pts, max_dx);
+    let series: Series = vec![(what.to_string(), pts.iter().map(|p| (p.0, p.1)).collect())];
+    let band = pts.iter().map(|p| (p.0, -3.0 * p.2, 3.0 * p.2)).collect();
+    let bands = [("±3 sigma (filter)".to_string(), band)];
+    chart(title, "t - t0 [s]", unit, &series, &bands, true)
+}
+
+/// One estimate with a `+-3 sigma` band around it and, optionally, the truth.
+fn estimate_with_band(
+    title: &str,
+    unit: &str,
+    pts: &[(f64, f64, f64)],
+    truth: Option<Vec<(f64, f64)>>,
+    max_dx: f64,
+) -> Result<String> {
+    let pts = broken(pts, max_dx);
+    let mut series: Series = vec![(
+        "estimate".to_string(),
+        pts.iter().map(|p| (p.0, p.1)).collect(),
+    )];
+    if let Some(t) = truth {
+        let nan = f64::NAN;
+        series.push((
+            "truth".to_string(),
+            break_gaps(&t, |p| p.0, max_dx, (nan, nan)),
+        ));
+    }
+    let band = pts
+        .iter()
+        .map(|p| (p.0, p.1 - 3.0 * p.2, p.1 + 3.0 * p.2))
+        .collect();
+    let bands = [("estimate ±3 sigma".to_string(), band)];
+    chart(title, "t - t0 [s]", unit, &series, &bands, true)
+}
+
+/// The three components of `get` over time.
+fn sigma_chart(
+    title: &str,
+    unit: &str,
+    epochs: &[EpochRecord],
+    get: fn(&EpochRecord) -> [f64; 3],
+    names: [&str; 3],
+) -> Result<String> {
+    let t0 = epochs.first().map_or(0.0, |e| e.t);
+    let max_dx = gap_limit(epochs);
+    let nan = f64::NAN;
+    let series: Series = (0..3)
+        .map(|i| {
+            let pts: Vec<(f64, f64)> = epochs.iter().map(|e| (e.t - t0, get(e)[i])).collect();
+            (
+                names[i].to_string(),
+                break_gaps(&pts, |p| p.0, max_dx, (nan, nan)),
+            )
+        })
+        .collect();
+    chart(title, "t - t0 [s]", unit, &series, &[], false)
+}
+
+const NED: [&str; 3] = ["north", "east", "down"];
+const RPY: [&str; 3] = ["roll", "pitch", "yaw"];
+
+/// The plots of the errors against the truth (position, velocity, attitude).
+fn truth_plots(cmp: &TruthComparison, t0: f64, max_dx: f64) -> Result<String> {
+    let mut h = String::new();
+    let groups: [(&str, &str, usize, [&str; 3]); 3] = [
+        ("Position error", "m", 0, NED),
+        ("Velocity error", "m/s", 3, NED),
+        ("Attitude error", "deg", 6, RPY),
+    ];
+    for (what, unit, k, names) in groups {
+        for (i, name) in names.iter().enumerate() {
+            let pts: Vec<(f64, f64, f64)> = cmp
+                .rows
+                .iter()
+                .map(|r: &ErrorRow| (r.t - t0, r.errors()[k + i], r.sigmas()[k + i]))
+                .collect();
+            h += &against_band(
+                &format!("{what} {name} (solution - truth) against ±3 sigma"),
+                unit,
+                &pts,
+                "error",
+                max_dx,
+            )?;
+        }
+    }
+    Ok(h)
+}
+
+/// Pre-fit GNSS position innovations against `+-3 sqrt(S)` (no truth).
+fn innovation_plots(epochs: &[EpochRecord], t0: f64, max_dx: f64) -> Result<String> {
+    let mut h = String::new();
+    for (i, name) in NED.iter().enumerate() {
+        let pts: Vec<(f64, f64, f64)> = epochs
+            .iter()
+            .filter(|e| e.fused && e.innovation[i].is_finite())
+            .map(|e| (e.t - t0, e.innovation[i], e.inn_sd[i]))
+            .collect();
+        h += &against_band(
+            &format!("GNSS position innovation {name} (pre-fit) against ±3 sqrt(S)"),
+            "m",
+            &pts,
+            "innovation",
+            max_dx,
+        )?;
+    }
+    Ok(h)
+}
+
+/// The estimated sensor errors with their `+-3 sigma` (and the truth when known).
+fn sensor_plots(
+    run: &NavRun,
+    cmp: Option<&TruthComparison>,
+    t0: f64,
+    max_dx: f64,
+) -> Result<String> {
+    // Gyro in deg/h (rad/s times this), accelerometer in m/s^2.
+    let deg_h = 180.0 / std::f64::consts::PI * 3600.0;
+    let mut h = String::new();
+    for (sensor, unit, k) in [("gyro", "deg/h", deg_h), ("accelerometer", "m/s^2", 1.0)] {
+        for (i, axis) in ["x", "y", "z"].iter().enumerate() {
+            let gyro = sensor == "gyro";
+            let pts: Vec<(f64, f64, f64)> = run
+                .epochs
+                .iter()
+                .map(|e| {
+                    let (b, s) = if gyro {
+                        (e.bg, e.sd_bg)
+                    } else {
+                        (e.ba, e.sd_ba)
+                    };
+                    (e.t - t0, b[i] * k, s[i] * k)
+                })
+                .collect();
+            // truth = estimate - (estimate - truth).
+            let truth = cmp.map(|c| {
+                c.rows
+                    .iter()
+                    .filter_map(|r| {
+                        let e = run.epochs.get(run.epochs.partition_point(|e| e.t < r.t))?;
+                        let (est, d) = if gyro {
+                            (e.bg[i], [r.err_bg_x, r.err_bg_y, r.err_bg_z][i])
+                        } else {
+                            (e.ba[i], [r.err_ba_x, r.err_ba_y, r.err_ba_z][i])
+                        };
+                        d.is_finite().then_some((r.t - t0, (est - d) * k))
+                    })
+                    .collect::<Vec<_>>()
+            });
+            let truth = truth.filter(|t| !t.is_empty());
+            h += &estimate_with_band(
+                &format!("Estimated {sensor} error, body {axis}"),
+                unit,
+                &pts,
+                truth,
+                max_dx,
+            )?;
+        }
+    }
+    Ok(h)
+}
+
+fn row(cells: &[String]) -> String {
+    let mut s = "<tr>".to_string();
+    for (i, c) in cells.iter().enumerate() {
+        if i == 0 {
+            s += &format!("<td style=\"text-align:left\">{c}</td>");
+        } else {
+            s += &format!("<td>{c}</td>");
+        }
+    }
+    s + "</tr>"
+}
+
+fn header(cells: &[&str]) -> String {
+    let mut s = "<tr>".to_string();
+    for c in cells {
+        s += &format!("<th>{}</th>", esc(c));
+    }
+    s + "</tr>"
+}
+
+fn three(v: &[f64; 3], unit: &str) -> String {
+    v.iter()
+        .map(|x| sig4(*x, unit))
+        .collect::<Vec<_>>()
+        .join(" / ")
+}
+
+fn summary_table(run: &NavRun) -> String {
+    let s = &run.summary;
+    let mut h = "<table>".to_string();
+    let kv = |k: &str, v: String| row(&[esc(k), esc(&v)]);
+    h += &kv("model", s.model.clone());
+    h += &kv("IMU / GNSS", format!("{} / {}", s.imu, s.gnss));
+    h += &kv("core precision", s.precision.to_string());
+    h += &kv(
+        "GNSS epochs (fused / gated / withheld)",
+        format!("{} ({} / {} / {})", s.epochs, s.fused, s.gated, s.withheld),
+    );
+    h += &kv(
+        "mean NIS per axis pos N, E, D, vel N, E, D (1 if consistent)",
+        s.mean_nis_axis
+            .iter()
+            .map(|x| sig4(*x, ""))
+            .collect::<Vec<_>>()
+            .join(" / "),
+    );
+    h += &kv("innovation log-likelihood", sig4(s.loglik, "nats"));
+    h += &kv("heading aligned", s.heading_known.to_string());
+    h += &kv("IMU gaps > 0.1 s", s.imu_gaps.to_string());
+    h += &kv("run time", sig4(s.run_seconds, "s"));
+    h + "</table>"
+}
+
+fn truth_table(cmp: &TruthComparison) -> String {
+    let s = &cmp.summary;
+    let pct = |v: &[f64; 3]| three(&v.map(|x| 100.0 * x), "%");
+    let mut h = format!(
+        "<p>Against the truth over {} epochs ({} before the heading was known and {} outside the truth's span left out). A consistent filter has 0.27 % of the epochs outside 3 sigma on each axis, a mean NEES of 9 and 1 % of the epochs outside the per-epoch band.</p><table>",
+        s.epochs, s.epochs_before_heading, s.epochs_without_truth
+    );
+    h += &header(&["", "RMS", "outside 3 sigma"]);
+    h += &row(&[
+        "position N / E / D".into(),
+        three(&s.rms_pos_m, "m"),
+        pct(&s.outside_3sigma_pos),
+    ]);
+    h += &row(&[
+        "velocity N / E / D".into(),
+        three(&s.rms_vel_m_s, "m/s"),
+        pct(&s.outside_3sigma_vel),
+    ]);
+    h += &row(&[
+        "roll / pitch / yaw".into(),
+        three(&s.rms_att_deg, "deg"),
+        pct(&s.outside_3sigma_att),
+    ]);
+    h += "</table><table>";
+    h += &header(&["NEES (9 dof)", "value", "99 % band"]);
+    h += &row(&[
+        format!(
+            "mean over {} epochs (<span class=\"{}\">{}</span>)",
+            s.nees_epochs,
+            if s.nees_inside_band99_mean {
+                "ok"
+            } else {
+                "bad"
+            },
+            if s.nees_inside_band99_mean {
+                "inside"
+            } else {
+                "outside"
+            }
+        ),
+        sig4(s.nees_mean, ""),
+        format!(
+            "[{}, {}] (chi2(9n)/n, independent epochs)",
+            sig4(s.nees_band99_mean[0], ""),
+            sig4(s.nees_band99_mean[1], "")
+        ),
+    ]);
+    h += &row(&[
+        format!(
+            "mean over {} effective independent epochs (<span class=\"{}\">{}</span>)",
+            sig4(s.nees_n_effective, ""),
+            if s.nees_consistent { "ok" } else { "bad" },
+            if s.nees_consistent {
+                "inside: consistent"
+            } else {
+                "outside: inconsistent"
+            }
+        ),
+        sig4(s.nees_mean, ""),
+        format!(
+            "[{}, {}] (chi2(9 n_eff)/n_eff, n_eff from the NEES autocorrelation)",
+            sig4(s.nees_band99_effective[0], ""),
+            sig4(s.nees_band99_effective[1], "")
+        ),
+    ]);
+    h += &row(&[
+        "epochs outside the per-epoch band".into(),
+        sig4(100.0 * s.nees_outside_epoch_band, "%"),
+        format!(
+            "[{}, {}] (chi2(9))",
+            sig4(s.nees_band99_epoch[0], ""),
+            sig4(s.nees_band99_epoch[1], "")
+        ),
+    ]);
+    h + "</table>"
+}
+
+fn outage_table(run: &NavRun, t0: f64) -> String {
+    let Some(o) = &run.outages else {
+        return "<p>No outage schedule (<code>--outages</code>).</p>".to_string();
+    };
+    let mut h = format!(
+        "<p>Horizontal error at the end of each outage against the GNSS reference: RMS {}, median {}, max {} over {} outages ({} unscored).</p><table>",
+        sig4(o.rms, "m"),
+        sig4(o.median, "m"),
+        sig4(o.max, "m"),
+        o.outages.len(),
+        o.unscored
+    );
+    h += &header(&[
+        "outage",
+        "start - t0 [s]",
+        "end - t0 [s]",
+        "scored at - t0 [s]",
+        "error N",
+        "error E",
+        "horizontal",
+    ]);
+    for (i, s) in o.outages.iter().enumerate() {
+        h += &row(&[
+            (i + 1).to_string(),
+            sig4(s.outage.start - t0, ""),
+            sig4(s.outage.end - t0, ""),
+            sig4(s.t - t0, ""),
+            sig4(s.err_ne[0], "m"),
+            sig4(s.err_ne[1], "m"),
+            sig4(s.err_h, "m"),
+        ]);
+    }
+    h + "</table>"
+}
+
+fn identified_table(id: &Identified) -> String {
+    let mut h = format!(
+        "<p>Maximum-likelihood factors on the standard deviations (<code>identified.json</code>, <code>identified-model.toml</code>): log-likelihood {} at the start, {} identified, {} runs.</p><table>",
+        sig4(id.loglik_start, "nats"),
+        sig4(id.loglik, "nats"),
+        id.evaluations
+    );
+    h += &header(&["factor", "value"]);
+    for (name, f) in FACTORS.iter().zip(id.factors) {
+        h += &row(&[esc(name), sig4(f, "")]);
+    }
+    h + "</table>"
+}
+
+/// The whole page.
+pub fn html(
+    run: &NavRun,
+    cmp: Option<&TruthComparison>,
+    id: Option<&Identified>,
+) -> Result<String> {
+    let title = "hal-sim nav: strapdown INS/GNSS";
+    let t0 = run.epochs.first().map_or(0.0, |e| e.t);
+    let max_dx = gap_limit(&run.epochs);
+    let mut h = format!(
+        "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>{title}</title><style>body{{font-family:sans-serif;max-width:920px;margin:auto}}table{{border-collapse:collapse;margin:6px 0}}td,th{{border:1px solid #999;padding:3px 8px;text-align:right}}th{{background:#eee}}.ok{{color:#180}}.bad{{color:#b00}}</style></head><body><h1>{title}</h1>"
+    );
+    // Real logs are in GPS seconds (README "time scale"): show the date too.
+    let date = if t0 > 1e8 {
+        crate::nav_io::gpst::to_calendar(t0).map_or(String::new(), |d| format!(" ({d} GPST)"))
+    } else {
+        String::new()
+    };
+    h += &format!("<p>Times from the first GNSS epoch after the start, t0 = {t0} s{date}.</p>");
+    h += "<h2>Summary</h2>";
+    h += &summary_table(run);
+    if let Some(c) = cmp {
+        h += "<h2>Errors against the truth</h2>";
+        h += &truth_table(c);
+    }
+    h += "<h2>Track</h2>";
+    h += &track_svg(run)?;
+    h += "<h2>GNSS outages</h2>";
+    h += &outage_table(run, t0);
+    if let Some(id) = id {
+        h += "<h2>Identified noise model</h2>";
+        h += &identified_table(id);
+    }
+    match cmp {
+        Some(c) => {
+            h += "<h2>Navigation errors against ±3 sigma</h2>";
+            h += &truth_plots(c, t0, max_dx)?;
+        }
+        None => {
+            h += "<h2>GNSS position innovations against ±3 sqrt(S)</h2><p>No truth: the pre-fit innovations of the fused fixes (solution at the antenna minus the fix) against the filter's predicted innovation standard deviation.</p>";
+            h += &innovation_plots(&run.epochs, t0, max_dx)?;
+        }
+    }
+    h += "<h2>Velocity and attitude sigmas</h2>";
+    h += &sigma_chart(
+        "Velocity error 1-sigma",
+        "m/s",
+        &run.epochs,
+        |e| e.sd_vel,
+        NED,
+    )?;
+    h += &sigma_chart(
+        "Attitude error (phi) 1-sigma",
+        "deg",
+        &run.epochs,
+        |e| e.sd_att_deg,
+        NED,
+    )?;
+    h += "<h2>Estimated sensor errors</h2>";
+    h += &sensor_plots(run, cmp, t0, max_dx)?;
+    h += "</body></html>";
+    Ok(h)
+}
+
+/// Writes `report.html` into `out`.
+pub fn write(
+    out: &Path,
+    run: &NavRun,
+    cmp: Option<&TruthComparison>,
+    id: Option<&Identified>,
+) -> Result<()> {
+    crate::output::write_string(&out.join("report.html"), &html(run, cmp, id)?)
+}
