@@ -62,7 +62,8 @@ pub fn replay_records(
     let nan3 = [f32::NAN; 3];
     for w in imu[s.k..].windows(2) {
         let b = &w[1];
-        if !(b.t > w[0].t) {
+        let dt = b.t - w[0].t;
+        if dt.is_nan() || dt <= 0.0 {
             bail!("IMU time does not increase at t = {}", b.t);
         }
         out.push(Record::Imu(ImuRecord {

@@ -125,10 +125,9 @@ fn compare(fw: &[NavEpoch], host: &NavRun) -> (f64, f64) {
             f.lon.to_degrees(),
         );
         let d = [ne[0], ne[1], f.h - h.h];
-        for i in 0..3 {
-            worst_pos = worst_pos.max(d[i].abs() / h.sd_pos[i]);
-            let s = (f64::from(f.sd_pos[i]) - h.sd_pos[i]).abs() / h.sd_pos[i];
-            worst_sd = worst_sd.max(s);
+        for ((d, fs), hs) in d.iter().zip(f.sd_pos).zip(h.sd_pos) {
+            worst_pos = worst_pos.max(d.abs() / hs);
+            worst_sd = worst_sd.max((f64::from(fs) - hs).abs() / hs);
         }
     }
     (worst_pos, worst_sd)
