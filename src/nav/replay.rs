@@ -81,7 +81,7 @@ pub mod gnss_flags {
 }
 
 /// Where and how a run starts: everything the navigator is built from
-/// ([`NavSetup::navigator`](super::run)).
+/// ([`NavSetup::navigator`], in [`super::run`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct NavSetup {
     /// Start time [s] (the last IMU sample before the first record).
