@@ -7,6 +7,8 @@
 #                    (the firmware reads replay.bin there, or the file given with
 #                    `-- -append LOG`); extra arguments go to QEMU. QEMU's exit status is the
 #                    firmware's.
+#   imu-ident-nav-qemu  the same, for the INS/GNSS navigation firmware (it reads nav.bin, or
+#                    the file given with `-- -append REPLAY`; write one with hal_sim::nav_qemu).
 #   imu-ident-board  `probe-rs run --chip STM32F405RGTx` (a probe must be attached): flashes the
 #                    ELF, resets the chip and decodes the defmt telemetry from RTT. Extra
 #                    arguments go to probe-rs (e.g. --probe VID:PID). PROBE_RS_CHIP overrides
@@ -23,7 +25,7 @@ elf=$1
 shift
 
 case "$(basename -- "$elf")" in
-    imu-ident-qemu)
+    imu-ident-qemu | imu-ident-nav-qemu)
         # Extra arguments go to QEMU after the kernel, as with the plain QEMU runner, e.g.
         # `-append log.bin` (the firmware's log name) or `-icount shift=0`.
         exec qemu-system-arm -cpu cortex-m4 -machine mps2-an386 -nographic \
@@ -37,7 +39,7 @@ case "$(basename -- "$elf")" in
         exec probe-rs run --chip "${PROBE_RS_CHIP:-STM32F405RGTx}" "$@" "$elf"
         ;;
     *)
-        echo "run-target: do not know where to run $elf (expected imu-ident-qemu or imu-ident-board)" >&2
+        echo "run-target: do not know where to run $elf (expected imu-ident-qemu, imu-ident-nav-qemu or imu-ident-board)" >&2
         exit 2
         ;;
 esac

@@ -6,10 +6,11 @@
 #   3. clippy -D warnings, host       (whole workspace, all targets)
 #   4. clippy -D warnings, Cortex-M4F (the no_std library, the QEMU and the STM32F405 firmware)
 #   5. host tests                     (cargo test --workspace; the QEMU tests wait for step 7)
-#   6. firmware release builds        (imu-ident-qemu and imu-ident-board for thumbv7em-none-eabihf,
-#                                      sizes printed; then both again with prove-no-panic: they
-#                                      link only if no panic path is left)
-#   7. QEMU smoke test                (hal-sim/tests/qemu_smoke.rs against the QEMU firmware)
+#   6. firmware release builds        (imu-ident-qemu, imu-ident-nav-qemu and imu-ident-board for
+#                                      thumbv7em-none-eabihf, sizes printed; then all three again
+#                                      with prove-no-panic: they link only if no panic path is left)
+#   7. QEMU tests                     (hal-sim/tests/qemu_smoke.rs against the estimator firmware,
+#                                      hal-sim/tests/nav_qemu.rs against the navigation firmware)
 #   8. Python package                 (pip install ./python into a venv under the target dir,
 #                                      then pytest python/tests against the hal-sim CLI)
 #
@@ -59,7 +60,7 @@ section "5/8 host tests (cargo test --workspace)"
 unset FUZZ_CASES
 cargo test --workspace -- --skip qemu_firmware_
 
-section "6/8 firmware release builds ($TARGET: imu-ident-qemu, imu-ident-board)"
+section "6/8 firmware release builds ($TARGET: imu-ident-qemu, imu-ident-nav-qemu, imu-ident-board)"
 # Prints an ELF's text/data/bss sizes (and, with -A, every section's).
 print_size() {
     if command -v llvm-size >/dev/null 2>&1; then
@@ -74,6 +75,11 @@ cargo build --release -p imu-ident --target "$TARGET" --features qemu --bin imu-
 ELF="$TARGET_DIR/$TARGET/release/imu-ident-qemu"
 case "$ELF" in /*) ;; *) ELF="$PWD/$ELF" ;; esac
 print_size "$ELF"
+# The INS/GNSS navigation firmware on the same emulated board (issue 16).
+cargo build --release -p imu-ident --target "$TARGET" --features qemu --bin imu-ident-nav-qemu
+NAV_ELF="$TARGET_DIR/$TARGET/release/imu-ident-nav-qemu"
+case "$NAV_ELF" in /*) ;; *) NAV_ELF="$PWD/$NAV_ELF" ;; esac
+print_size "$NAV_ELF"
 # The STM32F405 board (built only: running it needs a probe and a board, see README).
 cargo build --release -p imu-ident --target "$TARGET" --features board --bin imu-ident-board
 BOARD_ELF="$TARGET_DIR/$TARGET/release/imu-ident-board"
@@ -88,12 +94,17 @@ print_size -A "$BOARD_ELF" | grep -E '^(section|\.vector_table|\.text|\.rodata|\
 # the same ELF names, so the normal QEMU ELF is copied aside first for step 7.
 cp "$ELF" "$ELF-smoke"
 ELF="$ELF-smoke"
+cp "$NAV_ELF" "$NAV_ELF-test"
+NAV_ELF="$NAV_ELF-test"
 cargo build --release -p imu-ident --target "$TARGET" --features qemu,prove-no-panic --bin imu-ident-qemu
+cargo build --release -p imu-ident --target "$TARGET" --features qemu,prove-no-panic --bin imu-ident-nav-qemu
 cargo build --release -p imu-ident --target "$TARGET" --features board,prove-no-panic --bin imu-ident-board
 
-section "7/8 QEMU smoke test (mps2-an386)"
+section "7/8 QEMU tests (mps2-an386: estimator and navigation firmware)"
 # --workspace keeps the feature set of step 5, so nothing is rebuilt.
 IMU_IDENT_FIRMWARE_ELF="$ELF" cargo test --workspace --test qemu_smoke -- --nocapture
+# About 15 s: a 10-min simulated drive through the firmware and the host navigator.
+IMU_IDENT_NAV_FIRMWARE_ELF="$NAV_ELF" cargo test --workspace --test nav_qemu -- --nocapture
 
 section "8/8 Python package (pip install ./python; pytest python/tests)"
 # A venv under the target dir (PyPI for maturin, numpy and pytest). pip builds the extension

@@ -21,6 +21,7 @@ pub mod mismatch;
 pub mod model_toml;
 pub mod nav;
 pub mod nav_io;
+pub mod nav_qemu;
 pub mod output;
 pub mod qemu;
 pub mod records;

@@ -47,9 +47,9 @@ const MODEL_NAME: &str = "model.bin";
 /// Fields of the firmware's autocorrelation frame.
 const ACF_FIELDS: [&str; 5] = ["k", "t", "sensor", "tau", "sigma"];
 /// Fields of the firmware's instruction-count summary.
-const ICOUNT_FIELDS: [&str; 5] = ["class", "n", "mean", "worst", "worst_k"];
+pub(crate) const ICOUNT_FIELDS: [&str; 5] = ["class", "n", "mean", "worst", "worst_k"];
 /// Fields of the firmware's stack summary.
-const STACK_FIELDS: [&str; 4] = ["phase", "high_water", "statics_end", "ram_top"];
+pub(crate) const STACK_FIELDS: [&str; 4] = ["phase", "high_water", "statics_end", "ram_top"];
 
 /// How to start QEMU.
 #[derive(Debug, Clone)]
@@ -164,14 +164,58 @@ pub fn run_firmware_bytes(
     log: &[u8],
     cfg: &QemuConfig,
 ) -> Result<FirmwareRun> {
+    let out = run_qemu(
+        elf,
+        "imu-ident-qemu",
+        &[(MODEL_NAME, model), (LOG_NAME, log)],
+        cfg,
+    )?;
+    let decoded = decode_telemetry(&out.elf_bytes, &out.stdout)
+        .with_context(|| format!("decoding the output of {}", elf.display()))?;
+    Ok(FirmwareRun {
+        telemetry: decoded.telemetry,
+        icount: decoded.icount,
+        stack: decoded.stack,
+        messages: decoded.messages,
+        status: out.status,
+        stderr: out.stderr,
+    })
+}
+
+/// What a QEMU run of a firmware left behind, undecoded.
+#[derive(Debug)]
+pub struct QemuOutput {
+    /// The ELF that ran (for its defmt table).
+    pub elf_bytes: Vec<u8>,
+    /// Everything written to semihosting stdout (defmt frames).
+    pub stdout: Vec<u8>,
+    /// QEMU's exit status: the firmware's semihosting exit code.
+    pub status: ExitStatus,
+    /// QEMU's own diagnostics.
+    pub stderr: String,
+}
+
+/// Runs the firmware `elf` under QEMU in a fresh temporary directory holding `files` (name,
+/// contents), with the semihosting command line `program` followed by the file names, and
+/// returns its raw output. Shared by the estimator firmware and the navigation firmware
+/// (`hal_sim::nav_qemu`).
+pub fn run_qemu(
+    elf: &Path,
+    program: &str,
+    files: &[(&str, &[u8])],
+    cfg: &QemuConfig,
+) -> Result<QemuOutput> {
     let elf_bytes = std::fs::read(elf).with_context(|| format!("reading {}", elf.display()))?;
     // An absolute path: QEMU runs in the temporary directory.
     let elf = elf
         .canonicalize()
         .with_context(|| format!("resolving {}", elf.display()))?;
     let dir = tempfile::tempdir().context("creating a temporary directory")?;
-    std::fs::write(dir.path().join(LOG_NAME), log).context("writing the replay log")?;
-    std::fs::write(dir.path().join(MODEL_NAME), model).context("writing the model")?;
+    let mut semihosting = format!("enable=on,target=native,arg={program}");
+    for (name, bytes) in files {
+        std::fs::write(dir.path().join(name), bytes).with_context(|| format!("writing {name}"))?;
+        semihosting.push_str(&format!(",arg={name}"));
+    }
 
     let mut child = Command::new(&cfg.program)
         .args(["-cpu", "cortex-m4", "-machine", "mps2-an386"])
@@ -180,9 +224,7 @@ pub fn run_firmware_bytes(
         // 1 ns of virtual time per instruction: the firmware's SysTick counts instructions.
         .args(["-icount", "shift=0"])
         .arg("-semihosting-config")
-        .arg(format!(
-            "enable=on,target=native,arg=imu-ident-qemu,arg={MODEL_NAME},arg={LOG_NAME}"
-        ))
+        .arg(semihosting)
         .arg("-kernel")
         .arg(&elf)
         .current_dir(dir.path())
@@ -238,14 +280,9 @@ pub fn run_firmware_bytes(
     let stderr = err_thread
         .join()
         .map_err(|_| anyhow!("stderr reader panicked"))??;
-
-    let decoded = decode_telemetry(&elf_bytes, &stdout)
-        .with_context(|| format!("decoding the output of {}", elf.display()))?;
-    Ok(FirmwareRun {
-        telemetry: decoded.telemetry,
-        icount: decoded.icount,
-        stack: decoded.stack,
-        messages: decoded.messages,
+    Ok(QemuOutput {
+        elf_bytes,
+        stdout,
         status,
         stderr: String::from_utf8_lossy(&stderr).into_owned(),
     })
@@ -289,7 +326,7 @@ pub fn decode_telemetry(elf_bytes: &[u8], stream: &[u8]) -> Result<Decoded> {
 
 /// The displayed parameters of a frame whose first literal starts with `tag`, checked against
 /// the expected field names; `None` for a frame with another tag.
-fn tagged<const N: usize>(
+pub(crate) fn tagged<const N: usize>(
     frame: &Frame<'_>,
     tag: &str,
     expected: &[&str; N],
@@ -417,7 +454,7 @@ fn parse_frame(frame: &Frame<'_>, out: &mut Decoded) -> Result<()> {
 
 /// Parses one displayed value. defmt-decoder prints floats with `ryu` (shortest round-trip
 /// form, `NaN`, `inf`), which `str::parse` reads back bit-exactly.
-fn field<T: std::str::FromStr>(name: &str, shown: &str) -> Result<T>
+pub(crate) fn field<T: std::str::FromStr>(name: &str, shown: &str) -> Result<T>
 where
     T::Err: std::error::Error + Send + Sync + 'static,
 {

@@ -21,12 +21,22 @@ fn tactical() -> SimModel {
     let deg = std::f64::consts::PI / 180.0;
     SimModel::same_on_all_axes(
         &[
-            Component::White(WhiteNoise { density: 0.005 * deg / 60.0 }),
-            Component::GaussMarkov(GaussMarkov { sigma: 0.5 * deg / 3600.0, tau: 3600.0 }),
+            Component::White(WhiteNoise {
+                density: 0.005 * deg / 60.0,
+            }),
+            Component::GaussMarkov(GaussMarkov {
+                sigma: 0.5 * deg / 3600.0,
+                tau: 3600.0,
+            }),
         ],
         &[
-            Component::White(WhiteNoise { density: 0.02 / 60.0 }),
-            Component::GaussMarkov(GaussMarkov { sigma: 50e-6 * 9.80665, tau: 3600.0 }),
+            Component::White(WhiteNoise {
+                density: 0.02 / 60.0,
+            }),
+            Component::GaussMarkov(GaussMarkov {
+                sigma: 50e-6 * 9.80665,
+                tau: 3600.0,
+            }),
         ],
     )
 }
@@ -59,26 +69,50 @@ fn quantile(v: &mut [f64], q: f64) -> f64 {
 #[test]
 #[ignore = "benchmark: minutes in release"]
 fn nav_over_seeds() {
-    let hours: f64 = std::env::var("NAV_HOURS").ok().and_then(|s| s.parse().ok()).unwrap_or(1.0);
-    let seeds: u64 = std::env::var("NAV_SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(20);
-    let first: u64 = std::env::var("NAV_FIRST_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(1001);
+    let hours: f64 = std::env::var("NAV_HOURS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1.0);
+    let seeds: u64 = std::env::var("NAV_SEEDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(20);
+    let first: u64 = std::env::var("NAV_FIRST_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1001);
     let outages: Vec<(f64, f64)> = (0..)
         .map(|k| 600.0 + 1200.0 * k as f64)
         .take_while(|s| *s + 60.0 < hours * 3600.0 - 120.0)
         .map(|s| (s, s + 60.0))
         .collect();
     for (grade, sim) in [("MEMS", SimModel::mems()), ("tactical", tactical())] {
-        let mut cases: Vec<(f64, Vec<[f64; 3]>, Vec<f64>)> = vec![(1.0, vec![], vec![]), (0.1, vec![], vec![]), (10.0, vec![], vec![])];
+        let mut cases: Vec<(f64, Vec<[f64; 3]>, Vec<f64>)> = vec![
+            (1.0, vec![], vec![]),
+            (0.1, vec![], vec![]),
+            (10.0, vec![], vec![]),
+        ];
         for seed in first..first + seeds {
             let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-            let profile = Profile::figure_eight_course(hours, 1.0).unwrap_or_else(|e| panic!("{e:#}"));
-            let start = Geodetic { lat: 45f64.to_radians(), lon: 7f64.to_radians(), h: 300.0 };
-            let gnss = GnssConfig { outages: outages.clone(), ..GnssConfig::default() };
-            let drive = simulate_drive(&profile, start, 0.01, &sim, gnss, seed).unwrap_or_else(|e| panic!("{e:#}"));
+            let profile =
+                Profile::figure_eight_course(hours, 1.0).unwrap_or_else(|e| panic!("{e:#}"));
+            let start = Geodetic {
+                lat: 45f64.to_radians(),
+                lon: 7f64.to_radians(),
+                h: 300.0,
+            };
+            let gnss = GnssConfig {
+                outages: outages.clone(),
+                ..GnssConfig::default()
+            };
+            let drive = simulate_drive(&profile, start, 0.01, &sim, gnss, seed)
+                .unwrap_or_else(|e| panic!("{e:#}"));
             write_drive(dir.path(), &drive).unwrap_or_else(|e| panic!("{e:#}"));
             let imu = read_imu_csv(&dir.path().join("imu.csv")).unwrap_or_else(|e| panic!("{e:#}"));
-            let fixes = read_gnss_csv(&dir.path().join("gnss.csv")).unwrap_or_else(|e| panic!("{e:#}"));
-            let truth = read_truth_csv(&dir.path().join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+            let fixes =
+                read_gnss_csv(&dir.path().join("gnss.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+            let truth =
+                read_truth_csv(&dir.path().join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
             for (k, frac, outage_err) in cases.iter_mut() {
                 let args = NavArgs {
                     imu: dir.path().join("imu.csv"),
@@ -93,7 +127,11 @@ fn nav_over_seeds() {
                     yaw_deg: Some(truth[0].rpy_deg[2]),
                     yaw_speed: 2.0,
                     static_gyro_bias: false,
-                    init: NavInit { sd_att: Vector3::repeat(1f64.to_radians()), sd_vel: 0.1, sd_pos: 1.0 },
+                    init: NavInit {
+                        sd_att: Vector3::repeat(1f64.to_radians()),
+                        sd_vel: 0.1,
+                        sd_pos: 1.0,
+                    },
                     gate: Some(1.0),
                     use_velocity: true,
                     single: false,
@@ -107,7 +145,9 @@ fn nav_over_seeds() {
                 for e in run.epochs.iter().filter(|e| e.t >= 60.0) {
                     let i = truth.partition_point(|r| r.t < e.t - 1e-6);
                     let Some(r) = truth.get(i) else { continue };
-                    let ne = hal_sim::nav_io::outages::north_east(r.lat_deg, r.lon_deg, r.h, e.lat_deg, e.lon_deg);
+                    let ne = hal_sim::nav_io::outages::north_east(
+                        r.lat_deg, r.lon_deg, r.h, e.lat_deg, e.lon_deg,
+                    );
                     let err = [ne[0], ne[1], e.h - r.h];
                     for j in 0..3 {
                         if err[j].abs() > 3.0 * e.sd_pos[j] {
@@ -119,20 +159,30 @@ fn nav_over_seeds() {
                 frac.push(out.map(|x| x / n));
                 // Horizontal error at the last IMU-rate truth sample of each outage.
                 for (_, end) in &outages {
-                    let Some(i) = run.epochs.iter().rposition(|e| e.t < *end) else { continue };
+                    let Some(i) = run.epochs.iter().rposition(|e| e.t < *end) else {
+                        continue;
+                    };
                     let e = &run.epochs[i];
-                    let Some(r) = truth.get(truth.partition_point(|r| r.t < e.t - 1e-6)) else { continue };
-                    let ne = hal_sim::nav_io::outages::north_east(r.lat_deg, r.lon_deg, r.h, e.lat_deg, e.lon_deg);
+                    let Some(r) = truth.get(truth.partition_point(|r| r.t < e.t - 1e-6)) else {
+                        continue;
+                    };
+                    let ne = hal_sim::nav_io::outages::north_east(
+                        r.lat_deg, r.lon_deg, r.h, e.lat_deg, e.lon_deg,
+                    );
                     outage_err.push(ne[0].hypot(ne[1]));
                 }
             }
         }
         for (k, frac, outage_err) in &cases {
-            let mut worst_axis: Vec<f64> = frac.iter().map(|f| f.iter().cloned().fold(0.0, f64::max)).collect();
+            let mut worst_axis: Vec<f64> = frac
+                .iter()
+                .map(|f| f.iter().cloned().fold(0.0, f64::max))
+                .collect();
             let med = quantile(&mut worst_axis.clone(), 0.5);
             let p95 = quantile(&mut worst_axis.clone(), 0.95);
             let worst = quantile(&mut worst_axis, 1.0);
-            let rms = (outage_err.iter().map(|x| x * x).sum::<f64>() / outage_err.len() as f64).sqrt();
+            let rms =
+                (outage_err.iter().map(|x| x * x).sum::<f64>() / outage_err.len() as f64).sqrt();
             println!(
                 "{grade} noise x{k}: {} seeds x {hours} h; worst-axis fraction outside 3 sigma: median {:.2} %, p95 {:.2} %, worst {:.2} %; horizontal error at the end of {} 60-s outages: RMS {:.2} m",
                 frac.len(), med * 100.0, p95 * 100.0, worst * 100.0, outage_err.len(), rms

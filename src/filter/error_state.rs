@@ -221,17 +221,28 @@ pub fn fuse<T: Real, const N: usize, const Z: usize>(
     let n = kf.active();
     for a in 0..m {
         for b in 0..m {
-            let (ia, ib) = (idx[a], idx[b]);
-            let mut v = if ia == ib { R[ia] } else { T::zero() };
+            // Checked and zipped rather than indexed: the same sums in the same order, and no
+            // bounds check left for the firmware's no-panic link check (the axis numbers in
+            // `idx` are data to the optimiser).
+            let (Some(&ia), Some(&ib)) = (idx.get(a), idx.get(b)) else {
+                continue;
+            };
+            let (Some(ha), Some(hb)) = (H.get(ia), H.get(ib)) else {
+                continue;
+            };
+            let r = R.get(ia).copied().unwrap_or_else(T::zero);
+            let mut v = if ia == ib { r } else { T::zero() };
             // H_a P H_b^T over the active block.
-            for (k, hk) in H[ia].iter().enumerate().take(n) {
+            for (prow, hk) in kf.P.iter().zip(ha.iter()).take(n) {
                 let mut ph = T::zero();
-                for (l, hl) in H[ib].iter().enumerate().take(n) {
-                    ph += kf.P[k][l] * *hl;
+                for (p, hl) in prow.iter().zip(hb.iter()).take(n) {
+                    ph += *p * *hl;
                 }
                 v += *hk * ph;
             }
-            s[a][b] = v;
+            if let Some(slot) = s.get_mut(a).and_then(|row| row.get_mut(b)) {
+                *slot = v;
+            }
         }
     }
     if m > 0 {
@@ -239,13 +250,17 @@ pub fn fuse<T: Real, const N: usize, const Z: usize>(
             // nu^T S^-1 nu = |L^-1 nu|^2 (forward substitution).
             let mut y = [T::zero(); Z];
             let mut nis = T::zero();
-            for a in 0..m {
-                let mut v = nu[a];
-                for b in 0..a {
-                    v -= l[a][b] * y[b];
+            // Zipped and checked (no bounds checks for the no-panic firmware; same order).
+            for (a, (la, na)) in l.iter().zip(nu.iter()).enumerate().take(m) {
+                let mut v = *na;
+                for (lab, yb) in la.iter().zip(y.iter()).take(a) {
+                    v -= *lab * *yb;
                 }
-                y[a] = v / l[a][a];
-                nis += y[a] * y[a];
+                let ya = v / la.get(a).copied().unwrap_or(nan);
+                if let Some(slot) = y.get_mut(a) {
+                    *slot = ya;
+                }
+                nis += ya * ya;
             }
             out.nis = nis;
         }
@@ -255,7 +270,9 @@ pub fn fuse<T: Real, const N: usize, const Z: usize>(
             if !within {
                 out.gated = true;
                 for &i in idx.iter().take(m) {
-                    out.axes[i] = AxisStatus::Gated;
+                    if let Some(a) = out.axes.get_mut(i) {
+                        *a = AxisStatus::Gated;
+                    }
                 }
                 return out;
             }

@@ -43,7 +43,7 @@ use crate::model::{ContinuousSystem, ErrorModel, ModelError, StateBlock};
 use crate::strapdown::earth::{self, earth_rate_ned, transport_rate_ned};
 use crate::strapdown::skew;
 use crate::Real;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix2, Matrix3, Vector3};
 
 /// Named state indices of the navigation errors.
 pub mod nav_idx {
@@ -70,6 +70,13 @@ const SENSORS: [ImuSensor; 2] = [ImuSensor::Gyro, ImuSensor::Accel];
 /// A callback `f(sensor, axis, first_state, component)`.
 pub type ComponentVisitor<'a, T> =
     dyn FnMut(ImuSensor, usize, usize, &crate::model::Component<T>) + 'a;
+
+/// `m[r][c] = v` when `v` is given and `(r, c)` is inside `m` (checked: see `physical`).
+fn set<T: Copy, const N: usize>(m: &mut Arr<T, N>, r: usize, c: usize, v: Option<T>) {
+    if let (Some(slot), Some(v)) = (m.get_mut(r).and_then(|row| row.get_mut(c)), v) {
+        *slot = v;
+    }
+}
 
 /// The navigation solution the error dynamics are linearised about.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -189,9 +196,14 @@ impl<T: Real> StrapdownErrorModel<T> {
         self.for_each_component(&mut |s, axis, k, c| {
             let blk = c.block();
             let si = usize::from(s == ImuSensor::Accel);
+            // Checked access throughout (here and below): the firmware links only without
+            // panic paths, and the visitor's indices are not provably in range.
+            let Some(out) = b.get_mut(si).and_then(|v| v.get_mut(axis)) else {
+                return;
+            };
             for j in 0..blk.states {
-                if let Some(v) = x.get(k + j) {
-                    b[si][axis] += blk.c[j] * *v;
+                if let (Some(v), Some(cj)) = (x.get(k + j), blk.c.get(j)) {
+                    *out += *cj * *v;
                 }
             }
         });
@@ -284,14 +296,16 @@ impl<T: Real> StrapdownErrorModel<T> {
         self.for_each_component(&mut |s, axis, k, comp| {
             let blk = comp.block();
             let row0 = if s == ImuSensor::Gyro { ATT } else { VEL };
+            let at = |m: &Matrix2<T>, i: usize, j: usize| m.get((i, j)).copied();
             for i in 0..blk.states {
                 for j in 0..blk.states {
-                    a[k + i][k + j] = blk.a[(i, j)];
-                    qc[k + i][k + j] = blk.qc[(i, j)];
-                    p0[k + i][k + j] = blk.p0[(i, j)];
+                    set(&mut a, k + i, k + j, at(&blk.a, i, j));
+                    set(&mut qc, k + i, k + j, at(&blk.qc, i, j));
+                    set(&mut p0, k + i, k + j, at(&blk.p0, i, j));
                 }
                 for r in 0..3 {
-                    a[row0 + r][k + i] = c[(r, axis)] * blk.c[i];
+                    let v = c.get((r, axis)).zip(blk.c.get(i)).map(|(x, y)| *x * *y);
+                    set(&mut a, row0 + r, k + i, v);
                 }
             }
         });
@@ -351,8 +365,8 @@ impl<T: Real, const N: usize> ErrorModel<T, N, NAV_Z> for StrapdownErrorModel<T>
         self.for_each_component(&mut |_, _, k, c| {
             let blk = c.block();
             for j in 0..blk.states {
-                if let Some(v) = s.get_mut(k + j) {
-                    *v = pow2_near(blk.p0[(j, j)].sqrt().max(c.magnitude()));
+                if let (Some(v), Some(p)) = (s.get_mut(k + j), blk.p0.get((j, j))) {
+                    *v = pow2_near(p.sqrt().max(c.magnitude()));
                 }
             }
         });
@@ -375,11 +389,14 @@ impl<T: Real, const N: usize> ErrorModel<T, N, NAV_Z> for StrapdownErrorModel<T>
     fn system(&self, scale: &[T; N]) -> Result<ContinuousSystem<T, N, NAV_Z>, ModelError> {
         let (mut A, mut Qc, mut P0, mut H) = self.physical::<N>()?;
         let n = self.states();
-        for i in 0..n {
-            for j in 0..n {
-                A[i][j] = A[i][j] * scale[j] / scale[i];
-                Qc[i][j] /= scale[i] * scale[j];
-                P0[i][j] /= scale[i] * scale[j];
+        // Zipped rather than indexed (no bounds checks left for the no-panic link check).
+        let rows = A.iter_mut().zip(Qc.iter_mut()).zip(P0.iter_mut());
+        for (((ra, rq), rp), si) in rows.zip(scale.iter()).take(n) {
+            let cols = ra.iter_mut().zip(rq.iter_mut()).zip(rp.iter_mut());
+            for (((a, q), p), sj) in cols.zip(scale.iter()).take(n) {
+                *a = *a * *sj / *si;
+                *q /= *si * *sj;
+                *p /= *si * *sj;
             }
         }
         for row in H.iter_mut() {

@@ -11,10 +11,14 @@
 pub mod error_model;
 pub mod imu_model;
 pub mod navigator;
+pub mod replay;
+pub mod run;
 
 pub use error_model::{nav_idx, NavInit, NavPoint, StrapdownErrorModel, NAV_Z};
 pub use imu_model::{AxisModel, ImuErrorModel, ImuSensor, MAX_AXIS_COMPONENTS};
 pub use navigator::{GnssFix, NavConfig, NavError, Navigator, CHI2_9999};
+pub use replay::NavSetup;
+pub use run::{Epoch, NavReplay};
 
 /// Default filter capacity: 9 navigation errors plus up to 15 sensor-component states (for
 /// example a Gauss-Markov and a random constant on each of the six axes, plus three more).

@@ -307,11 +307,16 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         self.model.for_each_component(&mut |s, axis, k, c| {
             use crate::model::ComponentKind as K;
             let bias_like = matches!(c.kind(), K::GaussMarkov | K::RandomWalk | K::RandomConstant);
-            if s == super::ImuSensor::Gyro && bias_like && !done[axis] {
-                if let (Some(v), Some(sc)) = (x.get_mut(k), scale.get(k)) {
-                    *v = b_g[axis] / *sc;
-                    done[axis] = true;
-                }
+            if s != super::ImuSensor::Gyro || !bias_like {
+                return;
+            }
+            // Checked access: the visitor's axis is not provably below 3 (no-panic firmware).
+            let Some(d) = done.get_mut(axis).filter(|d| !**d) else {
+                return;
+            };
+            if let (Some(v), Some(sc), Some(b)) = (x.get_mut(k), scale.get(k), b_g.get(axis)) {
+                *v = *b / *sc;
+                *d = true;
             }
         });
         self.refresh_compensation();

@@ -18,17 +18,14 @@ pub mod model;
 pub mod plot;
 pub mod records;
 pub mod report;
+pub mod setup;
 pub mod truth;
 
 use crate::nav_io::{self, score_outages, GnssFix, ImuSample, OutageSpec, OutageSummary};
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use imu_ident::filter::AxisStatus;
-use imu_ident::nav::{
-    GnssFix as CoreFix, NavConfig, NavInit, NavPoint, Navigator, StrapdownErrorModel, NAV_N,
-};
-use imu_ident::strapdown::{
-    earth, heading_from_course, Geodetic, Increment, Leveller, Quat, Strapdown,
-};
+use imu_ident::nav::{GnssFix as CoreFix, NavInit, NAV_N};
+use imu_ident::strapdown::{earth, Geodetic, Increment};
 use imu_ident::Real;
 use nalgebra::Vector3;
 use std::path::PathBuf;
@@ -162,114 +159,19 @@ pub fn run_observed<T: Real>(
     bar: &indicatif::ProgressBar,
 ) -> Result<NavRun> {
     let started = std::time::Instant::now();
-    let shifted: Vec<ImuSample>;
-    let imu = if args.imu_time_shift != 0.0 {
-        shifted = imu
-            .iter()
-            .map(|s| ImuSample {
-                t: s.t + args.imu_time_shift,
-                ..*s
-            })
-            .collect();
-        &shifted[..]
-    } else {
-        imu
-    };
-    if imu.len() < 2 || fixes.is_empty() {
-        bail!("nav: need at least two IMU samples and one GNSS fix");
-    }
-    let t_first_fix = fixes[0].t;
-    let t_last_fix = fixes[fixes.len() - 1].t;
-    let outages = args
-        .outages
-        .map(|o| o.schedule(t_first_fix, t_last_fix))
-        .unwrap_or_default();
-    // 1. Levelling and static gyro bias.
-    let t0 = imu[0].t;
-    let mut lev = Leveller::<f64>::new();
-    let mut sum_w = Vector3::zeros();
-    let mut n_w = 0usize;
-    let mut k = 1;
-    while k < imu.len() && imu[k].t <= t0 + args.align {
-        let dt = imu[k].t - imu[k - 1].t;
-        let s = &imu[k];
-        lev.add(
-            &Increment::from_rates(&Vector3::from(s.gyro), &Vector3::from(s.accel), dt),
-            dt,
-        );
-        sum_w += Vector3::from(s.gyro);
-        n_w += 1;
-        k += 1;
-    }
-    let (roll, pitch) = lev.level().map_err(|e| {
-        anyhow::anyhow!(
-            "{}: levelling over the first {} s: {e:?}",
-            args.imu.display(),
-            args.align
-        )
-    })?;
-    let t_start = imu[k.min(imu.len() - 1)].t;
-    let start_fix = fixes
-        .iter()
-        .min_by(|a, b| (a.t - t_start).abs().total_cmp(&(b.t - t_start).abs()))
-        .copied()
-        .context("no GNSS fix")?;
-    let yaw0 = args.yaw_deg.map(f64::to_radians).unwrap_or(0.0);
-    let q0 = Quat::from_euler(roll, pitch, yaw0);
-    let lever = Vector3::from(args.lever_arm);
-    let ant = Geodetic {
-        lat: start_fix.lat_deg.to_radians(),
-        lon: start_fix.lon_deg.to_radians(),
-        h: start_fix.h,
-    };
-    let pos0 = move_by(&ant, &-(q0.dcm() * lever));
-    let ins = Strapdown::<T>::new(pos0, Vector3::zeros(), q0.cast())
-        .map_err(|e| anyhow::anyhow!("nav: initial state refused: {e:?}"))?;
-
-    // 2. The model and the navigator.
-    let model = StrapdownErrorModel::<T> {
-        imu: args.model.cast(),
-        init: NavInit {
-            sd_att: args.init.sd_att.map(T::lit),
-            sd_vel: T::lit(args.init.sd_vel),
-            sd_pos: T::lit(args.init.sd_pos),
-        },
-        lever_arm: lever.map(T::lit),
-        obs_sd: [
-            T::lit(0.5),
-            T::lit(0.5),
-            T::lit(1.0),
-            T::lit(0.1),
-            T::lit(0.1),
-            T::lit(0.2),
-        ],
-        point: NavPoint::at_rest(T::lit(pos0.lat), T::lit(pos0.h)),
-        dt: T::lit(args.step),
-        scale_factor_sd: args.scale_factor_sd.map(|v| v.map(T::lit)),
-    };
-    let cfg = NavConfig {
-        step: T::lit(args.step),
-        gate: args.gate.map(T::lit),
-        max_imu_gap: T::lit(0.1),
-        max_rejections: 3,
-    };
-    let mut nav = Navigator::<T, NAV_N>::new(ins, t_start, model, cfg)
+    let shifted = setup::shifted_imu(args, imu);
+    let imu = &shifted[..];
+    // 1-2. The start (levelling, static gyro bias, first position) and the navigator: shared
+    // with the firmware replay (`setup`, `hal_sim::nav_qemu`).
+    let setup::Start { setup, k, outages } = setup::start(args, imu, fixes)?;
+    let t_start = setup.t0;
+    let mut nav = setup
+        .navigator::<T, NAV_N>()
         .map_err(|e| anyhow::anyhow!("nav: {e:?} (the model needs more than {NAV_N} states?)"))?;
-    if args.static_gyro_bias && n_w > 0 {
-        // Mean rate at rest = bias + Earth rate; only the vertical part of the Earth rate is
-        // known before the heading (the horizontal part, <= 7.3e-5 rad/s, stays in the bias).
-        let c = q0.dcm();
-        let w_ie_n = earth::earth_rate_ned(pos0.lat);
-        let w_down_b = c.transpose() * Vector3::new(0.0, 0.0, w_ie_n.z);
-        let b = sum_w / n_w as f64 - w_down_b;
-        nav.seed_gyro_bias(&b.map(T::lit))
-            .map_err(|e| anyhow::anyhow!("nav: {e:?}"))?;
-    }
+    let mut planner = setup::FixPlanner::new(args, outages.clone());
 
     // 3. The loop.
-    let mut heading_known = args.yaw_deg.is_some();
     let mut fix_k = fixes.partition_point(|f| f.t < t_start);
-    let mut last_fused = f64::NEG_INFINITY;
     let mut epochs = Vec::with_capacity(fixes.len());
     bar.set_length((imu.len() - k).saturating_sub(1) as u64);
     bar.reset();
@@ -294,35 +196,23 @@ pub fn run_observed<T: Real>(
         while fix_k < fixes.len() && fixes[fix_k].t <= b.t {
             let f = fixes[fix_k];
             fix_k += 1;
-            let withheld = nav_io::outages::withheld(&outages, f.t);
-            let vel = f.vel_ned.map(Vector3::from);
-            let speed = vel.map(|v| v.xy().norm()).unwrap_or(0.0);
-            if !heading_known && !withheld {
-                if let Some(v) = vel {
-                    if speed >= args.yaw_speed {
-                        let yaw = heading_from_course(&v, args.yaw_speed)
-                            .map_err(|e| anyhow::anyhow!("heading: {e:?}"))?;
-                        nav.set_heading(
-                            T::lit(yaw),
-                            T::lit(2f64.to_radians()),
-                            Some(v.map(T::lit)),
-                        )
-                        .map_err(|e| anyhow::anyhow!("nav: {e:?}"))?;
-                        heading_known = true;
-                    }
-                }
+            let plan = planner.plan(&f)?;
+            if let (Some(yaw), Some(v)) = (plan.heading, f.vel_ned) {
+                nav.set_heading(
+                    T::lit(yaw),
+                    T::lit(setup.heading_sd),
+                    Some(Vector3::from(v).map(T::lit)),
+                )
+                .map_err(|e| anyhow::anyhow!("nav: {e:?}"))?;
             }
-            let due = f.t - last_fused >= args.step - 0.02;
-            let usable = !withheld && due && (heading_known || speed < 0.2 * args.yaw_speed);
-            let mut rec = EpochRecord::blank(f.t, withheld);
-            if usable {
+            let mut rec = EpochRecord::blank(f.t, plan.withheld);
+            if plan.fuse {
                 let mut core = to_core_fix::<T>(&f, args.use_velocity);
                 core.sd_pos *= T::lit(args.gnss_sd_factor[0]);
                 core.sd_vel *= T::lit(args.gnss_sd_factor[1]);
                 let fused = nav
                     .gnss(&core)
                     .map_err(|e| anyhow::anyhow!("nav: GNSS fix at t = {}: {e:?}", f.t))?;
-                last_fused = f.t;
                 rec.fused = true;
                 rec.gated = fused.gated;
                 for i in 0..6 {
@@ -335,12 +225,13 @@ pub fn run_observed<T: Real>(
                 rec.loglik = fused.loglik.as_f64();
                 rec.dof = fused.dof;
             }
-            rec.heading_known = heading_known;
+            rec.heading_known = planner.heading_known();
             rec.fill_solution(&nav, f.t, b.t);
             epochs.push(rec);
         }
     }
     bar.finish_and_clear();
+    let heading_known = planner.heading_known();
     let scores = args.outages.map(|_| {
         let track: Vec<(f64, f64, f64)> =
             epochs.iter().map(|e| (e.t, e.lat_deg, e.lon_deg)).collect();

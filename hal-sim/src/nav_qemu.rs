@@ -1,0 +1,247 @@
+//! Runs the navigation firmware (`imu-ident-nav-qemu`, `src/bin/nav_qemu.rs`) under QEMU on an
+//! IMU + GNSS log and reads back its epochs, instruction counts and stack marks.
+//!
+//! The log is turned into the core's navigation replay ([`imu_ident::nav::replay`]) with the
+//! same start and per-fix decisions as the host run ([`crate::nav::setup`], used by
+//! [`crate::nav::run_with`]): the records are the IMU samples after the start, each followed by
+//! the fixes it reaches, exactly the order in which `run_with` processes them. QEMU is run with
+//! [`crate::qemu::run_qemu`] and the defmt frames are parsed structurally like the estimator
+//! firmware's ([`crate::qemu`]).
+//!
+//! ```no_run
+//! # fn demo(args: &hal_sim::nav::NavArgs) -> anyhow::Result<()> {
+//! use hal_sim::nav_io::{read_gnss_csv, read_imu_csv};
+//! use hal_sim::nav_qemu::{run_nav_firmware, NAV_ELF_ENV};
+//! let (imu, fixes) = (read_imu_csv(&args.imu)?, read_gnss_csv(&args.gnss)?);
+//! let elf = std::env::var(NAV_ELF_ENV)?;
+//! let run = run_nav_firmware(elf.as_ref(), args, &imu, &fixes, &Default::default())?;
+//! assert!(run.success());
+//! # Ok(()) }
+//! ```
+
+use std::path::Path;
+use std::process::ExitStatus;
+
+use anyhow::{anyhow, bail, Context, Result};
+use defmt_decoder::{DecodeError, Table};
+use imu_ident::nav::replay::{encode, gnss_flags, GnssRecord, ImuRecord, Record};
+use imu_ident::nav::NavSetup;
+use imu_ident::strapdown::Geodetic;
+use serde::Serialize;
+
+use crate::nav::setup::{start, FixPlanner};
+use crate::nav::NavArgs;
+use crate::nav_io::{GnssFix, ImuSample};
+use crate::qemu::{field, run_qemu, tagged, Icount, QemuConfig, Stack};
+use crate::qemu::{ICOUNT_FIELDS, STACK_FIELDS};
+
+/// The navigation firmware binary.
+pub const NAV_BIN: &str = "imu-ident-nav-qemu";
+/// How it is built (from the workspace root).
+pub const NAV_BUILD_COMMAND: &str = "cargo build --release -p imu-ident --target thumbv7em-none-eabihf --features qemu --bin imu-ident-nav-qemu";
+/// The variable naming its ELF (scripts/test.sh sets it).
+pub const NAV_ELF_ENV: &str = "IMU_IDENT_NAV_FIRMWARE_ELF";
+/// Name of the replay inside QEMU's working directory.
+const REPLAY_NAME: &str = "nav.bin";
+/// Fields of the firmware's per-epoch frame.
+const NAV_FIELDS: [&str; 11] = [
+    "t", "lat", "lon", "h", "vn", "ve", "vd", "sdn", "sde", "sdd", "flags",
+];
+
+/// The setup and records of a run with `args` on `imu` and `fixes` (module docs).
+pub fn replay_records(
+    args: &NavArgs,
+    imu: &[ImuSample],
+    fixes: &[GnssFix],
+) -> Result<(NavSetup, Vec<Record>)> {
+    let shifted = crate::nav::setup::shifted_imu(args, imu);
+    let imu = &shifted[..];
+    let s = start(args, imu, fixes)?;
+    let mut planner = FixPlanner::new(args, s.outages.clone());
+    let mut fix_k = fixes.partition_point(|f| f.t < s.setup.t0);
+    let mut out = Vec::with_capacity(imu.len() + fixes.len());
+    let f32x3 = |v: [f64; 3]| v.map(|x| x as f32);
+    let nan3 = [f32::NAN; 3];
+    for w in imu[s.k..].windows(2) {
+        let b = &w[1];
+        let dt = b.t - w[0].t;
+        if dt.is_nan() || dt <= 0.0 {
+            bail!("IMU time does not increase at t = {}", b.t);
+        }
+        out.push(Record::Imu(ImuRecord {
+            t: b.t,
+            gyro: f32x3(b.gyro),
+            accel: f32x3(b.accel),
+        }));
+        while fix_k < fixes.len() && fixes[fix_k].t <= b.t {
+            let f = fixes[fix_k];
+            fix_k += 1;
+            let plan = planner.plan(&f)?;
+            let mut flags = 0;
+            // A heading needs the velocity it comes from (the host sets both).
+            let heading = plan.heading.filter(|_| f.vel_ned.is_some());
+            for (on, bit) in [
+                (plan.withheld, gnss_flags::WITHHELD),
+                (heading.is_some(), gnss_flags::HEADING),
+                (plan.fuse, gnss_flags::FUSE),
+                (args.use_velocity, gnss_flags::VELOCITY),
+            ] {
+                if on {
+                    flags |= bit;
+                }
+            }
+            out.push(Record::Gnss(GnssRecord {
+                t: f.t,
+                pos: Geodetic {
+                    lat: f.lat_deg.to_radians(),
+                    lon: f.lon_deg.to_radians(),
+                    h: f.h,
+                },
+                vel: f.vel_ned.map_or(nan3, f32x3),
+                sd_pos: f.sd_pos_ned.map_or(nan3, f32x3),
+                sd_vel: f.sd_vel_ned.map_or(nan3, f32x3),
+                flags,
+                yaw: heading.unwrap_or(0.0),
+            }));
+        }
+    }
+    Ok((s.setup, out))
+}
+
+/// The replay file of a run with `args` on `imu` and `fixes`.
+pub fn encode_replay(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<Vec<u8>> {
+    let (setup, records) = replay_records(args, imu, fixes)?;
+    let mut out = Vec::new();
+    encode(&setup, &records, |b| out.extend_from_slice(b))
+        .map_err(|e| anyhow!("encoding the navigation replay: {e}"))?;
+    Ok(out)
+}
+
+/// The firmware's solution at one GNSS epoch.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct NavEpoch {
+    /// Epoch time [s].
+    pub t: f64,
+    /// Latitude [rad].
+    pub lat: f64,
+    /// Longitude [rad].
+    pub lon: f64,
+    /// Height [m].
+    pub h: f64,
+    /// NED velocity [m/s].
+    pub vel: [f32; 3],
+    /// Position standard deviations N, E, D [m].
+    pub sd_pos: [f32; 3],
+    /// The record's GNSS flags, plus 0x80 when the fix was gated.
+    pub flags: u8,
+}
+
+/// What one navigation firmware run produced.
+#[derive(Debug, Clone)]
+pub struct NavFirmwareRun {
+    /// One per GNSS epoch after the start.
+    pub epochs: Vec<NavEpoch>,
+    /// Instruction counts: `imu` (mechanisation only), `step` (IMU sample + 1 Hz filter
+    /// propagation), `gnss` (fusion of one fix).
+    pub icount: Vec<Icount>,
+    /// Stack high-water marks: `init` (building the navigator) and `run`.
+    pub stack: Vec<Stack>,
+    /// Every other frame, formatted (`LEVEL message`).
+    pub messages: Vec<String>,
+    /// QEMU's exit status: the firmware's.
+    pub status: ExitStatus,
+    /// QEMU's diagnostics.
+    pub stderr: String,
+}
+
+impl NavFirmwareRun {
+    /// The firmware exited with success (complete, valid replay).
+    pub fn success(&self) -> bool {
+        self.status.success()
+    }
+}
+
+/// Runs the navigation firmware `elf` with `args` on `imu` and `fixes`.
+pub fn run_nav_firmware(
+    elf: &Path,
+    args: &NavArgs,
+    imu: &[ImuSample],
+    fixes: &[GnssFix],
+    cfg: &QemuConfig,
+) -> Result<NavFirmwareRun> {
+    run_nav_firmware_bytes(elf, &encode_replay(args, imu, fixes)?, cfg)
+}
+
+/// Like [`run_nav_firmware`] with the replay given as bytes (to test corrupt files).
+pub fn run_nav_firmware_bytes(
+    elf: &Path,
+    replay: &[u8],
+    cfg: &QemuConfig,
+) -> Result<NavFirmwareRun> {
+    let out = run_qemu(elf, NAV_BIN, &[(REPLAY_NAME, replay)], cfg)?;
+    let mut run = decode_nav(&out.elf_bytes, &out.stdout)
+        .with_context(|| format!("decoding the output of {}", elf.display()))?;
+    run.status = out.status;
+    run.stderr = out.stderr;
+    Ok(run)
+}
+
+/// Decodes the navigation firmware's defmt stream.
+fn decode_nav(elf_bytes: &[u8], stream: &[u8]) -> Result<NavFirmwareRun> {
+    let table = Table::parse(elf_bytes)
+        .context("reading the defmt table")?
+        .ok_or_else(|| anyhow!("the ELF has no defmt table (not built with defmt?)"))?;
+    let mut decoder = table.new_stream_decoder();
+    decoder.received(stream);
+    let mut run = NavFirmwareRun {
+        epochs: vec![],
+        icount: vec![],
+        stack: vec![],
+        messages: vec![],
+        status: std::process::ExitStatus::default(),
+        stderr: String::new(),
+    };
+    loop {
+        let frame = match decoder.decode() {
+            Ok(frame) => frame,
+            Err(DecodeError::UnexpectedEof) => break,
+            Err(DecodeError::Malformed) if table.encoding().can_recover() => {
+                run.messages.push("<malformed defmt frame skipped>".into());
+                continue;
+            }
+            Err(DecodeError::Malformed) => bail!("malformed defmt frame in a raw-encoded stream"),
+        };
+        if let Some(v) = tagged(&frame, "nav", &NAV_FIELDS)? {
+            let [t, lat, lon, h, vn, ve, vd, sn, se, sd, flags] = v;
+            run.epochs.push(NavEpoch {
+                t: field("t", &t)?,
+                lat: field("lat", &lat)?,
+                lon: field("lon", &lon)?,
+                h: field("h", &h)?,
+                vel: [field("vn", &vn)?, field("ve", &ve)?, field("vd", &vd)?],
+                sd_pos: [field("sdn", &sn)?, field("sde", &se)?, field("sdd", &sd)?],
+                flags: field("flags", &flags)?,
+            });
+        } else if let Some(v) = tagged(&frame, "icount", &ICOUNT_FIELDS)? {
+            let [class, n, mean, worst, worst_k] = v;
+            run.icount.push(Icount {
+                class,
+                n: field("n", &n)?,
+                mean: field("mean", &mean)?,
+                worst: field("worst", &worst)?,
+                worst_k: field("worst_k", &worst_k)?,
+            });
+        } else if let Some(v) = tagged(&frame, "stack", &STACK_FIELDS)? {
+            let [phase, h, e, top] = v;
+            run.stack.push(Stack {
+                phase,
+                high_water: field("high_water", &h)?,
+                statics_end: field("statics_end", &e)?,
+                ram_top: field("ram_top", &top)?,
+            });
+        } else {
+            run.messages.push(frame.display(false).to_string());
+        }
+    }
+    Ok(run)
+}

@@ -1,0 +1,186 @@
+//! Firmware for QEMU's mps2-an386 (Cortex-M4F): the 3D INS/GNSS navigator
+//! ([`imu_ident::nav::NavReplay`], `f32`, [`NAV_N`] states) over a binary replay of an IMU +
+//! GNSS log ([`imu_ident::nav::replay`], written by `hal_sim::nav_qemu`). One defmt frame per
+//! GNSS epoch, then instruction counts and the stack high-water marks.
+//!
+//! Thin on purpose: the replay codec, the navigator's construction and the per-record loop are
+//! the library's ([`imu_ident::nav::run`]), shared with the host driver; this file reads the
+//! bytes over semihosting, times the calls with SysTick and sends the frames.
+//!
+//! - Input: the file named by the first semihosting argument after the program name (default
+//!   `nav.bin`), relative to QEMU's working directory.
+//! - Output (defmt on semihosting stdout): `nav` per GNSS epoch (time, position f64 rad/m,
+//!   NED velocity, position sigmas N/E/D, flags); `icount` per class: `imu` (an IMU sample
+//!   mechanised, no filter step), `step` (an IMU sample whose end starts the 1 Hz filter step:
+//!   mechanisation + propagation), `gnss` (a fix fused: gate + six sequential updates +
+//!   closed-loop correction); `stack` for start-up and for the run.
+//! - Exit: status 0 after a complete, checksum-valid replay; 1 otherwise.
+//!
+//! ```text
+//! qemu-system-arm -cpu cortex-m4 -machine mps2-an386 -nographic -icount shift=0 \
+//!   -semihosting-config enable=on,target=native,arg=imu-ident-nav-qemu,arg=nav.bin \
+//!   -kernel imu-ident-nav-qemu | defmt-print -e imu-ident-nav-qemu
+//! ```
+//!
+//! Instruction counts: with `-icount shift=0` one SysTick count is 40 instructions; they are
+//! instruction counts on a Cortex-M4, not cycle times (QEMU models no pipeline or wait states).
+
+#![cfg_attr(all(target_arch = "arm", target_os = "none"), no_std, no_main)]
+
+#[cfg(not(all(target_arch = "arm", target_os = "none")))]
+fn main() {
+    // Built for the host only by an --all-features build; the firmware needs the ARM target.
+    eprintln!("imu-ident-nav-qemu is firmware: build it with --target thumbv7em-none-eabihf");
+    std::process::exit(2);
+}
+
+#[cfg(all(target_arch = "arm", target_os = "none"))]
+#[path = "semihost/mod.rs"]
+mod semihost;
+
+#[cfg(all(target_arch = "arm", target_os = "none"))]
+mod firmware {
+    use core::ffi::CStr;
+    use core::mem::MaybeUninit;
+
+    use super::semihost::{self, Counts, HostError, HostFile};
+    use cortex_m::peripheral::SYST;
+    use cortex_m_rt::{entry, exception, ExceptionFrame};
+    use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS};
+    use imu_ident::nav::replay::{Decoder, Event, NavReplayError, Record};
+    use imu_ident::nav::{NavError, NavReplay, NavSetup, NAV_N};
+
+    /// File read when QEMU passes no argument.
+    const DEFAULT_LOG: &CStr = c"nav.bin";
+    /// Read size: the decoder takes any chunking, so this only trades RAM for host calls.
+    const CHUNK: usize = 512;
+
+    type Run = NavReplay<f32, NAV_N>;
+
+    /// Why a replay failed.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
+    enum FirmwareError {
+        /// Argument or file access.
+        Host(HostError),
+        /// The replay is not valid.
+        Log(NavReplayError),
+        /// A record before the setup (cannot happen with a valid replay; kept total).
+        NoSetup,
+        /// The navigator refused the setup or a record.
+        Nav(NavError),
+    }
+
+    impl From<HostError> for FirmwareError {
+        fn from(e: HostError) -> Self {
+            Self::Host(e)
+        }
+    }
+
+    /// The run (navigator, filter, model: about 10 KB) lives in a static, written once the
+    /// setup has been read.
+    static mut RUN: MaybeUninit<Run> = MaybeUninit::uninit();
+
+    #[entry]
+    fn main() -> ! {
+        semihost::paint_stack();
+        let status = match run() {
+            Ok((records, epochs)) => {
+                defmt::info!("replay done records={=u32} epochs={=u32}", records, epochs);
+                EXIT_SUCCESS
+            }
+            Err(e) => {
+                defmt::error!("replay failed: {}", e);
+                EXIT_FAILURE
+            }
+        };
+        semihost::report_stack("run");
+        semihost::exit(status)
+    }
+
+    /// Builds the run in [`RUN`] (its own frame: the temporaries of the navigator's
+    /// construction are not part of the record loop's stack).
+    #[inline(never)]
+    fn init(setup: &NavSetup) -> Result<&'static mut Run, FirmwareError> {
+        let run = Run::new(setup).map_err(FirmwareError::Nav)?;
+        // SAFETY: called once, before any other reference to RUN exists.
+        let slot = unsafe { &mut *core::ptr::addr_of_mut!(RUN) };
+        Ok(slot.write(run))
+    }
+
+    #[inline(never)]
+    fn run() -> Result<(u32, u32), FirmwareError> {
+        let mut name = [0u8; semihost::CMDLINE_LEN];
+        let path = semihost::arg(0, &mut name, DEFAULT_LOG)?;
+        let mut file = HostFile::open(path)?;
+        let _syst = semihost::timer();
+        let mut decoder = Decoder::new();
+        let mut buf = [0u8; CHUNK];
+        let mut nav: Option<&'static mut Run> = None;
+        let (mut imu, mut step, mut fuse) =
+            (Counts::default(), Counts::default(), Counts::default());
+        let (mut n_imu, mut epochs) = (0u32, 0u32);
+        loop {
+            let n = file.read(&mut buf)?;
+            let Some(chunk) = buf.get(..n).filter(|c| !c.is_empty()) else {
+                break;
+            };
+            for &byte in chunk {
+                match decoder.push(byte).map_err(FirmwareError::Log)? {
+                    None => {}
+                    Some(Event::Setup) => {
+                        let setup = decoder.setup().ok_or(FirmwareError::NoSetup)?;
+                        nav = Some(init(setup)?);
+                        // Start-up and steady state are measured apart: paint again.
+                        semihost::report_stack("init");
+                        semihost::paint_stack();
+                    }
+                    Some(Event::Record(Record::Imu(r))) => {
+                        let run = nav.as_deref_mut().ok_or(FirmwareError::NoSetup)?;
+                        let t0 = SYST::get_current();
+                        let stepped = run.imu(&r).map_err(FirmwareError::Nav)?;
+                        let t1 = SYST::get_current();
+                        let class = if stepped { &mut step } else { &mut imu };
+                        class.add(semihost::instructions(t0, t1), n_imu);
+                        n_imu = n_imu.wrapping_add(1);
+                    }
+                    Some(Event::Record(Record::Gnss(r))) => {
+                        let run = nav.as_deref_mut().ok_or(FirmwareError::NoSetup)?;
+                        let t0 = SYST::get_current();
+                        let fused = run.gnss(&r).map_err(FirmwareError::Nav)?;
+                        let t1 = SYST::get_current();
+                        if fused.is_some() {
+                            fuse.add(semihost::instructions(t0, t1), epochs);
+                        }
+                        let e = run.epoch(&r, fused.as_ref());
+                        let [vn, ve, vd] = e.vel;
+                        let [sn, se, sd] = e.sd_pos;
+                        defmt::info!(
+                            "nav t={=f64} lat={=f64} lon={=f64} h={=f64} vn={=f32} ve={=f32} vd={=f32} sdn={=f32} sde={=f32} sdd={=f32} flags={=u8}",
+                            e.t, e.pos.lat, e.pos.lon, e.pos.h, vn, ve, vd, sn, se, sd, e.flags
+                        );
+                        epochs = epochs.wrapping_add(1);
+                    }
+                }
+            }
+        }
+        imu.log("imu");
+        step.log("step");
+        fuse.log("gnss");
+        let records = decoder.finish().map_err(FirmwareError::Log)?;
+        Ok((records, epochs))
+    }
+
+    #[cfg(not(feature = "prove-no-panic"))]
+    #[panic_handler]
+    fn panic(_info: &core::panic::PanicInfo) -> ! {
+        // No defmt here: the panic may come from inside the logger, which is not re-entrant.
+        semihost::exit(EXIT_FAILURE)
+    }
+
+    // With `prove-no-panic` the panic handler is the library's (`imu_ident::panic_proof`).
+
+    #[exception]
+    unsafe fn HardFault(_frame: &ExceptionFrame) -> ! {
+        semihost::exit(EXIT_FAILURE)
+    }
+}

@@ -1,0 +1,199 @@
+//! Tests of the navigation replay format (`super`).
+
+extern crate std;
+use super::*;
+use crate::model::{Component, GaussMarkov, RandomWalk, WhiteNoise};
+use std::vec;
+use std::vec::Vec;
+
+fn setup() -> NavSetup {
+    let mut imu = ImuErrorModel::default();
+    let _ = imu.set_all_gyro(&[
+        Component::White(WhiteNoise { density: 6.6e-5 }),
+        Component::GaussMarkov(GaussMarkov {
+            sigma: 5e-4,
+            tau: 300.0,
+        }),
+    ]);
+    let _ = imu.set_all_accel(&[Component::RandomWalk(RandomWalk {
+        q: 1e-8,
+        sigma0: 1e-3,
+    })]);
+    let _ = imu.accel[2].push(Component::White(WhiteNoise { density: 1e-3 }));
+    NavSetup {
+        t0: 1.0e6 + 0.01,
+        pos: Geodetic {
+            lat: 0.9,
+            lon: -0.2,
+            h: 120.5,
+        },
+        att: Quat::from_euler(0.01, -0.02, 1.5),
+        vel: [0.0, 0.1, -0.2],
+        gyro_bias: Some([1e-4, -2e-4, 3e-5]),
+        imu,
+        init: NavInit {
+            sd_att: Vector3::new(0.01, 0.01, 0.05),
+            sd_vel: 0.1,
+            sd_pos: 1.0,
+        },
+        lever_arm: [0.5, 0.0, -1.0],
+        obs_sd: [0.5, 0.5, 1.0, 0.1, 0.1, 0.2],
+        step: 1.0,
+        gate: Some(1.0),
+        max_imu_gap: 0.1,
+        max_rejections: 3,
+        sd_factor: [1.0, 2.0],
+        heading_sd: 0.035,
+        scale_factor_sd: Some([0.01, 0.002]),
+    }
+}
+
+fn records(n: usize) -> Vec<Record> {
+    (0..n)
+        .map(|k| {
+            let t = 1.0e6 + 0.01 * (k + 2) as f64;
+            if k % 5 == 4 {
+                Record::Gnss(GnssRecord {
+                    t,
+                    pos: Geodetic {
+                        lat: 0.9 + k as f64 * 1e-9,
+                        lon: -0.2,
+                        h: 121.0,
+                    },
+                    vel: [1.0, f32::NAN, 0.0],
+                    sd_pos: [0.5, 0.5, 1.0],
+                    sd_vel: [f32::NAN; 3],
+                    flags: gnss_flags::FUSE | gnss_flags::HEADING,
+                    yaw: 0.3,
+                })
+            } else {
+                Record::Imu(ImuRecord {
+                    t,
+                    gyro: [1e-3, -2e-3, k as f32 * 1e-4],
+                    accel: [0.1, 0.2, -9.8],
+                })
+            }
+        })
+        .collect()
+}
+
+fn encoded(s: &NavSetup, r: &[Record]) -> Vec<u8> {
+    let mut out = Vec::new();
+    encode(s, r, |b| out.extend_from_slice(b)).unwrap_or_else(|e| panic!("{e}"));
+    out
+}
+
+fn decoded(bytes: &[u8]) -> Result<(Option<NavSetup>, Vec<Record>), NavReplayError> {
+    let mut dec = Decoder::new();
+    let mut setup = None;
+    let mut recs = Vec::new();
+    for &b in bytes {
+        match dec.push(b)? {
+            Some(Event::Setup) => setup = dec.setup().cloned(),
+            Some(Event::Record(r)) => recs.push(r),
+            None => {}
+        }
+    }
+    dec.finish()?;
+    Ok((setup, recs))
+}
+
+fn same_bits(a: &Record, b: &Record) -> bool {
+    // NaN fields: compare the encodings.
+    encoded(&setup(), &[*a]) == encoded(&setup(), &[*b])
+}
+
+#[test]
+fn round_trip_is_bit_exact() {
+    let s = setup();
+    let r = records(23);
+    let bytes = encoded(&s, &r);
+    let imu_n = r.iter().filter(|x| matches!(x, Record::Imu(_))).count();
+    let comps = 3 * 2 + 3 + 1;
+    assert_eq!(
+        bytes.len(),
+        HEADER_LEN
+            + SETUP_LEN
+            + comps * COMPONENT_LEN
+            + imu_n * (1 + IMU_LEN)
+            + (r.len() - imu_n) * (1 + GNSS_LEN)
+            + TRAILER_LEN
+    );
+    let (back_s, back_r) = decoded(&bytes).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(back_s.as_ref(), Some(&s));
+    assert_eq!(back_r.len(), r.len());
+    for (a, b) in r.iter().zip(&back_r) {
+        assert!(same_bits(a, b), "{a:?} != {b:?}");
+    }
+}
+
+#[test]
+fn no_gate_no_bias_and_no_records_round_trip() {
+    let mut s = setup();
+    s.gate = None;
+    s.gyro_bias = None;
+    s.imu = ImuErrorModel::default();
+    let (back, recs) = decoded(&encoded(&s, &[])).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(back, Some(s));
+    assert!(recs.is_empty());
+}
+
+#[test]
+fn every_truncation_and_bit_flip_is_detected() {
+    let bytes = encoded(&setup(), &records(6));
+    for n in 0..bytes.len() {
+        assert!(decoded(&bytes[..n]).is_err(), "length {n}");
+    }
+    for i in 0..bytes.len() * 8 {
+        let mut bad = bytes.clone();
+        bad[i / 8] ^= 1 << (i % 8);
+        assert!(decoded(&bad).is_err(), "bit {i} flipped undetected");
+    }
+    let mut long = bytes;
+    long.push(0);
+    assert_eq!(decoded(&long), Err(NavReplayError::TrailingData));
+}
+
+#[test]
+fn header_errors_are_specific() {
+    let good = encoded(&setup(), &records(2));
+    let mut bad = good.clone();
+    bad[0] = b'X';
+    assert_eq!(decoded(&bad), Err(NavReplayError::BadMagic));
+    let mut bad = good.clone();
+    bad[4] = 9;
+    assert_eq!(decoded(&bad), Err(NavReplayError::BadVersion));
+    let mut bad = good;
+    bad[HEADER_LEN + SETUP_LEN - 7] = 9; // gyro x: 9 components
+    assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
+}
+
+#[test]
+fn arbitrary_bytes_never_panic() {
+    let mut s: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut next = || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        s
+    };
+    let good = encoded(&setup(), &records(8));
+    for _ in 0..3000 {
+        let mut bytes: Vec<u8> = if next() % 2 == 0 {
+            let len = (next() % 600) as usize;
+            (0..len).map(|_| next() as u8).collect()
+        } else {
+            let mut b = good.clone();
+            for _ in 0..1 + next() % 3 {
+                let i = (next() as usize) % b.len();
+                b[i] = next() as u8;
+            }
+            b.truncate((next() as usize) % (good.len() + 1));
+            b
+        };
+        if next() % 4 == 0 {
+            bytes = vec![0u8; (next() % 400) as usize];
+        }
+        let _ = decoded(&bytes);
+    }
+}
