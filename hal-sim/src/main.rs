@@ -92,6 +92,11 @@ enum Command {
         /// standard deviations GYRO,ACCEL (dimensionless: 0.01 = 1 %).
         #[arg(long, value_delimiter = ',')]
         scale_factors: Option<Vec<f64>>,
+        /// Also run the navigation firmware ELF (imu-ident-nav-qemu) on QEMU with the same
+        /// inputs and options; writes firmware.json (parity with the host, instruction counts,
+        /// stack). Not with --identify: pass the identified model and options instead.
+        #[arg(long, conflicts_with = "identify")]
+        qemu_elf: Option<PathBuf>,
         /// Added to every IMU time [s] (a residual logging delay).
         #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
         imu_time_shift: f64,
@@ -329,6 +334,7 @@ fn main() -> Result<()> {
             scale_factors,
             imu_time_shift,
             truth,
+            qemu_elf,
         } => {
             // Read first: a bad truth file should stop the command before the run.
             let truth_rows = truth
@@ -392,6 +398,27 @@ fn main() -> Result<()> {
             };
             hal_sim::nav::records::write_outputs(&out, &run, cmp.as_ref(), id.as_ref())?;
             println!("{}", serde_json::to_string_pretty(&run.summary)?);
+            if let Some(elf) = qemu_elf {
+                let imu = hal_sim::nav_io::read_imu_csv(&args.imu)?;
+                let fixes = hal_sim::nav_io::read_gnss_any(&args.gnss, args.max_q)?;
+                let fw = hal_sim::nav_qemu::compare_with_host(&elf, &args, &imu, &fixes, &run)?;
+                hal_sim::output::write_string(
+                    &out.join("firmware.json"),
+                    &serde_json::to_string_pretty(&fw)?,
+                )?;
+                eprintln!(
+                    "firmware: exit {}, {} epochs, worst position difference from the host {:.2e} sigma",
+                    if fw.exit_success { "ok" } else { "FAILED" },
+                    fw.epochs[0],
+                    fw.worst_position_diff_sigma
+                );
+                if !fw.exit_success {
+                    anyhow::bail!(
+                        "the navigation firmware failed (see {})",
+                        out.join("firmware.json").display()
+                    );
+                }
+            }
         }
         Command::SimulateDrive {
             hours,

@@ -245,3 +245,59 @@ fn decode_nav(elf_bytes: &[u8], stream: &[u8]) -> Result<NavFirmwareRun> {
     }
     Ok(run)
 }
+
+/// `firmware.json` of `hal-sim nav --qemu-elf`: the firmware's run of the same log, set
+/// against the host's.
+#[derive(Debug, Clone, Serialize)]
+pub struct FirmwareComparison {
+    /// The ELF run.
+    pub elf: String,
+    /// The firmware exited with success.
+    pub exit_success: bool,
+    /// Epochs reported by the firmware and by the host.
+    pub epochs: [usize; 2],
+    /// Worst position difference firmware minus host over the common epochs, N/E/D, in units
+    /// of the host's position standard deviation.
+    pub worst_position_diff_sigma: f64,
+    /// Instruction counts (`imu`, `step`, `gnss`).
+    pub icount: Vec<Icount>,
+    /// Stack high-water marks.
+    pub stack: Vec<Stack>,
+}
+
+/// Runs `elf` on the log of `host` (same `args`, same samples and fixes) and compares.
+pub fn compare_with_host(
+    elf: &Path,
+    args: &NavArgs,
+    imu: &[ImuSample],
+    fixes: &[GnssFix],
+    host: &crate::nav::NavRun,
+) -> Result<FirmwareComparison> {
+    let fw = run_nav_firmware(elf, args, imu, fixes, &QemuConfig::default())?;
+    let mut worst = 0.0f64;
+    for e in &fw.epochs {
+        let k = host.epochs.partition_point(|h| h.t < e.t - 1e-9);
+        let Some(h) = host.epochs.get(k).filter(|h| (h.t - e.t).abs() < 1e-9) else {
+            continue;
+        };
+        let ne = crate::nav_io::outages::north_east(
+            h.lat_deg,
+            h.lon_deg,
+            h.h,
+            e.lat.to_degrees(),
+            e.lon.to_degrees(),
+        );
+        let d = [ne[0], ne[1], h.h - e.h];
+        for (x, s) in d.iter().zip(h.sd_pos.iter()) {
+            worst = worst.max(x.abs() / s);
+        }
+    }
+    Ok(FirmwareComparison {
+        elf: elf.display().to_string(),
+        exit_success: fw.success(),
+        epochs: [fw.epochs.len(), host.epochs.len()],
+        worst_position_diff_sigma: worst,
+        icount: fw.icount,
+        stack: fw.stack,
+    })
+}
