@@ -167,7 +167,9 @@ impl<T: Real> StrapdownErrorModel<T> {
         if self.scale_factor_sd.is_some() {
             let k = self.scale_factor_start();
             for (j, v) in x.iter().skip(k).take(6).enumerate() {
-                s[j / 3][j % 3] = *v;
+                if let Some(slot) = s.get_mut(j / 3).and_then(|s| s.get_mut(j % 3)) {
+                    *slot = *v;
+                }
             }
         }
         (s[0], s[1])
@@ -315,11 +317,13 @@ impl<T: Real> StrapdownErrorModel<T> {
             let k = self.scale_factor_start();
             for j in 0..3 {
                 for r in 0..3 {
-                    a[ATT + r][k + j] = c[(r, j)] * p.mean_w_b[j];
-                    a[VEL + r][k + 3 + j] = c[(r, j)] * p.mean_f_b[j];
+                    let cw = c.get((r, j)).zip(p.mean_w_b.get(j)).map(|(x, y)| *x * *y);
+                    let cf = c.get((r, j)).zip(p.mean_f_b.get(j)).map(|(x, y)| *x * *y);
+                    set(&mut a, ATT + r, k + j, cw);
+                    set(&mut a, VEL + r, k + 3 + j, cf);
                 }
-                p0[k + j][k + j] = sd[0] * sd[0];
-                p0[k + 3 + j][k + 3 + j] = sd[1] * sd[1];
+                set(&mut p0, k + j, k + j, Some(sd[0] * sd[0]));
+                set(&mut p0, k + 3 + j, k + 3 + j, Some(sd[1] * sd[1]));
             }
         }
         let ini = &self.init;
