@@ -198,6 +198,14 @@ fn estimates_dict<'py>(py: Python<'py>, rows: &[EstimateRow]) -> PyResult<Bound<
             rows.iter().map(f).collect::<Vec<f64>>().into_pyarray(py),
         )?;
     }
+    // The step's telemetry flags (`imu_ident::telemetry::FLAG_NAMES`), as integers.
+    d.set_item(
+        "flags",
+        rows.iter()
+            .map(|r| r.flags)
+            .collect::<Vec<u16>>()
+            .into_pyarray(py),
+    )?;
     Ok(d)
 }
 
