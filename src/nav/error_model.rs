@@ -214,9 +214,7 @@ impl<T: Real> StrapdownErrorModel<T> {
 
     /// Physical `(A, Qc, P0)` over the active states, and the observation rows `H`.
     #[allow(non_snake_case, clippy::type_complexity)]
-    fn physical<const N: usize>(
-        &self,
-    ) -> Result<(Arr<T, N>, Arr<T, N>, Arr<T, N>, [[T; N]; NAV_Z]), ModelError> {
+    fn physical<const N: usize>(&self) -> Result<(Arr<T, N>, Arr<T, N>, Arr<T, N>), ModelError> {
         let n = self.states();
         if n > N {
             return Err(ModelError::TooManyStates);
@@ -332,6 +330,14 @@ impl<T: Real> StrapdownErrorModel<T> {
             p0[VEL + i][VEL + i] = ini.sd_vel * ini.sd_vel;
             p0[POS + i][POS + i] = ini.sd_pos * ini.sd_pos;
         }
+        Ok((a, qc, p0))
+    }
+
+    /// The observation rows `H` in the states scaled by `scale` and the default variances
+    /// `R` (module docs, "Observations"): all a fusion needs, without building `A` and `Qc`.
+    pub fn observation<const N: usize>(&self, scale: &[T; N]) -> ([[T; N]; NAV_Z], [T; NAV_Z]) {
+        use nav_idx::{ATT, POS, VEL};
+        let (p, c) = (&self.point, &self.point.c_bn);
         // Observation rows with the lever arm.
         let mut hm = [[T::zero(); N]; NAV_Z];
         let l_n = c * self.lever_arm;
@@ -345,7 +351,16 @@ impl<T: Real> StrapdownErrorModel<T> {
                 hm[3 + i][ATT + j] = sv[(i, j)];
             }
         }
-        Ok((a, qc, p0, hm))
+        for row in hm.iter_mut() {
+            for (h, s) in row.iter_mut().zip(scale.iter()) {
+                *h *= *s;
+            }
+        }
+        let mut r = [T::zero(); NAV_Z];
+        for (r, sd) in r.iter_mut().zip(self.obs_sd.iter()) {
+            *r = *sd * *sd;
+        }
+        (hm, r)
     }
 }
 
@@ -391,7 +406,7 @@ impl<T: Real, const N: usize> ErrorModel<T, N, NAV_Z> for StrapdownErrorModel<T>
 
     #[allow(non_snake_case)]
     fn system(&self, scale: &[T; N]) -> Result<ContinuousSystem<T, N, NAV_Z>, ModelError> {
-        let (mut A, mut Qc, mut P0, mut H) = self.physical::<N>()?;
+        let (mut A, mut Qc, mut P0) = self.physical::<N>()?;
         let n = self.states();
         // Zipped rather than indexed (no bounds checks left for the no-panic link check).
         let rows = A.iter_mut().zip(Qc.iter_mut()).zip(P0.iter_mut());
@@ -403,15 +418,7 @@ impl<T: Real, const N: usize> ErrorModel<T, N, NAV_Z> for StrapdownErrorModel<T>
                 *p /= *si * *sj;
             }
         }
-        for row in H.iter_mut() {
-            for (h, s) in row.iter_mut().zip(scale.iter()) {
-                *h *= *s;
-            }
-        }
-        let mut R = [T::zero(); NAV_Z];
-        for (r, sd) in R.iter_mut().zip(self.obs_sd.iter()) {
-            *r = *sd * *sd;
-        }
+        let (H, R) = self.observation(scale);
         let finite = A.iter().chain(Qc.iter()).flatten().all(|v| v.is_finite());
         if !finite {
             return Err(ModelError::NonFinite);

@@ -396,8 +396,8 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         }
         self.propagate()?;
         self.linearise();
-        let sys =
-            <StrapdownErrorModel<T> as ErrorModel<T, N, NAV_Z>>::system(&self.model, &self.scale)?;
+        // Only H and R: A and Qc were built by the propagation just done.
+        let (h, r0) = self.model.observation(&self.scale);
         let c = self.ins.dcm();
         let v = self.ins.velocity();
         // Antenna position at the fix time, minus the fix, in NED metres (f64: the difference
@@ -416,7 +416,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         ];
         let v_ant = v + c * self.w_b.cross(&self.model.lever_arm);
         let mut z = [T::zero(); NAV_Z];
-        let mut r = sys.R;
+        let mut r = r0;
         for i in 0..3 {
             z[i] = T::lit(d[i]);
             z[3 + i] = v_ant[i] - fix.vel[i];
@@ -428,7 +428,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
                 r[3 + i] = sv * sv;
             }
         }
-        let fused = self.fuse_gated(&z, &sys.H, &r);
+        let fused = self.fuse_gated(&z, &h, &r);
         self.close_loop()?;
         Ok(fused)
     }

@@ -66,8 +66,8 @@ pub struct Epoch<T> {
 /// Flag of [`Epoch::flags`]: the fix was offered to the filter and gated.
 pub const EPOCH_GATED: u8 = 0x80;
 
-/// `p` moved by the NED offset `d` [m] (first order; offsets of metres). The host's
-/// `hal_sim::nav::move_by`, here for the firmware's epoch output.
+/// `p` moved by the NED offset `d` [m] (first order; offsets of metres): the epoch solution
+/// moved back to the fix time, on the host (`hal_sim::nav::move_by`) and the firmware alike.
 pub fn move_by(p: &Geodetic, d: &Vector3<f64>) -> Geodetic {
     let rn = earth::radius_north(p.lat) + p.h;
     let re = earth::radius_east(p.lat) + p.h;

@@ -25,7 +25,7 @@ use crate::nav_io::{self, score_outages, GnssFix, ImuSample, OutageSpec, OutageS
 use anyhow::{bail, Result};
 use imu_ident::filter::AxisStatus;
 use imu_ident::nav::{GnssFix as CoreFix, NavInit, NAV_N};
-use imu_ident::strapdown::{earth, Geodetic, Increment};
+use imu_ident::strapdown::{Geodetic, Increment};
 use imu_ident::Real;
 use nalgebra::Vector3;
 use std::path::PathBuf;
@@ -74,6 +74,45 @@ pub struct NavArgs {
     pub scale_factor_sd: Option<[f64; 2]>,
     /// Added to every IMU time [s] (a residual logging delay; identified by `--identify`).
     pub imu_time_shift: f64,
+}
+
+impl NavArgs {
+    /// A run of `imu` and `gnss` with `model` and the command's defaults (`hal-sim nav --help`):
+    /// 1-s step, 20-s levelling, heading from the course above 2 m/s, gyro biases seeded at
+    /// rest, initial sd 2/2/10 deg, 0.1 m/s, 1 m, gate 1, velocity fused, f64, no outages,
+    /// no lever arm.
+    pub fn new(
+        imu: PathBuf,
+        gnss: PathBuf,
+        model: imu_ident::nav::ImuErrorModel<f64>,
+        model_name: &str,
+    ) -> Self {
+        Self {
+            imu,
+            gnss,
+            max_q: 2,
+            model,
+            model_name: model_name.into(),
+            outages: None,
+            lever_arm: [0.0; 3],
+            step: 1.0,
+            align: 20.0,
+            yaw_deg: None,
+            yaw_speed: 2.0,
+            static_gyro_bias: true,
+            init: NavInit {
+                sd_att: Vector3::new(2f64, 2.0, 10.0).map(f64::to_radians),
+                sd_vel: 0.1,
+                sd_pos: 1.0,
+            },
+            gate: Some(1.0),
+            use_velocity: true,
+            single: false,
+            gnss_sd_factor: [1.0, 1.0],
+            scale_factor_sd: None,
+            imu_time_shift: 0.0,
+        }
+    }
 }
 
 /// Everything a run produced.
@@ -271,13 +310,5 @@ fn to_core_fix<T: Real>(f: &GnssFix, use_velocity: bool) -> CoreFix<T> {
     }
 }
 
-/// `p` moved by the NED offset `d` [m] (first order; offsets of metres).
-pub fn move_by(p: &Geodetic, d: &Vector3<f64>) -> Geodetic {
-    let rn = earth::radius_north(p.lat) + p.h;
-    let re = earth::radius_east(p.lat) + p.h;
-    Geodetic {
-        lat: p.lat + d.x / rn,
-        lon: p.lon + d.y / (re * p.lat.cos()),
-        h: p.h - d.z,
-    }
-}
+/// `p` moved by the NED offset `d` [m]: the core's, which the firmware uses too.
+pub use imu_ident::nav::run::move_by;
