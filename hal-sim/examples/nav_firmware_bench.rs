@@ -14,21 +14,8 @@ use hal_sim::nav::{run_with, NavArgs, NavRun};
 use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, read_truth_csv};
 use hal_sim::nav_qemu::{run_nav_firmware, NavEpoch};
 use hal_sim::qemu::QemuConfig;
-use imu_ident::nav::{ImuErrorModel, NavInit};
+use imu_ident::nav::NavInit;
 use nalgebra::Vector3;
-
-fn to_core(m: &hal_sim::trajectory::errors::ImuErrorModel) -> Result<ImuErrorModel<f64>> {
-    let mut out = ImuErrorModel::default();
-    for (src, dst) in [(&m.gyro, &mut out.gyro), (&m.accel, &mut out.accel)] {
-        for (s, d) in src.iter().zip(dst.iter_mut()) {
-            for c in s {
-                d.push(*c)
-                    .map_err(|_| anyhow::anyhow!("too many components"))?;
-            }
-        }
-    }
-    Ok(out)
-}
 
 /// Worst position difference over the host's sigma (N, E, D), and its RMS.
 fn parity(fw: &[NavEpoch], host: &NavRun) -> Result<(f64, f64)> {
@@ -69,29 +56,21 @@ fn main() -> Result<()> {
     )?;
     let truth = read_truth_csv(&dir.path().join("truth.csv"))?;
     let args = NavArgs {
-        imu: dir.path().join("imu.csv"),
-        gnss: dir.path().join("gnss.csv"),
-        max_q: 2,
-        model: to_core(&hal_sim::trajectory::errors::ImuErrorModel::mems())?,
-        model_name: "mems (true)".into(),
-        outages: None,
-        lever_arm: [0.0; 3],
-        step: 1.0,
         align: 50.0,
         yaw_deg: Some(truth[0].rpy_deg[2]),
-        yaw_speed: 2.0,
         static_gyro_bias: false,
         init: NavInit {
             sd_att: Vector3::repeat(1f64.to_radians()),
             sd_vel: 0.1,
             sd_pos: 1.0,
         },
-        gate: Some(1.0),
-        use_velocity: true,
         single: true,
-        gnss_sd_factor: [1.0, 1.0],
-        scale_factor_sd: None,
-        imu_time_shift: 0.0,
+        ..NavArgs::new(
+            dir.path().join("imu.csv"),
+            dir.path().join("gnss.csv"),
+            hal_sim::trajectory::errors::ImuErrorModel::mems().to_core()?,
+            "mems (true)",
+        )
     };
     let imu = read_imu_csv(&args.imu)?;
     let fixes = read_gnss_csv(&args.gnss)?;

@@ -50,16 +50,10 @@ fn firmware_elf() -> Option<PathBuf> {
     }
 }
 
-fn to_core(m: &hal_sim::trajectory::errors::ImuErrorModel) -> ImuErrorModel<f64> {
-    let mut out = ImuErrorModel::default();
-    for (src, dst) in [(&m.gyro, &mut out.gyro), (&m.accel, &mut out.accel)] {
-        for (s, d) in src.iter().zip(dst.iter_mut()) {
-            for c in s {
-                d.push(*c).unwrap_or_else(|_| panic!("too many components"));
-            }
-        }
-    }
-    out
+fn mems() -> ImuErrorModel<f64> {
+    hal_sim::trajectory::errors::ImuErrorModel::mems()
+        .to_core()
+        .unwrap_or_else(|e| panic!("{e:#}"))
 }
 
 /// The simulated drive and the run's options (those of nav_sim.rs, with the gyro bias seeded
@@ -76,11 +70,6 @@ fn drive(dir: &std::path::Path) -> NavArgs {
     let truth =
         hal_sim::nav_io::read_truth_csv(&dir.join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
     NavArgs {
-        imu: dir.join("imu.csv"),
-        gnss: dir.join("gnss.csv"),
-        max_q: 2,
-        model: to_core(&hal_sim::trajectory::errors::ImuErrorModel::mems()),
-        model_name: "mems (true)".into(),
         outages: Some(hal_sim::nav_io::OutageSpec {
             start: 250.0,
             len: 30.0,
@@ -88,22 +77,20 @@ fn drive(dir: &std::path::Path) -> NavArgs {
             margin: 60.0,
         }),
         lever_arm: [0.3, 0.0, -0.8],
-        step: 1.0,
         align: 50.0,
         yaw_deg: Some(truth[0].rpy_deg[2]),
-        yaw_speed: 2.0,
-        static_gyro_bias: true,
         init: NavInit {
             sd_att: Vector3::repeat(1f64.to_radians()),
             sd_vel: 0.1,
             sd_pos: 1.0,
         },
-        gate: Some(1.0),
-        use_velocity: true,
         single: true,
-        gnss_sd_factor: [1.0, 1.0],
-        scale_factor_sd: None,
-        imu_time_shift: 0.0,
+        ..NavArgs::new(
+            dir.join("imu.csv"),
+            dir.join("gnss.csv"),
+            mems(),
+            "mems (true)",
+        )
     }
 }
 
@@ -298,28 +285,15 @@ fn qemu_firmware_nav_rejects_a_corrupt_replay() {
 /// The options of [`drive`] for a log already written in `dir`.
 fn drive_args_static(dir: &std::path::Path) -> NavArgs {
     NavArgs {
-        imu: dir.join("imu.csv"),
-        gnss: dir.join("gnss.csv"),
-        max_q: 2,
-        model: to_core(&hal_sim::trajectory::errors::ImuErrorModel::mems()),
-        model_name: "mems".into(),
-        outages: None,
-        lever_arm: [0.0; 3],
-        step: 1.0,
         align: 50.0,
         yaw_deg: Some(0.0),
-        yaw_speed: 2.0,
         static_gyro_bias: false,
         init: NavInit {
             sd_att: Vector3::repeat(1f64.to_radians()),
             sd_vel: 0.1,
             sd_pos: 1.0,
         },
-        gate: Some(1.0),
-        use_velocity: true,
         single: true,
-        gnss_sd_factor: [1.0, 1.0],
-        scale_factor_sd: None,
-        imu_time_shift: 0.0,
+        ..NavArgs::new(dir.join("imu.csv"), dir.join("gnss.csv"), mems(), "mems")
     }
 }

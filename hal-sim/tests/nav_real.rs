@@ -20,8 +20,6 @@ use hal_sim::nav::{identify, run_with, NavArgs};
 use hal_sim::nav_io::drive::{import, DriveImport};
 use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, OutageSpec};
 use hal_sim::shared_data::{present, real_dir};
-use imu_ident::nav::NavInit;
-use nalgebra::Vector3;
 
 #[test]
 fn real_drive_identified_model_is_consistent_and_no_worse_than_hand_inflated() {
@@ -45,33 +43,18 @@ fn real_drive_identified_model_is_consistent_and_no_worse_than_hand_inflated() {
     let samples = read_imu_csv(&dir.path().join("imu.csv")).unwrap_or_else(|e| panic!("{e:#}"));
     let fixes = read_gnss_csv(&dir.path().join("gnss.csv")).unwrap_or_else(|e| panic!("{e:#}"));
     let args = NavArgs {
-        imu: dir.path().join("imu.csv"),
-        gnss: dir.path().join("gnss.csv"),
-        max_q: 2,
-        model: hal_sim::nav::model::load("drive-datasheet").unwrap_or_else(|e| panic!("{e:#}")),
-        model_name: "drive-datasheet".into(),
         outages: Some(
             "40,15,45,30"
                 .parse::<OutageSpec>()
                 .unwrap_or_else(|e| panic!("{e:#}")),
         ),
         lever_arm: meta.antenna_from_imu,
-        step: 1.0,
-        align: 20.0,
-        yaw_deg: None,
-        yaw_speed: 2.0,
-        static_gyro_bias: true,
-        init: NavInit {
-            sd_att: Vector3::new(2f64, 2.0, 10.0).map(f64::to_radians),
-            sd_vel: 0.1,
-            sd_pos: 1.0,
-        },
-        gate: Some(1.0),
-        use_velocity: true,
-        single: false,
-        gnss_sd_factor: [1.0, 1.0],
-        scale_factor_sd: None,
-        imu_time_shift: 0.0,
+        ..NavArgs::new(
+            dir.path().join("imu.csv"),
+            dir.path().join("gnss.csv"),
+            hal_sim::nav::model::load("drive-datasheet").unwrap_or_else(|e| panic!("{e:#}")),
+            "drive-datasheet",
+        )
     };
     let datasheet = run_with::<f64>(&args, &samples, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let inflated_args = NavArgs {

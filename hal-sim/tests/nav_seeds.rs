@@ -41,20 +41,16 @@ fn tactical() -> SimModel {
     )
 }
 
-fn to_core(m: &SimModel, k: f64) -> ImuErrorModel<f64> {
-    let mut out = ImuErrorModel::default();
-    for (src, dst) in [(&m.gyro, &mut out.gyro), (&m.accel, &mut out.accel)] {
-        for (s, d) in src.iter().zip(dst.iter_mut()) {
-            for c in s {
-                let mut c = *c;
-                match &mut c {
-                    Component::White(w) => w.density *= k,
-                    Component::GaussMarkov(g) => g.sigma *= k,
-                    Component::RandomWalk(r) => r.q *= k * k,
-                    Component::RandomConstant(r) => r.sigma *= k,
-                    Component::ExpCosine(e) => e.sigma *= k,
-                }
-                d.push(c).unwrap_or_else(|_| panic!("too many components"));
+fn scaled(m: &SimModel, k: f64) -> ImuErrorModel<f64> {
+    let mut out = m.to_core().unwrap_or_else(|e| panic!("{e:#}"));
+    for axis in out.gyro.iter_mut().chain(out.accel.iter_mut()) {
+        for c in axis.iter_mut() {
+            match c {
+                Component::White(w) => w.density *= k,
+                Component::GaussMarkov(g) => g.sigma *= k,
+                Component::RandomWalk(r) => r.q *= k * k,
+                Component::RandomConstant(r) => r.sigma *= k,
+                Component::ExpCosine(e) => e.sigma *= k,
             }
         }
     }
@@ -115,29 +111,20 @@ fn nav_over_seeds() {
                 read_truth_csv(&dir.path().join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
             for (k, frac, outage_err) in cases.iter_mut() {
                 let args = NavArgs {
-                    imu: dir.path().join("imu.csv"),
-                    gnss: dir.path().join("gnss.csv"),
-                    max_q: 2,
-                    model: to_core(&sim, *k),
-                    model_name: format!("{grade} x{k}"),
-                    outages: None,
-                    lever_arm: [0.0; 3],
-                    step: 1.0,
                     align: 50.0,
                     yaw_deg: Some(truth[0].rpy_deg[2]),
-                    yaw_speed: 2.0,
                     static_gyro_bias: false,
                     init: NavInit {
                         sd_att: Vector3::repeat(1f64.to_radians()),
                         sd_vel: 0.1,
                         sd_pos: 1.0,
                     },
-                    gate: Some(1.0),
-                    use_velocity: true,
-                    single: false,
-                    gnss_sd_factor: [1.0, 1.0],
-                    scale_factor_sd: None,
-                    imu_time_shift: 0.0,
+                    ..NavArgs::new(
+                        dir.path().join("imu.csv"),
+                        dir.path().join("gnss.csv"),
+                        scaled(&sim, *k),
+                        &format!("{grade} x{k}"),
+                    )
                 };
                 let run = run_with::<f64>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
                 let mut out = [0.0; 3];

@@ -16,18 +16,6 @@ use imu_ident::model::Component;
 use imu_ident::nav::{ImuErrorModel, NavInit};
 use nalgebra::Vector3;
 
-fn to_core(m: &hal_sim::trajectory::errors::ImuErrorModel) -> ImuErrorModel<f64> {
-    let mut out = ImuErrorModel::default();
-    for (src, dst) in [(&m.gyro, &mut out.gyro), (&m.accel, &mut out.accel)] {
-        for (s, d) in src.iter().zip(dst.iter_mut()) {
-            for c in s {
-                d.push(*c).unwrap_or_else(|_| panic!("too many components"));
-            }
-        }
-    }
-    out
-}
-
 fn scaled(m: &ImuErrorModel<f64>, k: f64) -> ImuErrorModel<f64> {
     let mut m = m.clone();
     for axis in m.gyro.iter_mut().chain(m.accel.iter_mut()) {
@@ -106,31 +94,24 @@ fn navigator_is_consistent_on_a_simulated_drive() {
     let imu = read_imu_csv(&dir.path().join("imu.csv")).unwrap_or_else(|e| panic!("{e:#}"));
     let fixes = read_gnss_csv(&dir.path().join("gnss.csv")).unwrap_or_else(|e| panic!("{e:#}"));
     let truth = read_truth_csv(&dir.path().join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
-    let model = to_core(&hal_sim::trajectory::errors::ImuErrorModel::mems());
+    let model = hal_sim::trajectory::errors::ImuErrorModel::mems()
+        .to_core()
+        .unwrap_or_else(|e| panic!("{e:#}"));
     let args = NavArgs {
-        imu: dir.path().join("imu.csv"),
-        gnss: dir.path().join("gnss.csv"),
-        max_q: 2,
-        model: model.clone(),
-        model_name: "mems (true)".into(),
-        outages: None,
-        lever_arm: [0.0; 3],
-        step: 1.0,
-        align: 50.0,
         yaw_deg: Some(truth[0].rpy_deg[2]),
-        yaw_speed: 2.0,
+        align: 50.0,
         static_gyro_bias: false,
         init: NavInit {
             sd_att: Vector3::repeat(1f64.to_radians()),
             sd_vel: 0.1,
             sd_pos: 1.0,
         },
-        gate: Some(1.0),
-        use_velocity: true,
-        single: false,
-        gnss_sd_factor: [1.0, 1.0],
-        scale_factor_sd: None,
-        imu_time_shift: 0.0,
+        ..NavArgs::new(
+            dir.path().join("imu.csv"),
+            dir.path().join("gnss.csv"),
+            model.clone(),
+            "mems (true)",
+        )
     };
     let run = run_with::<f64>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let e = errors(&run, &truth, 60.0);

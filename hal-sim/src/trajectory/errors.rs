@@ -55,6 +55,25 @@ impl ImuErrorModel {
         Self::same_on_all_axes(&gyro, &accel)
     }
 
+    /// The core navigator's model of the same components (at most
+    /// [`imu_ident::nav::MAX_AXIS_COMPONENTS`] per axis).
+    pub fn to_core(&self) -> Result<imu_ident::nav::ImuErrorModel<f64>> {
+        let mut out = imu_ident::nav::ImuErrorModel::default();
+        for (src, dst) in [(&self.gyro, &mut out.gyro), (&self.accel, &mut out.accel)] {
+            for (s, d) in src.iter().zip(dst.iter_mut()) {
+                for c in s {
+                    d.push(*c).map_err(|_| {
+                        anyhow::anyhow!(
+                            "more than {} components on one axis",
+                            imu_ident::nav::MAX_AXIS_COMPONENTS
+                        )
+                    })?;
+                }
+            }
+        }
+        Ok(out)
+    }
+
     /// The same components on all three axes of each sensor.
     pub fn same_on_all_axes(gyro: &[Component<f64>], accel: &[Component<f64>]) -> Self {
         Self {
