@@ -32,21 +32,70 @@ pub fn simulation_steps(hours: Option<f64>, dt: f64) -> Result<usize> {
 /// `run`: replays a log through the firmware's 1 Hz step ([`imu_ident::step`], in double
 /// precision); writes `estimates.csv`, `params.csv`, `acf.csv` and `summary.json` into `out`.
 /// With `adapt`, the step identifies the noise model online, starting from the given model;
-/// `params.csv` logs the parameters at each re-identification and the summary gains
-/// `identified_model` (model-TOML structure).
+/// `params.csv` logs the parameters (and their Cramér-Rao deviations) at each
+/// re-identification, the summary gains `identified_model` (model-TOML structure), and
+/// `report.html` shows the parameters over time against their Cramér-Rao intervals (and
+/// against `truth` when given), and the start and identified models side by side on the log.
 pub fn run(
     log_path: &Path,
     model_path: &Path,
     out: &Path,
     adapt: bool,
+    truth_path: Option<&Path>,
 ) -> Result<serde_json::Value> {
     let model = model_toml::load(model_path)?;
+    let truth = truth_path.map(model_toml::load).transpose()?;
     let rows = log::read(log_path)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let cfg = imu_ident::adapt::AdaptConfig::default();
     let r = replay::run::<f64>(&model, adapt.then_some(&cfg), &rows)?;
     let end = r.end_model()?;
-    write_run(out, &rows, &r.telemetry, adapt.then_some(&end))
+    let json = write_run(out, &rows, &r.telemetry, adapt.then_some(&end))?;
+    if adapt {
+        write_run_report(
+            log_path,
+            out,
+            &rows,
+            &model,
+            &end,
+            &r.telemetry,
+            truth.as_ref(),
+        )?;
+    }
+    Ok(json)
+}
+
+/// `report.html` of an adaptive run: the start model and the identified one (each run fixed on
+/// the log), the truth when known, and the parameters over time with their intervals.
+fn write_run_report(
+    log_path: &Path,
+    out: &Path,
+    rows: &[log::LogRow],
+    start: &imu_ident::model::InsModel<f64>,
+    end: &imu_ident::model::InsModel<f64>,
+    tel: &Telemetry,
+    truth: Option<&imu_ident::model::InsModel<f64>>,
+) -> Result<()> {
+    let mut runs = vec![
+        crate::compare::evaluate("start model", start, rows)?,
+        crate::compare::evaluate("identified model (end of run)", end, rows)?,
+    ];
+    if let Some(t) = truth {
+        runs.push(crate::compare::evaluate("truth", t, rows)?);
+    }
+    let extra = format!(
+        "<h2>Online identification over time</h2>{}",
+        crate::report::parameter_plots(&tel.param_rows(), truth, rows.last().map_or(0.0, |r| r.t))?
+    );
+    let html = crate::report::html_with(
+        &format!("Online identification on {}", log_path.display()),
+        &runs,
+        rows,
+        None,
+        "The identified model is the one the online identification ended with; both models are replayed fixed on the whole log for the table and plots.",
+        &extra,
+    )?;
+    write_string(&out.join("report.html"), &html)
 }
 
 /// `qemu`: runs the firmware ELF under QEMU on the log with the model; writes the files of
@@ -276,7 +325,11 @@ pub fn demo(effect: Option<&str>, seed: Option<u64>, hours: f64, out: &Path) -> 
     let tel = crate::replay::run::<f64>(&nominal, Some(&cfg), &rows)?.telemetry;
     let adaptive = format!(
         "<h2>Online identification (run --adapt from the nominal model)</h2>{}",
-        crate::report::parameter_plots(&tel.param_rows(), Some(&truth))?
+        crate::report::parameter_plots(
+            &tel.param_rows(),
+            Some(&truth),
+            rows.last().map_or(0.0, |r| r.t)
+        )?
     );
     let html = crate::report::html_with(
         "imu-ident demo: find the missing effect",

@@ -143,6 +143,10 @@ enum Command {
         /// Identify the noise model online (adaptive loop), starting from --model.
         #[arg(long)]
         adapt: bool,
+        /// True model TOML (simulated logs): drawn in report.html beside the identified
+        /// parameters (with --adapt).
+        #[arg(long)]
+        truth: Option<PathBuf>,
     },
     /// Reproduce the paper's Fig. 3-5 on the `paper` scenario as SVG files.
     Figures {
@@ -436,8 +440,9 @@ fn main() -> Result<()> {
             model,
             out,
             adapt,
+            truth,
         } => {
-            let s = commands::run(&log, &model, &out, adapt)?;
+            let s = commands::run(&log, &model, &out, adapt, truth.as_deref())?;
             println!("{}", serde_json::to_string_pretty(&s)?);
         }
         Command::Qemu {

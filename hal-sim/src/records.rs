@@ -181,6 +181,22 @@ pub struct ParamRow {
     pub sigma: f64,
     /// Oscillation frequency [rad/s] (NaN unless exponential-cosine).
     pub beta: f64,
+    /// Cramér-Rao standard deviation of `ln tau` from the online identification's windowed
+    /// Fisher information (NaN when `tau` is not identified online).
+    pub sd_ln_tau: f64,
+    /// The same for `ln sigma`.
+    pub sd_ln_sigma: f64,
+    /// The same for `ln beta`.
+    pub sd_ln_beta: f64,
+}
+
+impl ParamRow {
+    /// The approximate 95 % Cramér-Rao interval `value * exp(±1.96 sd)` of a value and the
+    /// standard deviation of its logarithm; `None` when either is not finite.
+    pub fn interval95(value: f64, sd_ln: f64) -> Option<(f64, f64)> {
+        let k = (1.96 * sd_ln).exp();
+        (value.is_finite() && k.is_finite() && sd_ln >= 0.0).then(|| (value / k, value * k))
+    }
 }
 
 /// One row of `acf.csv`.
@@ -197,7 +213,8 @@ pub fn write_estimates(path: &Path, rows: &[EstimateRow]) -> Result<()> {
     write_csv(path, rows)
 }
 
-/// Writes the parameters-over-time log as CSV (`t,sensor,component,kind,tau,sigma,beta`).
+/// Writes the parameters-over-time log as CSV
+/// (`t,sensor,component,kind,tau,sigma,beta,sd_ln_tau,sd_ln_sigma,sd_ln_beta`).
 pub fn write_params_csv(path: &Path, rows: &[ParamRow]) -> Result<()> {
     write_csv(path, rows)
 }

@@ -91,6 +91,9 @@ impl Telemetry {
                 tau: f64::from(p.tau),
                 sigma: f64::from(p.sigma),
                 beta: f64::from(p.beta),
+                sd_ln_tau: f64::from(p.sd_tau),
+                sd_ln_sigma: f64::from(p.sd_sigma),
+                sd_ln_beta: f64::from(p.sd_beta),
             })
             .collect()
     }

@@ -106,6 +106,7 @@ pub fn chart(
             .configure_mesh()
             .x_desc(x_label)
             .y_desc(y_label)
+            .y_label_formatter(&|v| axis_label(*v))
             .draw()
             .map_err(err)?;
         for b in bands {
@@ -179,6 +180,19 @@ pub fn sig4(v: f64, unit: &str) -> String {
         num
     } else {
         format!("{num} {unit}")
+    }
+}
+
+/// An axis tick label: [`sig4`] without its trailing zeros (`2500`, `0.025`, `4.85e-7`), so
+/// that values far from 1 do not all print as `0.0`.
+pub fn axis_label(v: f64) -> String {
+    let s = sig4(v, "");
+    match s.split_once('e') {
+        Some((m, e)) if m.contains('.') => {
+            format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.'))
+        }
+        None if s.contains('.') => s.trim_end_matches('0').trim_end_matches('.').to_string(),
+        _ => s,
     }
 }
 
@@ -308,16 +322,20 @@ pub fn tilt_plot(run: &ModelRun, log: &[LogRow]) -> Result<Option<String>> {
     .map(Some)
 }
 
-/// What the reports cannot draw about the online identification: the Cramér-Rao interval of
-/// each parameter needs its standard deviation in the parameter records, which they do not carry.
-pub const NO_CR_SD: &str = "No Cramér-Rao interval: the parameter records (imu_ident::step::ParamRecord, params.csv) carry tau, sigma and beta but not their Cramér-Rao standard deviations; the firmware would have to report them.";
+/// How the parameter plots' shaded intervals are obtained (printed under them).
+pub const CR_INTERVAL_NOTE: &str = "Shaded: the approximate 95 % Cramér-Rao interval, value x exp(±1.96 sd), where sd is the standard deviation of the logarithm of the value from the Fisher information the online identification gathered over its exponential window as the window weighs it (params.csv's sd_ln_* columns: the sandwich variance of the windowed estimate). An interval appears once that information is positive definite; it is clipped to a third of the smallest and three times the largest plotted value, so that the weak early intervals do not flatten the plot.";
 
 /// One plot per identified parameter of a `run --adapt` (its `params` records) over time, with
-/// the true value when the truth model is known (same sensor, component index and kind).
+/// its Cramér-Rao interval as a shaded band, and the true value when the truth model is known
+/// (same sensor, component index and kind).
+/// Each value holds until the next re-identification, so the lines and bands are drawn as
+/// steps, the last one to `t_end` [s] (the end of the run).
 pub fn parameter_plots(
     params: &[crate::records::ParamRow],
     truth: Option<&imu_ident::model::InsModel<f64>>,
+    t_end: f64,
 ) -> Result<String> {
+    use crate::records::ParamRow;
     let mut truth_rows = Vec::new();
     if let Some(m) = truth {
         imu_ident::telemetry::model_params(m, 0, 0.0, |p| truth_rows.push(*p));
@@ -334,11 +352,18 @@ pub fn parameter_plots(
             .iter()
             .filter(|p| (p.sensor, p.component, p.kind) == (sensor, comp, kind))
             .collect();
-        let t1 = rows.last().map_or(0.0, |p| p.t / 3600.0);
+        let last_t = rows.last().map_or(0.0, |p| p.t);
+        let t1 = t_end.max(last_t) / 3600.0;
+        // Start of each record's hold and the start of the next (the last holds to `t1`).
+        let holds: Vec<(f64, f64)> = rows
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (p.t / 3600.0, rows.get(i + 1).map_or(t1, |q| q.t / 3600.0)))
+            .collect();
         let true_row = truth_rows.iter().find(|r| {
             r.sensor.name() == sensor && usize::from(r.component) == comp && r.kind.name() == kind
         });
-        type Get = fn(&crate::records::ParamRow) -> f64;
+        type Get = fn(&ParamRow) -> (f64, f64);
         type GetTrue = fn(&imu_ident::step::ParamRecord) -> f32;
         let base = match sensor {
             "accel" => "m/s^2",
@@ -352,36 +377,67 @@ pub fn parameter_plots(
             _ => base.to_string(),
         };
         let fields: [(&str, &str, Get, GetTrue); 3] = [
-            ("tau", "s", |p| p.tau, |r| r.tau),
-            ("sigma", &sigma_unit, |p| p.sigma, |r| r.sigma),
-            ("beta", "rad/s", |p| p.beta, |r| r.beta),
+            ("tau", "s", |p| (p.tau, p.sd_ln_tau), |r| r.tau),
+            (
+                "sigma",
+                &sigma_unit,
+                |p| (p.sigma, p.sd_ln_sigma),
+                |r| r.sigma,
+            ),
+            ("beta", "rad/s", |p| (p.beta, p.sd_ln_beta), |r| r.beta),
         ];
         for (name, unit, get, get_true) in fields {
             let pts: Vec<(f64, f64)> = rows
                 .iter()
-                .map(|p| (p.t / 3600.0, get(p)))
+                .zip(&holds)
+                .flat_map(|(p, &(a, b))| [(a, get(p).0), (b, get(p).0)])
                 .filter(|q| q.1.is_finite())
                 .collect();
             if pts.is_empty() {
                 continue;
             }
+            let truth_v = true_row
+                .map(|r| f64::from(get_true(r)))
+                .filter(|v| v.is_finite());
+            let (vmin, vmax) = pts
+                .iter()
+                .map(|q| q.1)
+                .chain(truth_v)
+                .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
+            let band_pts: Vec<(f64, f64, f64)> = rows
+                .iter()
+                .zip(&holds)
+                .filter_map(|(p, &(a, b))| {
+                    let (v, sd) = get(p);
+                    let (lo, hi) = ParamRow::interval95(v, sd)?;
+                    let (lo, hi) = (lo.max(vmin / 3.0), hi.min(3.0 * vmax));
+                    Some([(a, lo, hi), (b, lo, hi)])
+                })
+                .flatten()
+                .collect();
+            let bands: Vec<Band> = if band_pts.is_empty() {
+                Vec::new()
+            } else {
+                vec![Band {
+                    name: "95 % Cramér-Rao interval".to_string(),
+                    pts: band_pts,
+                }]
+            };
             let mut series = vec![("identified".to_string(), pts)];
-            if let Some(v) = true_row.map(|r| f64::from(get_true(r))) {
-                if v.is_finite() {
-                    series.push((format!("truth {}", sig4(v, unit)), vec![(0.0, v), (t1, v)]));
-                }
+            if let Some(v) = truth_v {
+                series.push((format!("truth {}", sig4(v, unit)), vec![(0.0, v), (t1, v)]));
             }
             html += &chart(
                 &format!("Online identification: {sensor} {comp} ({kind}) {name}"),
                 "t [h]",
                 &format!("{name} [{unit}]"),
                 &series,
-                &[],
+                &bands,
                 &[],
             )?;
         }
     }
-    html += &format!("<p>{}</p>", esc(NO_CR_SD));
+    html += &format!("<p>{}</p>", esc(CR_INTERVAL_NOTE));
     Ok(html)
 }
 

@@ -7,6 +7,7 @@
 //! seeds) and the horizontal error at the end of the outages (RMS over outages and seeds).
 
 use hal_sim::nav::{run_with, NavArgs};
+use hal_sim::nav_io::outages::OutageSpec;
 use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, read_truth_csv};
 use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
 use hal_sim::trajectory::gnss::GnssConfig;
@@ -97,10 +98,9 @@ fn nav_over_seeds() {
                 lon: 7f64.to_radians(),
                 h: 300.0,
             };
-            let gnss = GnssConfig {
-                outages: outages.clone(),
-                ..GnssConfig::default()
-            };
+            // Every fix is in the file; the run withholds the outages' fixes (`--outages`), so
+            // that it still writes an epoch, scored against the truth, at each withheld fix time.
+            let gnss = GnssConfig::default();
             let drive = simulate_drive(&profile, start, 0.01, &sim, gnss, seed)
                 .unwrap_or_else(|e| panic!("{e:#}"));
             write_drive(dir.path(), &drive).unwrap_or_else(|e| panic!("{e:#}"));
@@ -119,6 +119,12 @@ fn nav_over_seeds() {
                         sd_vel: 0.1,
                         sd_pos: 1.0,
                     },
+                    outages: Some(OutageSpec {
+                        start: outages[0].0 - fixes.first().map_or(0.0, |f| f.t),
+                        len: 60.0,
+                        period: 1200.0,
+                        margin: 180.0,
+                    }),
                     ..NavArgs::new(
                         dir.path().join("imu.csv"),
                         dir.path().join("gnss.csv"),

@@ -230,6 +230,7 @@ fn assert_parity(model: &InsModel<f64>, adapt: bool, rows: &[LogRow], what: &str
     );
     assert_eq!(fw.params.len(), h.params.len(), "{what}: parameter records");
     let mut worst_param = 0.0f64;
+    let mut worst_sd = 0.0f64;
     for (a, b) in fw.params.iter().zip(&h.params) {
         assert_eq!(
             (a.k, a.sensor, a.component, a.kind),
@@ -247,6 +248,20 @@ fn assert_parity(model: &InsModel<f64>, adapt: bool, rows: &[LogRow], what: &str
             );
             worst_param = worst_param.max(r);
         }
+        // The Cramér-Rao deviations: the same quantities reported, and equal within 5 % (a
+        // square root of an f32 sandwich product of the summed information).
+        for (x, y) in [
+            (a.sd_tau, b.sd_tau),
+            (a.sd_sigma, b.sd_sigma),
+            (a.sd_beta, b.sd_beta),
+        ] {
+            assert_eq!(x.is_nan(), y.is_nan(), "{what}: {a:?} vs {b:?}");
+            if y.is_finite() {
+                let r = f64::from((x - y).abs() / y.abs());
+                assert!(r <= 0.05, "{what}: sd differs by {r:.2e}: {a:?} vs {b:?}");
+                worst_sd = worst_sd.max(r);
+            }
+        }
     }
     let mean: Vec<String> = run
         .icount
@@ -255,7 +270,8 @@ fn assert_parity(model: &InsModel<f64>, adapt: bool, rows: &[LogRow], what: &str
         .collect();
     eprintln!(
         "QEMU parity ({what}): {} ticks, {} parameter records; worst |delta diff| = \
-         {worst_delta:.2e} sigma, worst parameter diff = {worst_param:.2e}; icount {mean:?}; stack {:?}",
+         {worst_delta:.2e} sigma, worst parameter diff = {worst_param:.2e}, worst sd diff = \
+         {worst_sd:.2e}; icount {mean:?}; stack {:?}",
         h.records.len(),
         h.params.len(),
         run.stack

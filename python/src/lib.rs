@@ -231,6 +231,9 @@ fn params_dict<'py>(
     d.set_item("tau", num(|r| r.tau))?;
     d.set_item("sigma", num(|r| r.sigma))?;
     d.set_item("beta", num(|r| r.beta))?;
+    d.set_item("sd_ln_tau", num(|r| r.sd_ln_tau))?;
+    d.set_item("sd_ln_sigma", num(|r| r.sd_ln_sigma))?;
+    d.set_item("sd_ln_beta", num(|r| r.sd_ln_beta))?;
     Ok(d)
 }
 

@@ -196,6 +196,10 @@ pub struct AdaptiveFilter<T: Real> {
     probes: Probes<T>,
     block: Information<T>,
     acc: Information<T>,
+    /// The windowed Fisher information with squared weights (`f^2` per block, `beta^2` per
+    /// move): the middle of the sandwich variance of the windowed estimate
+    /// ([`windowed_sd`](Self::windowed_sd)).
+    acc_sq: Mat<T>,
     total: Information<T>,
     accel_row: StateRow<T>,
     gyro_row: StateRow<T>,
@@ -222,6 +226,7 @@ impl<T: Real> AdaptiveFilter<T> {
         probes: Probes::BLANK,
         block: Information::BLANK,
         acc: Information::BLANK,
+        acc_sq: [[T::ZERO; MAXP]; MAXP],
         total: Information::BLANK,
         accel_row: StateRow::from_array_storage(nalgebra::ArrayStorage([[T::ZERO; 1]; NX])),
         gyro_row: StateRow::from_array_storage(nalgebra::ArrayStorage([[T::ZERO; 1]; NX])),
@@ -297,6 +302,7 @@ impl<T: Real> AdaptiveFilter<T> {
         self.forget = forget;
         self.block = Information::BLANK;
         self.acc = Information::BLANK;
+        self.acc_sq = [[T::zero(); MAXP]; MAXP];
         self.total = Information::BLANK;
         self.accel_row = accel_row;
         self.gyro_row = gyro_row;
@@ -410,6 +416,7 @@ impl<T: Real> AdaptiveFilter<T> {
                 self.bank.reset_states(&w.x, &w.p);
                 self.theta = w.theta;
                 self.acc = Information::default();
+                self.acc_sq = [[T::zero(); MAXP]; MAXP];
                 self.block = Information::default();
                 self.jumps = self.jumps.saturating_add(1);
                 jumped = true;
@@ -437,6 +444,7 @@ impl<T: Real> AdaptiveFilter<T> {
             self.total.score[i] += b.score[i];
             for j in 0..p {
                 self.acc.fisher[i][j] = f * self.acc.fisher[i][j] + b.fisher[i][j];
+                self.acc_sq[i][j] = f * f * self.acc_sq[i][j] + b.fisher[i][j];
                 self.total.fisher[i][j] += b.fisher[i][j];
             }
         }
@@ -487,6 +495,7 @@ impl<T: Real> AdaptiveFilter<T> {
             self.acc.score[i] *= beta;
             for j in 0..p {
                 self.acc.fisher[i][j] *= beta;
+                self.acc_sq[i][j] *= beta * beta;
             }
         }
         self.theta = th;
@@ -531,6 +540,37 @@ impl<T: Real> AdaptiveFilter<T> {
             *v = v.max(T::zero()).sqrt();
         }
         Some(d)
+    }
+
+    /// Standard deviations of `theta` as the window estimates it (`ln` units), the diagonal of
+    /// the sandwich `I_w^-1 J_w I_w^-1`. `I_w = sum_b w_b I_b` is the windowed information
+    /// ([`windowed_information`](Self::windowed_information), weights `w_b = f^age`) and
+    /// `J_w = sum_b w_b^2 I_b`: the covariance of the maximiser of a weighted log-likelihood
+    /// whose blocks carry independent scores of covariance `I_b` (the Cramér-Rao bound of the
+    /// window's data as this estimator weighs them). In steady state it is
+    /// `(1 - f) / ((1 + f) I_b)`, the bound of an unweighted window of `(1 + f) / (1 - f)` blocks,
+    /// half the variance that `I_w^-1` alone would claim. `None` until `I_w` is positive
+    /// definite.
+    pub fn windowed_sd(&self) -> Option<[T; MAXP]> {
+        let p = self.specs.len().min(MAXP);
+        let l = cholesky(&self.acc.fisher, p)?;
+        let mut sd = [T::zero(); MAXP];
+        for (i, out) in sd.iter_mut().enumerate().take(p) {
+            let mut e = [T::zero(); MAXP];
+            if let Some(v) = e.get_mut(i) {
+                *v = T::one();
+            }
+            // u = I_w^-1 e_i, then (I_w^-1 J_w I_w^-1)_ii = u' J_w u.
+            let u = chol_solve(&l, &e, p);
+            let mut v = T::zero();
+            for (a, row) in u.iter().zip(self.acc_sq.iter()).take(p) {
+                for (b, x) in u.iter().zip(row.iter()).take(p) {
+                    v += *a * *x * *b;
+                }
+            }
+            *out = v.max(T::zero()).sqrt();
+        }
+        Some(sd)
     }
 
     /// Parameter updates applied so far.

@@ -56,7 +56,7 @@ pub use crate::telemetry::{model_params, AcfRecord, ParamRecord};
 use crate::adapt::{AdaptConfig, AdaptError, AdaptiveFilter, StepStatus};
 use crate::autocorr::Autocorrelator;
 use crate::filter::{Estimates, InsFilter};
-use crate::model::{InsModel, ModelError, Sensor, StateMat};
+use crate::model::{InsModel, ModelError, Quantity, Sensor, StateMat};
 use crate::telemetry::{
     status_flags, time_flags, Record, TelemetrySink, BAD_INPUT, BRIDGED, GATED_OUTLIER, MISSING,
     PARAM_CLAMPED, P_REPAIRED, SKIPPED, TIME_JUMP,
@@ -449,12 +449,43 @@ impl<T: Real> Estimator<T> {
         sink.record(&r.record);
         if r.reidentified {
             if let Ok(m) = self.model() {
-                model_params(&m, r.record.k, r.record.t, |p| sink.params(p));
+                model_params(&m, r.record.k, r.record.t, |p| {
+                    let mut p = *p;
+                    self.add_crb(&mut p);
+                    sink.params(&p);
+                });
             }
         }
         if r.acf {
             for sensor in [Sensor::Accel, Sensor::Gyro] {
                 sink.acf(&self.acf_identify(sensor, r.record.k, r.record.t));
+            }
+        }
+    }
+
+    /// Fills the record's Cramér-Rao standard deviations (of `ln` of each value) from the
+    /// adaptive filter's windowed Fisher information ([`AdaptiveFilter::windowed_sd`]), for the
+    /// quantities it identifies.
+    /// A random walk's record carries `sqrt(q)`, so its `ln` standard deviation is half that of
+    /// the identified `ln q`.
+    fn add_crb(&self, p: &mut ParamRecord) {
+        let Some(a) = self.adaptive() else {
+            return;
+        };
+        let Some(sd) = a.windowed_sd() else {
+            return;
+        };
+        for (spec, &s) in a.specs().iter().zip(sd.iter()) {
+            if spec.sensor != p.sensor || spec.index != p.component {
+                continue;
+            }
+            let s = s.as_f64() as f32;
+            match spec.kind {
+                Quantity::Tau => p.sd_tau = s,
+                Quantity::Sigma | Quantity::Density => p.sd_sigma = s,
+                Quantity::Q => p.sd_sigma = 0.5 * s,
+                Quantity::Beta => p.sd_beta = s,
+                Quantity::Sigma0 => {}
             }
         }
     }

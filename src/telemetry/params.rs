@@ -11,6 +11,13 @@ use crate::Real;
 /// `tau`, `sigma`, `beta` follow the parameters file of `hal-sim run`: `sigma` is the standard
 /// deviation, or `sqrt(q)` for a random walk, or the density for white noise; NaN where a kind
 /// has no such parameter.
+///
+/// `sd_tau`, `sd_sigma`, `sd_beta` are the Cramér-Rao standard deviations of the *natural
+/// logarithms* of those values (relative standard deviations), from the Fisher information the
+/// online identification gathered over its exponential window, as that window weighs it (the
+/// adaptive filter's `windowed_sd`): the interval `value * exp(±1.96 sd)` is its approximate
+/// 95 % Cramér-Rao interval. NaN when the quantity is not identified online (a fixed model, a quantity beyond
+/// the identification's capacity), or while the information is not yet positive definite.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ParamRecord {
@@ -30,6 +37,12 @@ pub struct ParamRecord {
     pub sigma: f32,
     /// Oscillation frequency [rad/s].
     pub beta: f32,
+    /// Cramér-Rao standard deviation of `ln tau` (see above; NaN: not identified).
+    pub sd_tau: f32,
+    /// Cramér-Rao standard deviation of `ln sigma` (NaN: not identified).
+    pub sd_sigma: f32,
+    /// Cramér-Rao standard deviation of `ln beta` (NaN: not identified).
+    pub sd_beta: f32,
 }
 
 impl ParamRecord {
@@ -68,8 +81,9 @@ impl ParamRecord {
 }
 
 /// Field names of the defmt parameter frame, in order (see [`ParamRecord::log`]).
-pub const PARAM_WIRE_FIELDS: [&str; 8] =
-    ["k", "t", "sensor", "comp", "kind", "tau", "sigma", "beta"];
+pub const PARAM_WIRE_FIELDS: [&str; 11] = [
+    "k", "t", "sensor", "comp", "kind", "tau", "sigma", "beta", "sd_tau", "sd_sigma", "sd_beta",
+];
 
 /// First word of the defmt parameter frame.
 pub const PARAM_WIRE_TAG: &str = "par";
@@ -108,7 +122,7 @@ impl ParamRecord {
     #[cfg(feature = "defmt")]
     pub fn log(&self) {
         defmt::info!(
-            "par k={=u32} t={=f64} sensor={=u8} comp={=u8} kind={=u8} tau={=f32} sigma={=f32} beta={=f32}",
+            "par k={=u32} t={=f64} sensor={=u8} comp={=u8} kind={=u8} tau={=f32} sigma={=f32} beta={=f32} sd_tau={=f32} sd_sigma={=f32} sd_beta={=f32}",
             self.k,
             self.t,
             sensor_code(self.sensor),
@@ -116,7 +130,10 @@ impl ParamRecord {
             self.kind.code(),
             self.tau,
             self.sigma,
-            self.beta
+            self.beta,
+            self.sd_tau,
+            self.sd_sigma,
+            self.sd_beta
         );
     }
 }
@@ -154,6 +171,9 @@ pub fn model_params<T: Real>(m: &InsModel<T>, k: u32, t: f64, mut out: impl FnMu
                 tau: g(s.tau),
                 sigma: g(s.sigma),
                 beta: g(s.beta),
+                sd_tau: nan,
+                sd_sigma: nan,
+                sd_beta: nan,
             });
         }
     }
@@ -167,6 +187,9 @@ pub fn model_params<T: Real>(m: &InsModel<T>, k: u32, t: f64, mut out: impl FnMu
             tau: f(g.tau),
             sigma: f(g.sigma),
             beta: nan,
+            sd_tau: nan,
+            sd_sigma: nan,
+            sd_beta: nan,
         });
     }
 }

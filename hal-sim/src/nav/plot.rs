@@ -105,6 +105,7 @@ pub fn chart(
         c.configure_mesh()
             .x_desc(x_label)
             .y_desc(y_label)
+            .y_label_formatter(&|v| crate::report::axis_label(*v))
             .draw()
             .map_err(err)?;
         let fill = BAND_FILL.mix(0.3).filled();
