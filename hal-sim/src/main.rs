@@ -103,6 +103,17 @@ enum Command {
         /// First identify the noise model on this log (maximum likelihood), then run with it.
         #[arg(long)]
         identify: bool,
+        /// Non-holonomic constraint: the body lateral and vertical velocity at --nhc-lever are
+        /// zero with this standard deviation [m/s], every filter step while moving faster than
+        /// 1 m/s with the heading known (also during outages). Off by default; with --identify
+        /// its factor is identified too.
+        #[arg(long, conflicts_with = "qemu_elf")]
+        nhc: Option<f64>,
+        /// Where the constraint holds, from the IMU, forward,right,down [m] (the body origin).
+        /// Default: minus import.imu_lever of a meta.json beside --imu (hal-sim import-drive),
+        /// else 0,0,0.
+        #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+        nhc_lever: Option<Vec<f64>>,
         /// Factors on the GNSS position,velocity standard deviations.
         #[arg(long, value_delimiter = ',', default_values_t = [1.0, 1.0])]
         gnss_sd_factor: Vec<f64>,
@@ -335,6 +346,8 @@ fn main() -> Result<()> {
             max_q,
             gnss_sd_factor,
             identify,
+            nhc,
+            nhc_lever,
             scale_factors,
             imu_time_shift,
             truth,
@@ -350,6 +363,15 @@ fn main() -> Result<()> {
                     .map_err(|_| anyhow::anyhow!("--{name}: expected three numbers"))
             };
             let sd_att = three(sd_att, "sd-att")?;
+            if let Some(sd) = nhc {
+                if !(sd.is_finite() && sd > 0.0) {
+                    anyhow::bail!("--nhc: expected a positive standard deviation, got {sd}");
+                }
+            }
+            let nhc_lever = match nhc_lever {
+                Some(v) => three(v, "nhc-lever")?,
+                None => hal_sim::nav::nhc_lever_from_meta(&imu)?.unwrap_or([0.0; 3]),
+            };
             let args = hal_sim::nav::NavArgs {
                 imu,
                 gnss,
@@ -380,14 +402,17 @@ fn main() -> Result<()> {
                     })
                     .transpose()?,
                 imu_time_shift,
+                nhc,
+                nhc_lever,
             };
             let (mut run, id) = if identify {
                 let (run, id) = hal_sim::nav::run_identified(&args, &out)?;
                 eprintln!(
-                    "identified: factors {:?} ({}), IMU time shift {:+.4} s, loglik {:.1} -> {:.1} in {} runs",
+                    "identified: factors {:?} ({}), IMU time shift {:+.4} s, constraint sd {:?} m/s, loglik {:.1} -> {:.1} in {} runs",
                     id.factors,
                     hal_sim::nav::identify::FACTORS.join(", "),
                     id.imu_time_shift,
+                    id.nhc_sd,
                     id.loglik_start,
                     id.loglik,
                     id.evaluations

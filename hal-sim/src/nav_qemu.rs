@@ -110,6 +110,10 @@ pub fn replay_records(
 
 /// The replay file of a run with `args` on `imu` and `fixes`.
 pub fn encode_replay(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<Vec<u8>> {
+    if args.nhc.is_some() {
+        // The replay format carries no constraint, and the firmware applies none.
+        anyhow::bail!("the navigation firmware replay has no non-holonomic constraint (--nhc)");
+    }
     let (setup, records) = replay_records(args, imu, fixes)?;
     let mut out = Vec::new();
     encode(&setup, &records, |b| out.extend_from_slice(b))

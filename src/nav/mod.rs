@@ -16,7 +16,7 @@ pub mod run;
 
 pub use error_model::{nav_idx, NavInit, NavPoint, StrapdownErrorModel, NAV_Z};
 pub use imu_model::{AxisModel, ImuErrorModel, ImuSensor, MAX_AXIS_COMPONENTS};
-pub use navigator::{GnssFix, NavConfig, NavError, Navigator, CHI2_9999};
+pub use navigator::{GnssFix, NavConfig, NavError, Navigator, CHI2_9999, NHC_Z};
 pub use replay::NavSetup;
 pub use run::{Epoch, NavReplay};
 

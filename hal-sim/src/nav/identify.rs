@@ -4,7 +4,13 @@
 //! walk, accelerometer bias walk), on the GNSS position and velocity standard deviations and
 //! on a residual IMU time shift (a logging delay makes the innovations grow with the
 //! acceleration), chosen to maximise the innovation log-likelihood of the run (the sum of [`EpochRecord`]
-//! `loglik`, the exact Gaussian likelihood of the fused fixes given the model).
+//! `loglik`, the exact Gaussian likelihood of the fused fixes given the model). With the
+//! non-holonomic constraint on (`--nhc SD`), a factor on its standard deviation is one more
+//! coordinate: the constraint changes the filter's predictions of the next fixes (attitude,
+//! velocity and the sensor errors it helps to estimate), so the GNSS likelihood measures how
+//! much it should be trusted; the constraint's own pseudo-innovations are not in the
+//! likelihood (they are not measurements, and would favour whatever `SD` makes them look
+//! Gaussian). The factor's bounds let the search all but switch the constraint off (x1e3).
 //!
 //! The run sees the same data as the scored run: fixes withheld by the outage schedule are not
 //! used. The search is a pattern search on the base-10 logarithms of the six factors (steps of
@@ -42,8 +48,14 @@ pub const MAX_SHIFT: f64 = 0.5;
 pub struct Identified {
     /// Factors on the standard deviations (file order of [`FACTORS`]).
     pub factors: [f64; 6],
-    /// IMU time shift added to `--imu-time-shift` [s] (the seventh coordinate).
+    /// IMU time shift added to `--imu-time-shift` [s] (the last coordinate).
     pub imu_time_shift: f64,
+    /// Factor on the non-holonomic constraint's standard deviation (with `--nhc`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nhc_sd_factor: Option<f64>,
+    /// The identified standard deviation of the constraint [m/s] (with `--nhc`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nhc_sd: Option<f64>,
     /// Log-likelihood at the start and at the end.
     pub loglik_start: f64,
     /// Log-likelihood of the identified model.
@@ -79,11 +91,16 @@ pub fn identify(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
     let mut a = args.clone();
     a.gate = None;
     let mut evaluations = 0usize;
-    let mut eval = |lg: &[f64; 7]| -> Result<f64> {
+    // Coordinates: the six log-factors, the constraint's log-factor (searched with --nhc
+    // only), the IMU time shift in units of SHIFT_PER_DECADE.
+    const NHC: usize = 6;
+    const SHIFT: usize = 7;
+    let mut eval = |lg: &[f64; 8]| -> Result<f64> {
         let f: [f64; 6] = std::array::from_fn(|i| 10f64.powf(lg[i]));
-        a.imu_time_shift = args.imu_time_shift + lg[6] * SHIFT_PER_DECADE;
+        a.imu_time_shift = args.imu_time_shift + lg[SHIFT] * SHIFT_PER_DECADE;
         a.model = scaled(&args.model, &f);
         a.gnss_sd_factor = [args.gnss_sd_factor[0] * f[4], args.gnss_sd_factor[1] * f[5]];
+        a.nhc = args.nhc.map(|sd| sd * 10f64.powf(lg[NHC]));
         evaluations += 1;
         let ll = run_with::<f64>(&a, imu, fixes)?.summary.loglik;
         Ok(if ll.is_finite() {
@@ -92,7 +109,7 @@ pub fn identify(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
             f64::NEG_INFINITY
         })
     };
-    let mut x = [0.0f64; 7];
+    let mut x = [0.0f64; 8];
     let start = eval(&x)?;
     let mut best = start;
     for step in [1.0, 0.5, 0.25, 0.125] {
@@ -101,15 +118,19 @@ pub fn identify(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
         while improved && passes < 6 {
             improved = false;
             passes += 1;
-            for i in 0..7 {
+            for i in 0..8 {
+                if i == NHC && args.nhc.is_none() {
+                    continue;
+                }
                 for dir in [1.0, -1.0] {
                     let mut y = x;
-                    let bound = if i == 6 {
-                        MAX_SHIFT / SHIFT_PER_DECADE
+                    let (lo, hi) = if i == SHIFT {
+                        let b = MAX_SHIFT / SHIFT_PER_DECADE;
+                        (-b, b)
                     } else {
-                        2.0
+                        (-2.0, 3.0)
                     };
-                    y[i] = (y[i] + dir * step).clamp(-bound, if i == 6 { bound } else { 3.0 });
+                    y[i] = (y[i] + dir * step).clamp(lo, hi);
                     if y[i] == x[i] {
                         continue;
                     }
@@ -125,9 +146,12 @@ pub fn identify(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
         }
     }
     let factors: [f64; 6] = std::array::from_fn(|i| 10f64.powf(x[i]));
+    let nhc_sd_factor = args.nhc.map(|_| 10f64.powf(x[NHC]));
     Ok(Identified {
         factors,
-        imu_time_shift: args.imu_time_shift + x[6] * SHIFT_PER_DECADE,
+        imu_time_shift: args.imu_time_shift + x[SHIFT] * SHIFT_PER_DECADE,
+        nhc_sd_factor,
+        nhc_sd: args.nhc.zip(nhc_sd_factor).map(|(sd, f)| sd * f),
         loglik_start: start,
         loglik: best,
         evaluations,

@@ -74,13 +74,24 @@ pub struct NavArgs {
     pub scale_factor_sd: Option<[f64; 2]>,
     /// Added to every IMU time [s] (a residual logging delay; identified by `--identify`).
     pub imu_time_shift: f64,
+    /// Non-holonomic constraint: standard deviation [m/s] of the body lateral and vertical
+    /// velocity at [`nhc_lever`](Self::nhc_lever), applied every filter step while the heading
+    /// is known and the speed is above [`NHC_MIN_SPEED`] (GNSS or not), or none.
+    pub nhc: Option<f64>,
+    /// The point the constraint holds at, from the IMU, body FRD [m] (the body origin).
+    pub nhc_lever: [f64; 3],
 }
+
+/// Speed [m/s] of the solution from which the non-holonomic constraint is applied: below it
+/// the heading of the velocity is ill-defined and the car may be at rest, where a zero-velocity
+/// update, not this constraint, is the right pseudo-observation.
+pub const NHC_MIN_SPEED: f64 = 1.0;
 
 impl NavArgs {
     /// A run of `imu` and `gnss` with `model` and the command's defaults (`hal-sim nav --help`):
     /// 1-s step, 20-s levelling, heading from the course above 2 m/s, gyro biases seeded at
     /// rest, initial sd 2/2/10 deg, 0.1 m/s, 1 m, gate 1, velocity fused, f64, no outages,
-    /// no lever arm.
+    /// no lever arm, no non-holonomic constraint.
     pub fn new(
         imu: PathBuf,
         gnss: PathBuf,
@@ -111,6 +122,8 @@ impl NavArgs {
             gnss_sd_factor: [1.0, 1.0],
             scale_factor_sd: None,
             imu_time_shift: 0.0,
+            nhc: None,
+            nhc_lever: [0.0; 3],
         }
     }
 }
@@ -160,6 +173,7 @@ pub fn run_identified(
         args.gnss_sd_factor[1] * id.factors[5],
     ];
     a.imu_time_shift = id.imu_time_shift;
+    a.nhc = id.nhc_sd;
     let bar = records::imu_progress(imu.len());
     let run = if a.single {
         run_observed::<f32>(&a, &imu, &fixes, &bar)?
@@ -211,6 +225,12 @@ pub fn run_observed<T: Real>(
 
     // 3. The loop.
     let mut fix_k = fixes.partition_point(|f| f.t < t_start);
+    let nhc_lever = Vector3::from(args.nhc_lever).map(T::lit);
+    let mut nhc = args.nhc.map(|sd| records::NhcSummary {
+        sd,
+        lever: args.nhc_lever,
+        ..Default::default()
+    });
     let mut epochs = Vec::with_capacity(fixes.len());
     bar.set_length((imu.len() - k).saturating_sub(1) as u64);
     bar.reset();
@@ -230,8 +250,23 @@ pub fn run_observed<T: Real>(
             &Vector3::from(b.accel).map(T::lit),
             T::lit(dt),
         );
-        nav.imu(b.t, &inc)
+        let stepped = nav
+            .imu(b.t, &inc)
             .map_err(|e| anyhow::anyhow!("nav: IMU sample at t = {}: {e:?}", b.t))?;
+        // The non-holonomic constraint once per filter step, with or without GNSS: during an
+        // outage it is the only aiding. Not before the heading is known (the constraint would
+        // pull the velocity onto a wrong body axis), nor slower than NHC_MIN_SPEED.
+        if let (true, Some(sum), Some(sd)) = (stepped, nhc.as_mut(), args.nhc) {
+            let speed = nav.ins().velocity().map(|v| v.as_f64()).norm();
+            if planner.heading_known() && speed > NHC_MIN_SPEED {
+                let f = nav
+                    .nhc(T::lit(sd), &nhc_lever)
+                    .map_err(|e| anyhow::anyhow!("nav: constraint at t = {}: {e:?}", b.t))?;
+                let nu = f.innovation.map(|v| v.as_f64());
+                let s = f.variance.map(|v| v.as_f64());
+                sum.add(nu, s, f.gated, planner.withheld_at(b.t));
+            }
+        }
         while fix_k < fixes.len() && fixes[fix_k].t <= b.t {
             let f = fixes[fix_k];
             fix_k += 1;
@@ -277,7 +312,7 @@ pub fn run_observed<T: Real>(
         let reference: Vec<GnssFix> = fixes.to_vec();
         score_outages(&track, &reference, &outages)
     });
-    let summary = NavSummary::new(
+    let mut summary = NavSummary::new(
         args,
         &epochs,
         scores.as_ref(),
@@ -285,12 +320,35 @@ pub fn run_observed<T: Real>(
         started.elapsed().as_secs_f64(),
         heading_known,
     );
+    summary.nhc = nhc.map(records::NhcSummary::finish);
     Ok(NavRun {
         epochs,
         outages: scores,
         fixes: fixes.to_vec(),
         summary,
     })
+}
+
+/// The body origin from the IMU (`-import.imu_lever`, body FRD [m]) from the `meta.json` that
+/// `hal-sim import-drive` writes beside `imu.csv`, if there is one (the default of
+/// `--nhc-lever`: a car's body origin, not its roof, is what does not slide sideways).
+pub fn nhc_lever_from_meta(imu: &std::path::Path) -> Result<Option<[f64; 3]>> {
+    let meta = imu.with_file_name("meta.json");
+    if !meta.is_file() {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(&meta)?;
+    let json: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", meta.display()))?;
+    let Some(lever) = json.pointer("/import/imu_lever").and_then(|v| v.as_array()) else {
+        return Ok(None);
+    };
+    let v: Vec<f64> = lever.iter().filter_map(|x| x.as_f64()).collect();
+    match <[f64; 3]>::try_from(v) {
+        // `0.0 - x`, not `-x`: no negative zeros in the summary.
+        Ok(l) => Ok(Some(l.map(|x| 0.0 - x))),
+        Err(_) => bail!("{}: import.imu_lever is not three numbers", meta.display()),
+    }
 }
 
 /// The core's fix from a host fix (velocity optional).

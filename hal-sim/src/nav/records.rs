@@ -240,6 +240,56 @@ pub struct NavSummary {
     /// Errors against the truth (`--truth`; README "errors.csv").
     #[serde(skip_serializing_if = "Option::is_none")]
     pub truth: Option<super::truth::TruthSummary>,
+    /// The non-holonomic constraint's updates (`--nhc`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nhc: Option<NhcSummary>,
+}
+
+/// What the non-holonomic constraint did over a run (`--nhc`; not part of `loglik`, which is
+/// the GNSS innovations' only: the constraint is a model of the vehicle, not a measurement).
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct NhcSummary {
+    /// Standard deviation of the body lateral and vertical velocity [m/s].
+    pub sd: f64,
+    /// The constrained point from the IMU, body FRD [m].
+    pub lever: [f64; 3],
+    /// Updates made (filter steps with the heading known and the speed above the threshold).
+    pub updates: usize,
+    /// Of which rejected by the gate.
+    pub gated: usize,
+    /// Updates made while GNSS was withheld.
+    pub in_outages: usize,
+    /// Mean per-axis NIS of the accepted updates (body y, z): 1 when `sd` plus the filter's
+    /// own velocity and attitude uncertainty match the spread of the constraint's violation.
+    pub mean_nis_axis: [f64; 2],
+    /// RMS of the pre-fit innovation (the predicted body y, z velocity) [m/s].
+    pub rms_innovation: [f64; 2],
+}
+
+impl NhcSummary {
+    /// Adds one update's pre-fit innovation `nu`, variance `s`, and gate result.
+    pub fn add(&mut self, nu: [f64; 2], s: [f64; 2], gated: bool, withheld: bool) {
+        self.updates += 1;
+        self.in_outages += usize::from(withheld);
+        if gated {
+            self.gated += 1;
+            return;
+        }
+        for i in 0..2 {
+            self.mean_nis_axis[i] += nu[i] * nu[i] / s[i];
+            self.rms_innovation[i] += nu[i] * nu[i];
+        }
+    }
+
+    /// Turns the sums of [`add`](Self::add) into means.
+    pub fn finish(mut self) -> Self {
+        let n = (self.updates - self.gated).max(1) as f64;
+        for i in 0..2 {
+            self.mean_nis_axis[i] /= n;
+            self.rms_innovation[i] = (self.rms_innovation[i] / n).sqrt();
+        }
+        self
+    }
 }
 
 impl NavSummary {
@@ -281,6 +331,7 @@ impl NavSummary {
             outage_max_m: scores.map(|s| s.max),
             outages_scored: scores.map(|s| s.outages.len()),
             truth: None,
+            nhc: None,
         }
     }
 }

@@ -157,6 +157,11 @@ impl FixPlanner {
         self.heading_known
     }
 
+    /// `t` [s] is inside a GNSS outage of the schedule.
+    pub fn withheld_at(&self, t: f64) -> bool {
+        nav_io::outages::withheld(&self.outages, t)
+    }
+
     /// The decisions for the next fix `f`.
     pub fn plan(&mut self, f: &GnssFix) -> Result<FixPlan> {
         let withheld = nav_io::outages::withheld(&self.outages, f.t);
