@@ -131,6 +131,8 @@ fn demo_report_renders_in_headless_chromium() {
         "nominal: ACF of the estimated gyro error vs the model",
         "nominal: tilt error against ±3 sigma",
         "Online identification: gyro 0 (gauss-markov) sigma",
+        // The legend of the shaded Cramér-Rao interval of the identified parameters.
+        "95 % Cramér-Rao interval",
         "what the fit means",
     ] {
         assert!(dom.contains(title), "no {title:?} in the rendered DOM");
