@@ -210,10 +210,14 @@ impl<'de> serde::de::Visitor<'de> for ComponentVisitor {
         let mut values = [None; Quantity::ALL.len()];
         for (key, value) in &fields {
             let Some(i) = names.iter().position(|q| q.name() == key) else {
-                return Err(A::Error::custom(format_args!(
-                    "unknown field `{key}`, expected {}",
-                    one_of(names.iter().map(|q| q.name()))
-                )));
+                return Err(if names.is_empty() {
+                    A::Error::custom(format_args!("unknown field `{key}`, there are no fields"))
+                } else {
+                    A::Error::custom(format_args!(
+                        "unknown field `{key}`, expected {}",
+                        one_of(names.iter().map(|q| q.name()))
+                    ))
+                });
             };
             if values[i].is_some() {
                 return Err(A::Error::duplicate_field(names[i].name()));
