@@ -7,6 +7,7 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, ensure, Result};
+use imu_ident::model::{Component, GaussMarkov, RandomWalk, WhiteNoise};
 use serde::Serialize;
 
 use crate::datasheet::{
@@ -138,7 +139,7 @@ pub fn build(a: &DatasheetArgs) -> Result<FromDatasheet> {
     {
         let mut comps = Vec::new();
         if let Some(n) = n.filter(|&v| v > 0.0) {
-            comps.push(ComponentToml::White { density: n });
+            comps.push(ComponentToml(Component::White(WhiteNoise { density: n })));
         }
         if let Some(b) = b.filter(|&v| v > 0.0) {
             if let Some(gm) = bias_gauss_markov(b, tau_b, n.unwrap_or(0.0), kk.unwrap_or(0.0)) {
@@ -153,18 +154,18 @@ pub fn build(a: &DatasheetArgs) -> Result<FromDatasheet> {
                         gm.sigma, gm.tau
                     )
                 });
-                comps.push(ComponentToml::GaussMarkov {
+                comps.push(ComponentToml(Component::GaussMarkov(GaussMarkov {
                     sigma: gm.sigma,
                     tau: gm.tau,
-                });
+                })));
                 bias_gm[i] = Some(gm);
             }
         }
         if let Some(kk) = kk.filter(|&v| v > 0.0) {
-            comps.push(ComponentToml::RandomWalk {
+            comps.push(ComponentToml(Component::RandomWalk(RandomWalk {
                 q: kk * kk,
                 sigma0: 0.0,
-            });
+            })));
         }
         ensure!(
             !comps.is_empty(),

@@ -19,6 +19,7 @@
 use std::path::Path;
 
 use anyhow::{anyhow, Context, Result};
+use imu_ident::model::Quantity;
 use serde::{Deserialize, Serialize};
 
 use crate::model_toml::{ComponentToml, ModelToml, ObservationToml};
@@ -188,13 +189,21 @@ fn unit_of(section: &str, key: &str) -> Option<String> {
     } else {
         "m/s"
     };
+    // A component's quantity: its unit by the core's table of quantities (a new quantity
+    // does not compile until it has a unit here).
+    if let Some(q) = Quantity::from_name(key) {
+        return Some(match q {
+            Quantity::Tau => "s".into(),
+            Quantity::Beta => "rad/s".into(),
+            Quantity::Sigma | Quantity::Sigma0 => u.into(),
+            Quantity::Density => format!("{u}/sqrt(Hz)"),
+            Quantity::Q => format!("({u})^2/s"),
+        });
+    }
     Some(match key {
-        "dt" | "tau" => "s".into(),
-        "beta" => "rad/s".into(),
-        "sigma" | "sigma0" | "sigma_v" | "sigma_dv" => u.into(),
+        "dt" => "s".into(),
+        "sigma_v" | "sigma_dv" => u.into(),
         "sigma_delta" => "rad".into(),
-        "density" => format!("{u}/sqrt(Hz)"),
-        "q" => format!("({u})^2/s"),
         "hours" => "h".into(),
         _ => return None,
     })
@@ -235,6 +244,7 @@ pub fn round4(x: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use imu_ident::model::{Component, GaussMarkov, WhiteNoise};
 
     #[test]
     fn round_trip_and_one_channel_extraction() {
@@ -247,16 +257,16 @@ mod tests {
             m.gyro
                 .axis_mut(a)
                 .expect("axis")
-                .push(ComponentToml::White {
+                .push(ComponentToml(Component::White(WhiteNoise {
                     density: 2.9362341082725943e-6,
-                });
+                })));
             m.accel
                 .axis_mut(a)
                 .expect("axis")
-                .push(ComponentToml::GaussMarkov {
+                .push(ComponentToml(Component::GaussMarkov(GaussMarkov {
                     sigma: 1e-4,
                     tau: 50.0,
-                });
+                })));
         }
         let text = m.to_text("# test\n").expect("text");
         assert!(

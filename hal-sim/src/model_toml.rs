@@ -16,9 +16,7 @@
 //! ```
 
 use anyhow::{anyhow, Context, Result};
-use imu_ident::model::{
-    Component, ExpCosine, GaussMarkov, InsModel, RandomConstant, RandomWalk, WhiteNoise,
-};
+use imu_ident::model::{Component, ComponentKind, GaussMarkov, InsModel, Quantity};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -27,28 +25,215 @@ use std::path::Path;
 /// the real aiding noise before `hal-sim run` is used on a moving log.
 pub const SIGMA_V_PLACEHOLDER: f64 = 0.03;
 
-/// One component as written in TOML; `kind` selects the variant.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum ComponentToml {
-    /// First-order Gauss-Markov: `sigma` [units], `tau` [s].
-    GaussMarkov { sigma: f64, tau: f64 },
-    /// Exponential-cosine: `sigma`, `tau` [s], `beta` [rad/s].
-    ExpCosine { sigma: f64, tau: f64, beta: f64 },
-    /// Random walk: driving density `q` [units^2/s]; optional initial sigma `sigma0`.
-    RandomWalk {
-        q: f64,
-        #[serde(default, skip_serializing_if = "is_zero")]
-        sigma0: f64,
-    },
-    /// Random constant: `sigma` [units].
-    RandomConstant { sigma: f64 },
-    /// White noise: `density` [units/sqrt(Hz)].
-    White { density: f64 },
+/// One component as written in TOML: `kind = "<name>"` and the kind's quantities, all read and
+/// written through the core's kind table ([`ComponentKind`]: `name`, `quantities` in file
+/// order, `required`), so a kind added to the table needs no change here. An optional
+/// quantity (a random walk's `sigma0`) is zero when absent and left out when zero. Not
+/// validated: [`ComponentToml::to_core`] checks the parameters.
+///
+/// ```
+/// use hal_sim::model_toml::ComponentToml;
+/// use imu_ident::model::{Component, RandomWalk};
+/// let c = ComponentToml(Component::RandomWalk(RandomWalk { q: 0.25, sigma0: 0.0 }));
+/// assert_eq!(toml::to_string(&c).unwrap(), "kind = \"random-walk\"\nq = 0.25\n");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ComponentToml(pub Component<f64>);
+
+impl From<Component<f64>> for ComponentToml {
+    fn from(c: Component<f64>) -> Self {
+        Self(c)
+    }
 }
 
-fn is_zero(x: &f64) -> bool {
-    *x == 0.0
+impl Serialize for ComponentToml {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let kind = self.0.kind();
+        let fields = || {
+            kind.quantities().iter().filter_map(|&q| {
+                let v = self.0.get(q).unwrap_or(0.0);
+                (kind.required(q) || v != 0.0).then_some((q, v))
+            })
+        };
+        let mut st = s.serialize_struct("ComponentToml", 1 + fields().count())?;
+        st.serialize_field("kind", kind.name())?;
+        for (q, v) in fields() {
+            st.serialize_field(q.name(), &v)?;
+        }
+        st.end()
+    }
+}
+
+impl<'de> Deserialize<'de> for ComponentToml {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_map(ComponentVisitor)
+    }
+}
+
+/// `` `a` ``, `` `a` or `b` ``, `` one of `a`, `b`, `c` ``: serde's wording of the expected
+/// names in an error.
+fn one_of<'a>(names: impl ExactSizeIterator<Item = &'a str>) -> String {
+    let n = names.len();
+    let list: Vec<String> = names.map(|x| format!("`{x}`")).collect();
+    match n {
+        1 | 2 => list.join(" or "),
+        _ => format!("one of {}", list.join(", ")),
+    }
+}
+
+/// The `kind` value: a name of the core's table.
+struct KindName(ComponentKind);
+
+impl<'de> Deserialize<'de> for KindName {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl serde::de::Visitor<'_> for V {
+            type Value = KindName;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("variant identifier")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<KindName, E> {
+                ComponentKind::from_name(v).map(KindName).ok_or_else(|| {
+                    let names = ComponentKind::ALL.iter().map(|k| k.name());
+                    E::custom(format_args!(
+                        "unknown variant `{v}`, expected {}",
+                        one_of(names)
+                    ))
+                })
+            }
+        }
+        d.deserialize_identifier(V)
+    }
+}
+
+/// A value of a component table, held until the kind is known (it may come last).
+enum Value {
+    Float(f64),
+    Signed(i64),
+    Unsigned(u64),
+    Bool(bool),
+    Str(String),
+    Seq,
+    Map,
+    Other,
+}
+
+impl Value {
+    /// The number, or serde's "invalid type" error.
+    fn number<E: serde::de::Error>(&self) -> Result<f64, E> {
+        use serde::de::Unexpected as U;
+        let unexpected = match self {
+            Self::Float(x) => return Ok(*x),
+            Self::Signed(x) => return Ok(*x as f64),
+            Self::Unsigned(x) => return Ok(*x as f64),
+            Self::Bool(b) => U::Bool(*b),
+            Self::Str(s) => U::Str(s),
+            Self::Seq => U::Seq,
+            Self::Map => U::Map,
+            Self::Other => U::Other("value"),
+        };
+        Err(E::invalid_type(unexpected, &"f64"))
+    }
+}
+
+impl<'de> Deserialize<'de> for Value {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::{IgnoredAny, MapAccess, SeqAccess};
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = Value;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a value")
+            }
+            fn visit_f64<E>(self, v: f64) -> Result<Value, E> {
+                Ok(Value::Float(v))
+            }
+            fn visit_i64<E>(self, v: i64) -> Result<Value, E> {
+                Ok(Value::Signed(v))
+            }
+            fn visit_u64<E>(self, v: u64) -> Result<Value, E> {
+                Ok(Value::Unsigned(v))
+            }
+            fn visit_bool<E>(self, v: bool) -> Result<Value, E> {
+                Ok(Value::Bool(v))
+            }
+            fn visit_str<E>(self, v: &str) -> Result<Value, E> {
+                Ok(Value::Str(v.to_string()))
+            }
+            fn visit_unit<E>(self) -> Result<Value, E> {
+                Ok(Value::Other)
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut a: A) -> Result<Value, A::Error> {
+                while a.next_element::<IgnoredAny>()?.is_some() {}
+                Ok(Value::Seq)
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut a: A) -> Result<Value, A::Error> {
+                while a.next_entry::<IgnoredAny, IgnoredAny>()?.is_some() {}
+                Ok(Value::Map)
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// Reads a component table: `kind` first (wherever it is), then each field in file order
+/// against the kind's quantities, then the required ones that are missing.
+struct ComponentVisitor;
+
+impl<'de> serde::de::Visitor<'de> for ComponentVisitor {
+    type Value = ComponentToml;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a component table with a `kind`")
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(
+        self,
+        mut map: A,
+    ) -> Result<ComponentToml, A::Error> {
+        use serde::de::Error;
+        let mut kind = None;
+        let mut fields: Vec<(String, Value)> = Vec::new();
+        while let Some(key) = map.next_key::<String>()? {
+            if key == "kind" {
+                if kind.is_some() {
+                    return Err(A::Error::duplicate_field("kind"));
+                }
+                kind = Some(map.next_value::<KindName>()?.0);
+            } else {
+                fields.push((key, map.next_value()?));
+            }
+        }
+        let kind = kind.ok_or_else(|| A::Error::missing_field("kind"))?;
+        let names = kind.quantities();
+        let mut values = [None; Quantity::ALL.len()];
+        for (key, value) in &fields {
+            let Some(i) = names.iter().position(|q| q.name() == key) else {
+                return Err(if names.is_empty() {
+                    A::Error::custom(format_args!("unknown field `{key}`, there are no fields"))
+                } else {
+                    A::Error::custom(format_args!(
+                        "unknown field `{key}`, expected {}",
+                        one_of(names.iter().map(|q| q.name()))
+                    ))
+                });
+            };
+            if values[i].is_some() {
+                return Err(A::Error::duplicate_field(names[i].name()));
+            }
+            values[i] = Some(value.number()?);
+        }
+        let mut v = [0.0; Quantity::ALL.len()];
+        for (i, q) in names.iter().enumerate() {
+            match values[i] {
+                Some(x) => v[i] = x,
+                None if kind.required(*q) => return Err(A::Error::missing_field(q.name())),
+                None => {}
+            }
+        }
+        Ok(ComponentToml(kind.with_quantities(&v[..names.len()])))
+    }
 }
 
 /// A coloured observation-noise term: Gauss-Markov `sigma` [m/s], `tau` [s].
@@ -65,7 +250,7 @@ pub struct ColoredToml {
 }
 
 fn gm_kind() -> String {
-    "gauss-markov".into()
+    ComponentKind::GaussMarkov.name().into()
 }
 
 /// `[observation]`.
@@ -121,41 +306,13 @@ pub struct ModelToml {
 impl ComponentToml {
     /// Converts to the core type, checking the parameters.
     pub fn to_core(&self) -> Result<Component<f64>> {
-        let c = match *self {
-            Self::GaussMarkov { sigma, tau } => {
-                Component::GaussMarkov(GaussMarkov::new(sigma, tau)?)
-            }
-            Self::ExpCosine { sigma, tau, beta } => {
-                Component::ExpCosine(ExpCosine::new(sigma, tau, beta)?)
-            }
-            Self::RandomWalk { q, sigma0 } => Component::RandomWalk(RandomWalk::new(q, sigma0)?),
-            Self::RandomConstant { sigma } => {
-                Component::RandomConstant(RandomConstant::new(sigma)?)
-            }
-            Self::White { density } => Component::White(WhiteNoise::new(density)?),
-        };
-        Ok(c)
+        self.0.validate()?;
+        Ok(self.0)
     }
 
     /// From the core type.
     pub fn from_core(c: &Component<f64>) -> Self {
-        match *c {
-            Component::GaussMarkov(g) => Self::GaussMarkov {
-                sigma: g.sigma,
-                tau: g.tau,
-            },
-            Component::ExpCosine(e) => Self::ExpCosine {
-                sigma: e.sigma,
-                tau: e.tau,
-                beta: e.beta,
-            },
-            Component::RandomWalk(r) => Self::RandomWalk {
-                q: r.q,
-                sigma0: r.sigma0,
-            },
-            Component::RandomConstant(r) => Self::RandomConstant { sigma: r.sigma },
-            Component::White(w) => Self::White { density: w.density },
-        }
+        Self(*c)
     }
 }
 
@@ -164,9 +321,10 @@ impl ModelToml {
     pub fn to_core(&self) -> Result<InsModel<f64>> {
         let mut m = InsModel::empty(self.dt, self.observation.sigma_v);
         for (i, c) in self.observation.colored.iter().enumerate() {
-            if c.kind != "gauss-markov" {
+            if ComponentKind::from_name(&c.kind) != Some(ComponentKind::GaussMarkov) {
                 return Err(anyhow!(
-                    "observation.colored[{i}].kind: expected \"gauss-markov\", found {:?}",
+                    "observation.colored[{i}].kind: expected {:?}, found {:?}",
+                    ComponentKind::GaussMarkov.name(),
                     c.kind
                 ));
             }

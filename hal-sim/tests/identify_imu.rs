@@ -349,8 +349,9 @@ fn units_columns_and_kalibr_input() {
     .expect("from kalibr");
     assert!((m.model.dt - 0.005).abs() < 1e-15);
     let comps = &m.model.gyro.y;
-    assert!(comps.iter().any(|c| matches!(c,
-        hal_sim::model_toml::ComponentToml::White { density } if (*density - 1.6968e-4).abs() < 1e-12)));
-    assert!(comps.iter().any(|c| matches!(c,
-        hal_sim::model_toml::ComponentToml::RandomWalk { q, .. } if (q.sqrt() - 1.9393e-5).abs() < 1e-12)));
+    use imu_ident::model::{Component, RandomWalk, WhiteNoise};
+    assert!(comps.iter().any(|c| matches!(c.0,
+        Component::White(WhiteNoise { density }) if (density - 1.6968e-4).abs() < 1e-12)));
+    assert!(comps.iter().any(|c| matches!(c.0,
+        Component::RandomWalk(RandomWalk { q, .. }) if (q.sqrt() - 1.9393e-5).abs() < 1e-12)));
 }

@@ -16,7 +16,7 @@ use nalgebra::{Matrix2, RowVector2};
 /// |---|---|---|---|---|---|
 /// | Gauss-Markov | `gauss-markov` | 0 | sigma, tau | sigma, tau | tau, sigma, - |
 /// | exponential-cosine | `exp-cosine` | 1 | sigma, tau, beta | sigma, tau | tau, sigma, beta |
-/// | random walk | `random-walk` | 2 | q, sigma0 | q | -, sqrt(q), - |
+/// | random walk | `random-walk` | 2 | q, sigma0 (optional) | q | -, sqrt(q), - |
 /// | random constant | `random-constant` | 3 | sigma | - | -, sigma, - |
 /// | white noise | `white` | 4 | density | density | -, density, - |
 ///
@@ -25,7 +25,12 @@ use nalgebra::{Matrix2, RowVector2};
 /// for k in ComponentKind::ALL {
 ///     assert_eq!(ComponentKind::from_code(k.code()), Some(k));
 ///     assert_eq!(ComponentKind::from_name(k.name()), Some(k));
+///     for q in k.quantities() {
+///         assert_eq!(Quantity::from_name(q.name()), Some(*q));
+///     }
 /// }
+/// assert!(!ComponentKind::RandomWalk.required(Quantity::Sigma0));
+/// assert!(ComponentKind::RandomWalk.required(Quantity::Q));
 /// let mut c = Component::GaussMarkov(GaussMarkov { sigma: 1e-3, tau: 100.0 });
 /// assert!(c.set(Quantity::Tau, 50.0));
 /// assert_eq!(c.get(Quantity::Tau), Some(50.0));
@@ -65,6 +70,21 @@ pub enum Quantity {
 }
 
 impl Quantity {
+    /// Every quantity.
+    pub const ALL: [Self; 6] = [
+        Self::Sigma,
+        Self::Tau,
+        Self::Beta,
+        Self::Q,
+        Self::Sigma0,
+        Self::Density,
+    ];
+
+    /// The quantity spelled `name` in a model TOML.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|q| q.name() == name)
+    }
+
     /// The model-TOML spelling.
     pub const fn name(self) -> &'static str {
         match self {
@@ -129,6 +149,13 @@ impl ComponentKind {
             Self::RandomConstant => &[Quantity::Sigma],
             Self::White => &[Quantity::Density],
         }
+    }
+
+    /// Whether a model file must give quantity `q` of this kind. An optional quantity (a
+    /// random walk's initial sigma) is zero when absent, and a file writer leaves it out when
+    /// it is zero.
+    pub const fn required(self, q: Quantity) -> bool {
+        !matches!((self, q), (Self::RandomWalk, Quantity::Sigma0))
     }
 
     /// The quantities the online identification estimates (in the logarithm), in `theta`

@@ -18,7 +18,9 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use anyhow::{ensure, Context, Result};
-use imu_ident::model::{ComponentKind, Sensor};
+use imu_ident::model::{
+    Component, ComponentKind, ExpCosine, GaussMarkov, RandomWalk, Sensor, WhiteNoise,
+};
 use serde::Serialize;
 
 use crate::allan::{overlapping_adev, write_adev_csv, AdevConfig, AdevRow};
@@ -398,34 +400,34 @@ pub fn model_toml(sensor: SensorArg, terms: &[Term], dt: f64) -> Result<(String,
             }
             Kind::GaussMarkov => kept.push((
                 share,
-                ComponentToml::GaussMarkov {
+                ComponentToml(Component::GaussMarkov(GaussMarkov {
                     sigma: t.var.sqrt(),
                     tau: t.tc,
-                },
+                })),
             )),
             Kind::ExpCosine => kept.push((
                 share,
-                ComponentToml::ExpCosine {
+                ComponentToml(Component::ExpCosine(ExpCosine {
                     sigma: t.var.sqrt(),
                     tau: t.tc,
                     beta: 2.0 * PI / t.period,
-                },
+                })),
             )),
             Kind::RandomWalk => kept.push((
                 share,
-                ComponentToml::RandomWalk {
+                ComponentToml(Component::RandomWalk(RandomWalk {
                     q: t.var,
                     sigma0: 0.0,
-                },
+                })),
             )),
         }
     }
     if white2 > 0.0 {
         kept.push((
             f64::INFINITY,
-            ComponentToml::White {
+            ComponentToml(Component::White(WhiteNoise {
                 density: white2.sqrt(),
-            },
+            })),
         ));
     }
     kept.sort_by(|a, b| b.0.total_cmp(&a.0));
