@@ -84,10 +84,14 @@ fn nav_over_seeds() {
         .map(|s| (s, s + 60.0))
         .collect();
     for (grade, sim) in [("MEMS", SimModel::mems()), ("tactical", tactical())] {
-        let mut cases: Vec<(f64, Vec<[f64; 3]>, Vec<f64>)> = vec![
-            (1.0, vec![], vec![]),
-            (0.1, vec![], vec![]),
-            (10.0, vec![], vec![]),
+        // Per seed: mean NEES, inside its effective-n band, that band, worst 9-axis 3-sigma
+        // fraction.
+        type Nees = (f64, bool, [f64; 2], f64);
+        type Case = (f64, Vec<[f64; 3]>, Vec<f64>, Vec<Nees>);
+        let mut cases: Vec<Case> = vec![
+            (1.0, vec![], vec![], vec![]),
+            (0.1, vec![], vec![], vec![]),
+            (10.0, vec![], vec![], vec![]),
         ];
         for seed in first..first + seeds {
             let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
@@ -109,7 +113,7 @@ fn nav_over_seeds() {
                 read_gnss_csv(&dir.path().join("gnss.csv")).unwrap_or_else(|e| panic!("{e:#}"));
             let truth =
                 read_truth_csv(&dir.path().join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
-            for (k, frac, outage_err) in cases.iter_mut() {
+            for (k, frac, outage_err, nees) in cases.iter_mut() {
                 let args = NavArgs {
                     align: 50.0,
                     yaw_deg: Some(truth[0].rpy_deg[2]),
@@ -150,6 +154,24 @@ fn nav_over_seeds() {
                     n += 1.0;
                 }
                 frac.push(out.map(|x| x / n));
+                // The 9 navigation errors against the truth (the `--truth` statistics): NEES
+                // and every axis's 3-sigma fraction, epochs with a known heading.
+                let cmp = hal_sim::nav::truth::compare(&run.epochs, &truth, "truth.csv")
+                    .unwrap_or_else(|e| panic!("{e:#}"))
+                    .summary;
+                let worst9 = cmp
+                    .outside_3sigma_pos
+                    .iter()
+                    .chain(&cmp.outside_3sigma_vel)
+                    .chain(&cmp.outside_3sigma_att)
+                    .cloned()
+                    .fold(0.0, f64::max);
+                nees.push((
+                    cmp.nees_mean,
+                    cmp.nees_consistent,
+                    cmp.nees_band99_effective,
+                    worst9,
+                ));
                 // Horizontal error at the last IMU-rate truth sample of each outage.
                 for (_, end) in &outages {
                     let Some(i) = run.epochs.iter().rposition(|e| e.t < *end) else {
@@ -166,7 +188,7 @@ fn nav_over_seeds() {
                 }
             }
         }
-        for (k, frac, outage_err) in &cases {
+        for (k, frac, outage_err, nees) in &cases {
             let mut worst_axis: Vec<f64> = frac
                 .iter()
                 .map(|f| f.iter().cloned().fold(0.0, f64::max))
@@ -179,6 +201,16 @@ fn nav_over_seeds() {
             println!(
                 "{grade} noise x{k}: {} seeds x {hours} h; worst-axis fraction outside 3 sigma: median {:.2} %, p95 {:.2} %, worst {:.2} %; horizontal error at the end of {} 60-s outages: RMS {:.2} m",
                 frac.len(), med * 100.0, p95 * 100.0, worst * 100.0, outage_err.len(), rms
+            );
+            let mut m: Vec<f64> = nees.iter().map(|x| x.0).collect();
+            let mut w9: Vec<f64> = nees.iter().map(|x| x.3).collect();
+            let consistent = nees.iter().filter(|x| x.1).count();
+            let band = nees.first().map_or([f64::NAN; 2], |x| x.2);
+            println!(
+                "  9 errors (att, vel, pos) vs truth: mean NEES median {:.2}, p95 {:.2}, worst {:.2}, min {:.2} (9 if consistent); inside the effective-n 99 % band in {consistent}/{} seeds (first seed's band [{:.2}, {:.2}]); worst of the 9 axes outside 3 sigma: median {:.2} %, p95 {:.2} %, worst {:.2} %",
+                quantile(&mut m.clone(), 0.5), quantile(&mut m.clone(), 0.95), quantile(&mut m.clone(), 1.0), quantile(&mut m, 0.0),
+                nees.len(), band[0], band[1],
+                quantile(&mut w9.clone(), 0.5) * 100.0, quantile(&mut w9.clone(), 0.95) * 100.0, quantile(&mut w9, 1.0) * 100.0
             );
         }
     }

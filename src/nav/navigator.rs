@@ -23,8 +23,8 @@
 //! - [`Navigator::zupt`] and [`Navigator::nhc`]: pseudo-observations of a vehicle at rest (zero
 //!   velocity) and of a land vehicle that neither slides sideways nor leaves the road (zero
 //!   body-frame lateral and vertical velocity), through the same gate, fusion and correction.
-//!   The constraint keeps its own count of consecutive gated updates: were it to share the
-//!   GNSS one, an accepted constraint every step would reset it and a GNSS fix after an outage
+//!   Each keeps its own count of consecutive gated updates: were they to share the GNSS one,
+//!   a pseudo-observation accepted every step would reset it and a GNSS fix after an outage
 //!   could be gated for ever.
 
 use super::error_model::{nav_idx, NavPoint, StrapdownErrorModel, NAV_Z};
@@ -132,6 +132,7 @@ pub struct Navigator<T: Real, const N: usize> {
     gaps: u32,
     rejected: u8,
     rejected_nhc: u8,
+    rejected_zupt: u8,
 }
 
 impl<T: Real, const N: usize> Navigator<T, N> {
@@ -175,6 +176,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             gaps: 0,
             rejected: 0,
             rejected_nhc: 0,
+            rejected_zupt: 0,
         })
     }
 
@@ -444,7 +446,9 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         Ok(fused)
     }
 
-    /// Zero-velocity update with standard deviation `sd` [m/s] on each axis.
+    /// Zero-velocity update with standard deviation `sd` [m/s] on each axis, with its own count
+    /// of consecutive rejections (like [`nhc`](Self::nhc): updates accepted every step at rest
+    /// must not reset the count that lets GNSS back in after an outage).
     pub fn zupt(&mut self, sd: T) -> Result<Fused<T, 3>, NavError> {
         self.propagate()?;
         let v = self.ins.velocity();
@@ -459,7 +463,9 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         }
         let z = [v.x, v.y, v.z];
         let r = [sd * sd; 3];
-        let fused = self.fuse_gated(&z, &h, &r);
+        let mut rejected = self.rejected_zupt;
+        let fused = self.fuse_counted(&z, &h, &r, &mut rejected);
+        self.rejected_zupt = rejected;
         self.close_loop()?;
         Ok(fused)
     }
@@ -538,7 +544,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
     }
 
     /// [`fuse`] with the configured gate, skipped after `max_rejections` consecutive
-    /// rejections (the GNSS and zero-velocity count).
+    /// rejections (the GNSS count).
     #[allow(non_snake_case)]
     fn fuse_gated<const Z: usize>(
         &mut self,
@@ -753,5 +759,26 @@ mod tests {
             .unwrap_or_else(|e| panic!("{e:?}"));
         assert!(f.gated);
         assert_eq!((nav.rejected_nhc, nav.rejected), (1, 0));
+    }
+
+    /// A zero-velocity update while the solution moves fast is gated and counted apart from
+    /// the GNSS and constraint counts; one at rest is accepted and resets its own count only.
+    #[test]
+    fn zupt_gated_counter_is_separate() {
+        let v = Vector3::new(10.0, 0.0, 0.0);
+        let mut nav = navigator(Quat::from_euler(0.0, 0.0, 0.0), v, Vector3::zeros());
+        nav.rejected = 2;
+        let f = nav.zupt(0.01).unwrap_or_else(|e| panic!("{e:?}"));
+        assert!(f.gated);
+        assert_eq!(
+            (nav.rejected_zupt, nav.rejected, nav.rejected_nhc),
+            (1, 2, 0)
+        );
+        nav.ins
+            .set_velocity(Vector3::new(0.001, 0.0, 0.0))
+            .unwrap_or_else(|e| panic!("{e:?}"));
+        let f = nav.zupt(0.01).unwrap_or_else(|e| panic!("{e:?}"));
+        assert!(!f.gated);
+        assert_eq!((nav.rejected_zupt, nav.rejected), (0, 2));
     }
 }

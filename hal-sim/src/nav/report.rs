@@ -378,6 +378,26 @@ fn summary_table(run: &NavRun) -> String {
             .join(" / "),
     );
     h += &kv("innovation log-likelihood", sig4(s.loglik, "nats"));
+    if let Some(c) = &s.nhc {
+        h += &kv(
+            "non-holonomic constraint (--nhc): sd, lever F/R/D",
+            format!("{}, {}", sig4(c.sd, "m/s"), three(&c.lever, "m")),
+        );
+        h += &kv(
+            "constraint updates (gated / in outages)",
+            format!("{} ({} / {})", c.updates, c.gated, c.in_outages),
+        );
+        h += &kv(
+            "constraint mean NIS body y, z (1 if consistent); RMS pre-fit innovation",
+            format!(
+                "{} / {}; {} / {}",
+                sig4(c.mean_nis_axis[0], ""),
+                sig4(c.mean_nis_axis[1], ""),
+                sig4(c.rms_innovation[0], "m/s"),
+                sig4(c.rms_innovation[1], "m/s")
+            ),
+        );
+    }
     h += &kv("heading aligned", s.heading_known.to_string());
     h += &kv("IMU gaps > 0.1 s", s.imu_gaps.to_string());
     h += &kv("run time", sig4(s.run_seconds, "s"));
