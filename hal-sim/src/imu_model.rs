@@ -13,8 +13,9 @@
 //!
 //! Each `[[<sensor>.<axis>]]` list uses the component syntax of the one-channel model TOML
 //! ([`crate::model_toml::ComponentToml`]); [`ImuModelToml::channel`] gives the one-channel
-//! model of an axis, which `hal-sim run` can load. Numbers are written with 4 significant
-//! digits and their unit ([`readable_toml`]).
+//! model of an axis, which `hal-sim run` can load. Numbers are written exactly (the shortest
+//! text that reads back to the same value), with their unit and, when long, their 4-digit
+//! reading ([`readable_toml`]).
 
 use std::path::Path;
 
@@ -209,9 +210,10 @@ fn unit_of(section: &str, key: &str) -> Option<String> {
     })
 }
 
-/// Rewrites every `key = number` line of a model TOML with 4 significant digits and its unit
-/// as a comment (`sigma = 2.936e-6  # [rad/s]`), so that the file can be read by a person;
-/// TOML reads `2.936e-6` as the float it shows.
+/// Rewrites every `key = number` line of a model TOML with its exact value, its unit and, when
+/// the exact text is long, its 4-digit reading as a comment
+/// (`sigma = 2.9362341082725943e-6  # [rad/s] ~ 2.936e-6`), so that a person can read the file
+/// and a program reads back exactly the value that was written.
 pub fn readable_toml(text: &str) -> String {
     let mut section = String::new();
     let mut out = String::with_capacity(text.len() + text.len() / 2);
@@ -220,10 +222,19 @@ pub fn readable_toml(text: &str) -> String {
         if t.starts_with('[') {
             section = t.trim_matches(|c| c == '[' || c == ']').to_string();
         }
+        // The value exactly (Rust's shortest text that parses back to the same f64: a model
+        // written here and read back runs the same filter), its unit, and when the exact text
+        // is long, its 4-digit reading.
         let rewritten = t.split_once(" = ").and_then(|(k, v)| {
             let x: f64 = v.trim().parse().ok()?;
             let unit = unit_of(&section, k.trim())?;
-            Some(format!("{} = {}  # [{unit}]", k.trim(), sig4(x)))
+            let (exact, short) = (format!("{x:e}"), sig4(x));
+            let approx = if exact.len() > short.len() {
+                format!(" ~ {short}")
+            } else {
+                String::new()
+            };
+            Some(format!("{} = {exact}  # [{unit}]{approx}", k.trim()))
         });
         out.push_str(rewritten.as_deref().unwrap_or(line));
         out.push('\n');
@@ -231,7 +242,8 @@ pub fn readable_toml(text: &str) -> String {
     out
 }
 
-/// `x` with 4 significant digits in scientific notation (`2.936e-6`).
+/// `x` with 4 significant digits in scientific notation (`2.936e-6`): the comments of
+/// [`readable_toml`] and the JSON outputs meant to be read.
 pub fn sig4(x: f64) -> String {
     format!("{x:.3e}")
 }
@@ -270,12 +282,15 @@ mod tests {
         }
         let text = m.to_text("# test\n").expect("text");
         assert!(
-            text.contains("density = 2.936e-6  # [rad/s/sqrt(Hz)]"),
+            text.contains("density = 2.9362341082725943e-6  # [rad/s/sqrt(Hz)] ~ 2.936e-6"),
             "{text}"
         );
+        assert!(text.contains("tau = 5e1  # [s]\n"), "{text}");
         assert!(text.contains("[[accel.z]]"), "{text}");
         let back = parse(&text, "t.toml").expect("parse");
         assert_eq!(back.gyro.x.len(), 1);
+        // Exactly the values written.
+        assert_eq!(back, m);
         let one = back.channel("accel", 'y').expect("channel");
         let core = one.to_core().expect("core");
         assert_eq!(core.accel.len(), 1);

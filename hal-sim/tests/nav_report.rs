@@ -333,6 +333,38 @@ fn report_has_the_track_innovations_outages_and_identified_factors() {
         scored + 1,
         "outage table rows"
     );
+    // The identified filter rerun from its files (model TOML + identified-options.txt) is the
+    // same filter: the same innovation log-likelihood as the identified run, to rounding.
+    let opts = std::fs::read_to_string(out.join("identified-options.txt"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let out2 = dir.path().join("rerun");
+    let id_model = p(&out.join("identified-model.toml"));
+    let out2_s = p(&out2);
+    let yaw = first_yaw(&sim);
+    let mut args = vec![
+        "nav",
+        "--imu",
+        &imu,
+        "--gnss",
+        &gnss,
+        "--model",
+        &id_model,
+        "--yaw",
+        &yaw,
+        "--align",
+        "50",
+        "--outages",
+        "40,15,45,30",
+        "--out",
+        &out2_s,
+    ];
+    args.extend(opts.split_whitespace());
+    ok(&args);
+    let (l1, l2) = (f(&summary(&out)["loglik"]), f(&summary(&out2)["loglik"]));
+    assert!(
+        (l1 - l2).abs() <= 1e-9 * l1.abs().max(1.0),
+        "identified run loglik {l1} vs rerun from its files {l2} ({opts})"
+    );
 }
 
 #[test]

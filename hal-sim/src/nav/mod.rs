@@ -154,7 +154,9 @@ pub fn run(args: &NavArgs) -> Result<NavRun> {
 }
 
 /// Identifies the noise model on the log ([`identify::identify`]), then runs with it; writes
-/// `identified.json` and `identified-model.toml` into `out` besides the run's files.
+/// `identified.json`, `identified-model.toml` and `identified-options.txt` (the `hal-sim nav`
+/// options the model file cannot hold: GNSS factors, IMU time shift, constraint sd) into `out`
+/// besides the run's files.
 pub fn run_identified(
     args: &NavArgs,
     out: &std::path::Path,
@@ -196,6 +198,16 @@ pub fn run_identified(
             id.factors
         ))?,
     )?;
+    // What the model file cannot hold (GNSS factors, the IMU time shift, the constraint's sd):
+    // the options that rerun the identified filter with `--model identified-model.toml`.
+    let mut opts = format!(
+        "--imu-time-shift {} --gnss-sd-factor {},{}",
+        a.imu_time_shift, a.gnss_sd_factor[0], a.gnss_sd_factor[1]
+    );
+    if let Some(sd) = a.nhc {
+        opts += &format!(" --nhc {sd}");
+    }
+    crate::output::write_string(&out.join("identified-options.txt"), &(opts + "\n"))?;
     Ok((run, id))
 }
 
