@@ -85,6 +85,20 @@ pub fn scaled(model: &ImuErrorModel<f64>, f: &[f64; 6]) -> ImuErrorModel<f64> {
     m
 }
 
+/// The likelihood the search maximises: the total innovation log-likelihood of one run of
+/// `args` with the gate off (gating would make it discontinuous in the parameters);
+/// `-inf` when the run's likelihood is not finite.
+pub fn loglik(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<f64> {
+    let mut a = args.clone();
+    a.gate = None;
+    let ll = run_with::<f64>(&a, imu, fixes)?.summary.loglik;
+    Ok(if ll.is_finite() {
+        ll
+    } else {
+        f64::NEG_INFINITY
+    })
+}
+
 /// Runs the search from `args.model` (gate off during the search: gating would make the
 /// likelihood discontinuous in the parameters).
 pub fn identify(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<Identified> {
@@ -102,12 +116,7 @@ pub fn identify(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
         a.gnss_sd_factor = [args.gnss_sd_factor[0] * f[4], args.gnss_sd_factor[1] * f[5]];
         a.nhc = args.nhc.map(|sd| sd * 10f64.powf(lg[NHC]));
         evaluations += 1;
-        let ll = run_with::<f64>(&a, imu, fixes)?.summary.loglik;
-        Ok(if ll.is_finite() {
-            ll
-        } else {
-            f64::NEG_INFINITY
-        })
+        loglik(&a, imu, fixes)
     };
     let mut x = [0.0f64; 8];
     let start = eval(&x)?;
