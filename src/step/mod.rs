@@ -53,6 +53,7 @@ mod acf;
 
 pub use crate::telemetry::{model_params, AcfRecord, ParamRecord};
 
+use crate::adapt::params::{Specs, MAXP};
 use crate::adapt::{AdaptConfig, AdaptError, AdaptiveFilter, StepStatus};
 use crate::autocorr::Autocorrelator;
 use crate::filter::{Estimates, InsFilter};
@@ -449,9 +450,15 @@ impl<T: Real> Estimator<T> {
         sink.record(&r.record);
         if r.reidentified {
             if let Ok(m) = self.model() {
+                // One factorisation per re-identification, shared by the records.
+                let crb = self
+                    .adaptive()
+                    .and_then(|a| Some((a.specs(), a.windowed_sd()?)));
                 model_params(&m, r.record.k, r.record.t, |p| {
                     let mut p = *p;
-                    self.add_crb(&mut p);
+                    if let Some((specs, sd)) = &crb {
+                        add_crb(&mut p, specs, sd);
+                    }
                     sink.params(&p);
                 });
             }
@@ -463,39 +470,32 @@ impl<T: Real> Estimator<T> {
         }
     }
 
-    /// Fills the record's Cramér-Rao standard deviations (of `ln` of each value) from the
-    /// adaptive filter's windowed Fisher information ([`AdaptiveFilter::windowed_sd`]), for the
-    /// quantities it identifies.
-    /// A random walk's record carries `sqrt(q)`, so its `ln` standard deviation is half that of
-    /// the identified `ln q`.
-    fn add_crb(&self, p: &mut ParamRecord) {
-        let Some(a) = self.adaptive() else {
-            return;
-        };
-        let Some(sd) = a.windowed_sd() else {
-            return;
-        };
-        for (spec, &s) in a.specs().iter().zip(sd.iter()) {
-            if spec.sensor != p.sensor || spec.index != p.component {
-                continue;
-            }
-            let s = s.as_f64() as f32;
-            match spec.kind {
-                Quantity::Tau => p.sd_tau = s,
-                Quantity::Sigma | Quantity::Density => p.sd_sigma = s,
-                Quantity::Q => p.sd_sigma = 0.5 * s,
-                Quantity::Beta => p.sd_beta = s,
-                Quantity::Sigma0 => {}
-            }
-        }
-    }
-
     /// The paper's identification from the estimates' autocorrelation (lag-1 bias-corrected
     /// `alpha`, `sigma^2 = R_0 + mean(P)`); NaN fields when the window cannot support it.
     pub fn acf_identify(&self, sensor: Sensor, k: u32, t: f64) -> AcfRecord {
         let i = usize::from(sensor == Sensor::Gyro);
         let (acf, pm) = (&self.acf[i], self.p_mean[i]);
         acf::acf_record(acf, pm, self.dt, sensor, k, t)
+    }
+}
+
+/// Fills a parameter record's Cramér-Rao standard deviations (of `ln` of each value) from the
+/// adaptive filter's [`AdaptiveFilter::windowed_sd`] `sd` of its identified `specs`. A random
+/// walk's record carries `sqrt(q)`, so its `ln` standard deviation is half that of the
+/// identified `ln q`.
+fn add_crb<T: Real>(p: &mut ParamRecord, specs: &Specs, sd: &[T; MAXP]) {
+    for (spec, &s) in specs.iter().zip(sd.iter()) {
+        if spec.sensor != p.sensor || spec.index != p.component {
+            continue;
+        }
+        let s = s.as_f64() as f32;
+        match spec.kind {
+            Quantity::Tau => p.sd_tau = s,
+            Quantity::Sigma | Quantity::Density => p.sd_sigma = s,
+            Quantity::Q => p.sd_sigma = 0.5 * s,
+            Quantity::Beta => p.sd_beta = s,
+            Quantity::Sigma0 => {}
+        }
     }
 }
 
