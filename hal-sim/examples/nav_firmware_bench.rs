@@ -14,8 +14,6 @@ use hal_sim::nav::{run_with, NavArgs, NavRun};
 use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, read_truth_csv};
 use hal_sim::nav_qemu::{run_nav_firmware, NavEpoch};
 use hal_sim::qemu::QemuConfig;
-use imu_ident::nav::NavInit;
-use nalgebra::Vector3;
 
 /// Worst position difference over the host's sigma (N, E, D), and its RMS.
 fn parity(fw: &[NavEpoch], host: &NavRun) -> Result<(f64, f64)> {
@@ -56,20 +54,13 @@ fn main() -> Result<()> {
     )?;
     let truth = read_truth_csv(&dir.path().join("truth.csv"))?;
     let args = NavArgs {
-        align: 50.0,
-        yaw_deg: Some(truth[0].rpy_deg[2]),
-        static_gyro_bias: false,
-        init: NavInit {
-            sd_att: Vector3::repeat(1f64.to_radians()),
-            sd_vel: 0.1,
-            sd_pos: 1.0,
-        },
         single: true,
-        ..NavArgs::new(
+        ..NavArgs::simulated(
             dir.path().join("imu.csv"),
             dir.path().join("gnss.csv"),
             hal_sim::trajectory::errors::ImuErrorModel::mems().to_core()?,
             "mems (true)",
+            truth[0].rpy_deg[2],
         )
     };
     let imu = read_imu_csv(&args.imu)?;

@@ -43,9 +43,9 @@ use hal_sim::trajectory::gnss::GnssConfig;
 use hal_sim::trajectory::profile::Profile;
 use hal_sim::trajectory::write::{simulate_drive, write_drive};
 use imu_ident::model::{Component, GaussMarkov, RandomConstant, RandomWalk, WhiteNoise};
-use imu_ident::nav::{ImuErrorModel, NavInit};
+use imu_ident::nav::ImuErrorModel;
 use imu_ident::strapdown::Geodetic;
-use nalgebra::{Matrix2, Vector3};
+use nalgebra::Matrix2;
 use std::time::Instant;
 
 const MG: f64 = 1e-3 * imu_ident::model::ins::G0;
@@ -127,25 +127,18 @@ fn drive(sim: &SimModel, hours: f64, still: bool, seed: u64) -> Drive {
         .take_while(|s| *s + 60.0 < hours * 3600.0 - 120.0)
         .next();
     let args = NavArgs {
-        align: 50.0,
-        yaw_deg: Some(truth[0].rpy_deg[2]),
-        static_gyro_bias: false,
-        init: NavInit {
-            sd_att: Vector3::repeat(1f64.to_radians()),
-            sd_vel: 0.1,
-            sd_pos: 1.0,
-        },
         outages: first.map(|s| OutageSpec {
             start: s - fixes.first().map_or(0.0, |f| f.t),
             len: 60.0,
             period: 1200.0,
             margin: 180.0,
         }),
-        ..NavArgs::new(
+        ..NavArgs::simulated(
             dir.path().join("imu.csv"),
             dir.path().join("gnss.csv"),
             core(sim),
             "blind spot",
+            truth[0].rpy_deg[2],
         )
     };
     Drive {

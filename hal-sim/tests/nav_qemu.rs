@@ -285,15 +285,13 @@ fn qemu_firmware_nav_rejects_a_corrupt_replay() {
 /// The options of [`drive`] for a log already written in `dir`.
 fn drive_args_static(dir: &std::path::Path) -> NavArgs {
     NavArgs {
-        align: 50.0,
-        yaw_deg: Some(0.0),
-        static_gyro_bias: false,
-        init: NavInit {
-            sd_att: Vector3::repeat(1f64.to_radians()),
-            sd_vel: 0.1,
-            sd_pos: 1.0,
-        },
         single: true,
-        ..NavArgs::new(dir.join("imu.csv"), dir.join("gnss.csv"), mems(), "mems")
+        ..NavArgs::simulated(
+            dir.join("imu.csv"),
+            dir.join("gnss.csv"),
+            mems(),
+            "mems",
+            0.0,
+        )
     }
 }

@@ -14,9 +14,8 @@ use hal_sim::trajectory::gnss::GnssConfig;
 use hal_sim::trajectory::profile::Profile;
 use hal_sim::trajectory::write::{simulate_drive, write_drive};
 use imu_ident::model::{Component, GaussMarkov, WhiteNoise};
-use imu_ident::nav::{ImuErrorModel, NavInit};
+use imu_ident::nav::ImuErrorModel;
 use imu_ident::strapdown::Geodetic;
-use nalgebra::Vector3;
 
 fn tactical() -> SimModel {
     let deg = std::f64::consts::PI / 180.0;
@@ -115,25 +114,18 @@ fn nav_over_seeds() {
                 read_truth_csv(&dir.path().join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
             for (k, frac, outage_err, nees) in cases.iter_mut() {
                 let args = NavArgs {
-                    align: 50.0,
-                    yaw_deg: Some(truth[0].rpy_deg[2]),
-                    static_gyro_bias: false,
-                    init: NavInit {
-                        sd_att: Vector3::repeat(1f64.to_radians()),
-                        sd_vel: 0.1,
-                        sd_pos: 1.0,
-                    },
                     outages: Some(OutageSpec {
                         start: outages[0].0 - fixes.first().map_or(0.0, |f| f.t),
                         len: 60.0,
                         period: 1200.0,
                         margin: 180.0,
                     }),
-                    ..NavArgs::new(
+                    ..NavArgs::simulated(
                         dir.path().join("imu.csv"),
                         dir.path().join("gnss.csv"),
                         scaled(&sim, *k),
                         &format!("{grade} x{k}"),
+                        truth[0].rpy_deg[2],
                     )
                 };
                 let run = run_with::<f64>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));

@@ -13,8 +13,7 @@
 use hal_sim::nav::{run_with, NavArgs};
 use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, read_truth_csv, TruthRow};
 use imu_ident::model::Component;
-use imu_ident::nav::{ImuErrorModel, NavInit};
-use nalgebra::Vector3;
+use imu_ident::nav::ImuErrorModel;
 
 fn scaled(m: &ImuErrorModel<f64>, k: f64) -> ImuErrorModel<f64> {
     let mut m = m.clone();
@@ -98,19 +97,12 @@ fn navigator_is_consistent_on_a_simulated_drive() {
         .to_core()
         .unwrap_or_else(|e| panic!("{e:#}"));
     let args = NavArgs {
-        yaw_deg: Some(truth[0].rpy_deg[2]),
-        align: 50.0,
-        static_gyro_bias: false,
-        init: NavInit {
-            sd_att: Vector3::repeat(1f64.to_radians()),
-            sd_vel: 0.1,
-            sd_pos: 1.0,
-        },
-        ..NavArgs::new(
+        ..NavArgs::simulated(
             dir.path().join("imu.csv"),
             dir.path().join("gnss.csv"),
             model.clone(),
             "mems (true)",
+            truth[0].rpy_deg[2],
         )
     };
     let run = run_with::<f64>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));

@@ -126,6 +126,29 @@ impl NavArgs {
             nhc_lever: [0.0; 3],
         }
     }
+
+    /// [`new`](Self::new) for a simulated drive whose truth is known: heading given
+    /// (`yaw_deg`, the truth's first yaw), 50-s levelling, no gyro-bias seeding at rest (the
+    /// simulated biases are part of the model), initial sd 1 deg, 0.1 m/s, 1 m.
+    pub fn simulated(
+        imu: PathBuf,
+        gnss: PathBuf,
+        model: imu_ident::nav::ImuErrorModel<f64>,
+        model_name: &str,
+        yaw_deg: f64,
+    ) -> Self {
+        Self {
+            align: 50.0,
+            yaw_deg: Some(yaw_deg),
+            static_gyro_bias: false,
+            init: NavInit {
+                sd_att: Vector3::repeat(1f64.to_radians()),
+                sd_vel: 0.1,
+                sd_pos: 1.0,
+            },
+            ..Self::new(imu, gnss, model, model_name)
+        }
+    }
 }
 
 /// Everything a run produced.
