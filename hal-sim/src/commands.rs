@@ -40,15 +40,16 @@ pub fn run(
     log_path: &Path,
     model_path: &Path,
     out: &Path,
-    adapt: bool,
+    ident: crate::qemu::Ident,
     truth_path: Option<&Path>,
 ) -> Result<serde_json::Value> {
+    let adapt = ident != crate::qemu::Ident::Off;
     let model = model_toml::load(model_path)?;
     let truth = truth_path.map(model_toml::load).transpose()?;
     let rows = log::read(log_path)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let cfg = imu_ident::adapt::AdaptConfig::default();
-    let r = replay::run::<f64>(&model, adapt.then_some(&cfg), &rows)?;
+    let cfg = ident.config();
+    let r = replay::run::<f64>(&model, cfg.as_ref(), &rows)?;
     let end = r.end_model()?;
     let json = write_run(out, &rows, &r.telemetry, adapt.then_some(&end))?;
     if adapt {
@@ -105,16 +106,17 @@ fn write_run_report(
 pub fn qemu(
     log_path: &Path,
     model_path: &Path,
-    adapt: bool,
+    ident: crate::qemu::Ident,
     out: &Path,
     elf: Option<std::path::PathBuf>,
 ) -> Result<serde_json::Value> {
+    let adapt = ident != crate::qemu::Ident::Off;
     let model = model_toml::load(model_path)?;
     let rows = log::read(log_path)?;
     let cfg = crate::qemu::QemuConfig::default();
     let elf = crate::firmware::prepare(elf, &cfg.program)?;
     let pairs: Vec<(f64, f64)> = rows.iter().map(|r| (r.t, r.z)).collect();
-    let run = crate::qemu::run_firmware(&elf, &model, adapt, &pairs, &cfg)?;
+    let run = crate::qemu::run_firmware(&elf, &model, ident, &pairs, &cfg)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let fw = serde_json::json!({
         "elf": elf.display().to_string(),

@@ -154,6 +154,10 @@ enum Command {
         /// Identify the noise model online (adaptive loop), starting from --model.
         #[arg(long)]
         adapt: bool,
+        /// Identify with the global stage (maximum likelihood over a buffered window, searched
+        /// from a grid around --model; implies --adapt; docs/ADAPTATION.md §7).
+        #[arg(long)]
+        global: bool,
         /// True model TOML (simulated logs): drawn in report.html beside the identified
         /// parameters (with --adapt).
         #[arg(long)]
@@ -251,6 +255,9 @@ enum Command {
         /// Identify the noise model online, starting from --model.
         #[arg(long)]
         adapt: bool,
+        /// Identify with the global stage (implies --adapt; as `run --global`).
+        #[arg(long)]
+        global: bool,
         /// Output folder.
         #[arg(long)]
         out: PathBuf,
@@ -465,19 +472,23 @@ fn main() -> Result<()> {
             model,
             out,
             adapt,
+            global,
             truth,
         } => {
-            let s = commands::run(&log, &model, &out, adapt, truth.as_deref())?;
+            let ident = hal_sim::qemu::Ident::from_flags(adapt, global);
+            let s = commands::run(&log, &model, &out, ident, truth.as_deref())?;
             println!("{}", serde_json::to_string_pretty(&s)?);
         }
         Command::Qemu {
             log,
             model,
             adapt,
+            global,
             out,
             elf,
         } => {
-            let s = commands::qemu(&log, &model, adapt, &out, elf)?;
+            let ident = hal_sim::qemu::Ident::from_flags(adapt, global);
+            let s = commands::qemu(&log, &model, ident, &out, elf)?;
             println!("{}", serde_json::to_string_pretty(&s)?);
         }
         Command::Figures { seed, out } => {

@@ -13,10 +13,10 @@
 //! error here rather than silently shifted columns.
 //!
 //! ```no_run
-//! use hal_sim::qemu::{run_firmware, QemuConfig};
+//! use hal_sim::qemu::{run_firmware, Ident, QemuConfig};
 //! use imu_ident::model::InsModel;
 //! let rows: Vec<(f64, f64)> = (1..=600).map(|k| (k as f64, 0.0)).collect();
-//! let run = run_firmware("imu-ident-qemu".as_ref(), &InsModel::paper(), false, &rows, &QemuConfig::default())?;
+//! let run = run_firmware("imu-ident-qemu".as_ref(), &InsModel::paper(), Ident::Off, &rows, &QemuConfig::default())?;
 //! assert!(run.success());
 //! assert_eq!(run.telemetry.records.len(), 600);
 //! # Ok::<(), anyhow::Error>(())
@@ -133,16 +133,52 @@ pub fn encode_log(rows: &[(f64, f64)]) -> Result<Vec<u8>> {
     Ok(buf)
 }
 
-/// Encodes the model and the `adapt` option for the firmware.
-pub fn encode_model(model: &InsModel<f64>, adapt: bool) -> Result<Vec<u8>> {
+/// Encodes the model and the identification option for the firmware.
+pub fn encode_model(model: &InsModel<f64>, ident: Ident) -> Result<Vec<u8>> {
     let mut buf = vec![0u8; wire::MAX_LEN];
-    let n =
-        wire::encode(model, adapt, &mut buf).map_err(|e| anyhow!("encoding the model: {e:?}"))?;
+    let opts = match ident {
+        Ident::Off => 0,
+        Ident::Recursive => wire::OPT_ADAPT,
+        Ident::Global => wire::OPT_ADAPT | wire::OPT_GLOBAL,
+    };
+    let n = wire::encode_options(model, opts, &mut buf)
+        .map_err(|e| anyhow!("encoding the model: {e:?}"))?;
     buf.truncate(n);
     Ok(buf)
 }
 
-/// Runs the firmware `elf` with `model` (identified online when `adapt`) on `rows` (see
+/// How the step identifies the noise model online.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ident {
+    /// Not at all (the model is fixed).
+    Off,
+    /// `AdaptConfig::default()`: recursive Gauss-Newton with the probe grid.
+    Recursive,
+    /// `AdaptConfig::global()`: the global stage over a buffered window.
+    Global,
+}
+
+impl Ident {
+    /// From the command-line flags `--adapt` and `--global` (`--global` implies `--adapt`).
+    pub fn from_flags(adapt: bool, global: bool) -> Self {
+        match (adapt, global) {
+            (_, true) => Self::Global,
+            (true, false) => Self::Recursive,
+            (false, false) => Self::Off,
+        }
+    }
+
+    /// The host's settings for it (`None`: fixed model).
+    pub fn config(self) -> Option<imu_ident::adapt::AdaptConfig<f64>> {
+        match self {
+            Self::Off => None,
+            Self::Recursive => Some(imu_ident::adapt::AdaptConfig::default()),
+            Self::Global => Some(imu_ident::adapt::AdaptConfig::global()),
+        }
+    }
+}
+
+/// Runs the firmware `elf` with `model` (identified online as `ident` says) on `rows` (see
 /// [`encode_log`]) and decodes its telemetry.
 ///
 /// An `Err` means the run could not be carried out or understood (QEMU missing, timeout,
@@ -150,11 +186,11 @@ pub fn encode_model(model: &InsModel<f64>, adapt: bool) -> Result<Vec<u8>> {
 pub fn run_firmware(
     elf: &Path,
     model: &InsModel<f64>,
-    adapt: bool,
+    ident: Ident,
     rows: &[(f64, f64)],
     cfg: &QemuConfig,
 ) -> Result<FirmwareRun> {
-    run_firmware_bytes(elf, &encode_model(model, adapt)?, &encode_log(rows)?, cfg)
+    run_firmware_bytes(elf, &encode_model(model, ident)?, &encode_log(rows)?, cfg)
 }
 
 /// Like [`run_firmware`] with the model and log given as raw bytes (to test corrupt files).

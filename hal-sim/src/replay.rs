@@ -139,6 +139,17 @@ pub fn adapt_config<T: Real>(c: &AdaptConfig<f64>) -> AdaptConfig<T> {
         hold_first_epoch: c.hold_first_epoch,
         search_until_settled: c.search_until_settled,
         adapt: c.adapt,
+        global: imu_ident::adapt::WindowConfig {
+            block: c.global.block,
+            window: c.global.window,
+            first: c.global.first,
+            every: c.global.every,
+            budget: c.global.budget,
+            spacing: T::lit(c.global.spacing),
+            min_step: T::lit(c.global.min_step),
+            margin: T::lit(c.global.margin),
+            hold_recursion: c.global.hold_recursion,
+        },
     }
 }
 

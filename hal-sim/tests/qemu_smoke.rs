@@ -8,7 +8,9 @@
 use std::path::PathBuf;
 
 use hal_sim::log::LogRow;
-use hal_sim::qemu::{encode_log, encode_model, run_firmware, run_firmware_bytes, QemuConfig};
+use hal_sim::qemu::{
+    encode_log, encode_model, run_firmware, run_firmware_bytes, Ident, QemuConfig,
+};
 use hal_sim::replay::Telemetry;
 use imu_ident::model::InsModel;
 use imu_ident::telemetry::{BRIDGED, MISSING};
@@ -91,7 +93,7 @@ fn qemu_firmware_matches_the_host_filter() {
     let Some(elf) = firmware_elf() else { return };
     let log = make_log();
     let model = InsModel::paper();
-    let run = run_firmware(&elf, &model, false, &log, &QemuConfig::default())
+    let run = run_firmware(&elf, &model, Ident::Off, &log, &QemuConfig::default())
         .unwrap_or_else(|e| panic!("{e:#}"));
     assert!(
         run.success(),
@@ -164,7 +166,7 @@ fn qemu_firmware_fails_on_a_corrupt_log() {
     let mut bytes = encode_log(&make_log()[..20]).unwrap_or_else(|e| panic!("{e:#}"));
     let last = bytes.len() - 1;
     bytes[last] ^= 0x01; // break the checksum
-    let model = encode_model(&InsModel::paper(), false).unwrap_or_else(|e| panic!("{e:#}"));
+    let model = encode_model(&InsModel::paper(), Ident::Off).unwrap_or_else(|e| panic!("{e:#}"));
     let run = run_firmware_bytes(&elf, &model, &bytes, &QemuConfig::default())
         .unwrap_or_else(|e| panic!("{e:#}"));
     assert!(
@@ -183,7 +185,8 @@ fn qemu_firmware_fails_on_a_corrupt_log() {
 fn qemu_firmware_rejects_a_corrupt_model() {
     let Some(elf) = firmware_elf() else { return };
     let log = encode_log(&make_log()[..20]).unwrap_or_else(|e| panic!("{e:#}"));
-    let mut model = encode_model(&InsModel::paper(), true).unwrap_or_else(|e| panic!("{e:#}"));
+    let mut model =
+        encode_model(&InsModel::paper(), Ident::Recursive).unwrap_or_else(|e| panic!("{e:#}"));
     model[12] ^= 0x40; // inside dt
     let run = run_firmware_bytes(&elf, &model, &log, &QemuConfig::default())
         .unwrap_or_else(|e| panic!("{e:#}"));
@@ -201,8 +204,14 @@ fn qemu_firmware_rejects_a_corrupt_model() {
 fn assert_parity(model: &InsModel<f64>, adapt: bool, rows: &[LogRow], what: &str) {
     let Some(elf) = firmware_elf() else { return };
     let log: Vec<(f64, f64)> = rows.iter().map(|r| (r.t, r.z)).collect();
-    let run = run_firmware(&elf, model, adapt, &log, &QemuConfig::default())
-        .unwrap_or_else(|e| panic!("{e:#}"));
+    let run = run_firmware(
+        &elf,
+        model,
+        Ident::from_flags(adapt, false),
+        &log,
+        &QemuConfig::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e:#}"));
     assert!(
         run.success(),
         "{what}: firmware failed: {:?} {:?}",

@@ -124,7 +124,8 @@ fn run_compare_and_diagnose_replay_the_same_ticks() {
 
     // `run`, through its library function: files on disk.
     let out = dir.path().join("run");
-    let summary = commands::run(&log_path, model_path, &out, false, None).unwrap();
+    let summary =
+        commands::run(&log_path, model_path, &out, hal_sim::qemu::Ident::Off, None).unwrap();
     let run_est = read_estimates(&out.join("estimates.csv"));
     let run_counts: RunCounts = RunCounts {
         steps: summary["counts"]["steps"].as_u64().unwrap() as usize,

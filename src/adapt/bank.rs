@@ -391,48 +391,13 @@ impl<T: Real> Bank<T> {
             }
         }
         self.repair(used);
-        let accumulated = all && self.accumulate(&inn, info);
+        let accumulated = all && accumulate(&inn, self.np, self.step, info);
         BankStep {
             centre,
             accumulated,
             failed,
             gated,
         }
-    }
-
-    /// Central differences of `l`, `nu`, `S` into `info`; false (nothing added) if any term is
-    /// not finite.
-    fn accumulate(&self, inn: &[MemberInnovation<T>; MEMBERS], info: &mut Information<T>) -> bool {
-        let half = T::lit(0.5);
-        let inv2h = half / self.step;
-        let c = inn[0];
-        let mut dl = [T::zero(); MAXP];
-        let mut dnu = [T::zero(); MAXP];
-        let mut ds = [T::zero(); MAXP];
-        // `np <= MAXP` always; the `min` lets the optimiser drop the bounds checks (and their
-        // panics) below.
-        let np = self.np.min(MAXP);
-        for i in 0..np {
-            let (pl, mi) = (inn[2 * i + 1], inn[2 * i + 2]);
-            // l+ - l- = -1/2 (ln(S+/S-) + nu+^2/S+ - nu-^2/S-): one logarithm per parameter.
-            let d = -half * ((pl.s / mi.s).ln() + pl.nu * pl.nu / pl.s - mi.nu * mi.nu / mi.s);
-            dl[i] = d * inv2h;
-            dnu[i] = (pl.nu - mi.nu) * inv2h;
-            ds[i] = (pl.s - mi.s) * inv2h;
-        }
-        if !(dl.iter().chain(dnu.iter()).chain(ds.iter())).all(|v| v.is_finite()) {
-            return false;
-        }
-        let inv_s = T::one() / c.s;
-        let w = half * inv_s * inv_s;
-        for i in 0..np {
-            info.score[i] += dl[i];
-            for j in 0..np {
-                info.fisher[i][j] += w * ds[i] * ds[j] + inv_s * dnu[i] * dnu[j];
-            }
-        }
-        info.steps = info.steps.saturating_add(1);
-        true
     }
 
     /// Replaces an unhealthy member's `x, P` by the centre's (or every member's by the initial
@@ -460,4 +425,45 @@ impl<T: Real> Bank<T> {
             }
         }
     }
+}
+
+/// Central differences of `l`, `nu`, `S` of the members `[centre, theta + h e_0, theta - h e_0,
+/// ...]` (`np` parameters, step `h`) into `info` (module documentation); false (nothing added) if
+/// any term is not finite. Used by the bank and by the global stage's polish.
+pub fn accumulate<T: Real>(
+    inn: &[MemberInnovation<T>; MEMBERS],
+    np: usize,
+    h: T,
+    info: &mut Information<T>,
+) -> bool {
+    let half = T::lit(0.5);
+    let inv2h = half / h;
+    let c = inn[0];
+    let mut dl = [T::zero(); MAXP];
+    let mut dnu = [T::zero(); MAXP];
+    let mut ds = [T::zero(); MAXP];
+    // `np <= MAXP` always; the `min` lets the optimiser drop the bounds checks (and their
+    // panics) below.
+    let np = np.min(MAXP);
+    for i in 0..np {
+        let (pl, mi) = (inn[2 * i + 1], inn[2 * i + 2]);
+        // l+ - l- = -1/2 (ln(S+/S-) + nu+^2/S+ - nu-^2/S-): one logarithm per parameter.
+        let d = -half * ((pl.s / mi.s).ln() + pl.nu * pl.nu / pl.s - mi.nu * mi.nu / mi.s);
+        dl[i] = d * inv2h;
+        dnu[i] = (pl.nu - mi.nu) * inv2h;
+        ds[i] = (pl.s - mi.s) * inv2h;
+    }
+    if !(dl.iter().chain(dnu.iter()).chain(ds.iter())).all(|v| v.is_finite()) {
+        return false;
+    }
+    let inv_s = T::one() / c.s;
+    let w = half * inv_s * inv_s;
+    for i in 0..np {
+        info.score[i] += dl[i];
+        for j in 0..np {
+            info.fisher[i][j] += w * ds[i] * ds[j] + inv_s * dnu[i] * dnu[j];
+        }
+    }
+    info.steps = info.steps.saturating_add(1);
+    true
 }

@@ -34,6 +34,7 @@ pub mod bank;
 pub mod guard;
 pub mod params;
 pub mod probes;
+pub mod window;
 
 use crate::filter::Estimates;
 use crate::linalg::{chol_solve, cholesky, inverse_diagonal, is_positive_definite};
@@ -43,6 +44,8 @@ use bank::{Bank, Information, MemberInnovation};
 use guard::{limit_step, Bounds, Mat};
 use params::{apply, specs, theta_of, Specs, MAXP};
 use probes::Probes;
+pub use window::WindowSearch;
+pub use window::{Found, WindowConfig};
 
 /// Why the adaptive filter could not be built or moved.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -100,6 +103,9 @@ pub struct AdaptConfig<T> {
     pub search_until_settled: bool,
     /// `false`: never move (the bank still accumulates the Fisher information, for the CRB).
     pub adapt: bool,
+    /// The global stage: maximum likelihood over a buffered window, searched from a grid
+    /// ([`window`]; `WindowConfig::OFF`: not run).
+    pub global: WindowConfig<T>,
 }
 
 impl<T: Real> AdaptConfig<T> {
@@ -122,6 +128,7 @@ impl<T: Real> AdaptConfig<T> {
         hold_first_epoch: false,
         search_until_settled: false,
         adapt: false,
+        global: WindowConfig::OFF,
     };
 }
 
@@ -145,6 +152,21 @@ impl<T: Real> Default for AdaptConfig<T> {
             hold_first_epoch: true,
             search_until_settled: true,
             adapt: true,
+            global: WindowConfig::OFF,
+        }
+    }
+}
+
+impl<T: Real> AdaptConfig<T> {
+    /// The global stage (issue 13, [`window`]): maximum likelihood over a buffered window of
+    /// block means, searched from a grid around the start, every 2 h; it replaces the probe
+    /// grid (off) and the recursion's moves (held: the bank still accumulates the information
+    /// behind the Cramér-Rao deviations).
+    pub fn global() -> Self {
+        Self {
+            probe_factor: T::zero(),
+            global: WindowConfig::default_on(),
+            ..Self::default()
         }
     }
 }
@@ -194,6 +216,7 @@ pub struct AdaptiveFilter<T: Real> {
     forget: T,
     bank: Bank<T>,
     probes: Probes<T>,
+    global: WindowSearch<T>,
     block: Information<T>,
     acc: Information<T>,
     /// The windowed Fisher information with squared weights (`f^2` per block, `beta^2` per
@@ -210,6 +233,7 @@ pub struct AdaptiveFilter<T: Real> {
     last_gain: T,
     searching: bool,
     clamped: bool,
+    last_global: Found<T>,
 }
 
 impl<T: Real> AdaptiveFilter<T> {
@@ -224,6 +248,7 @@ impl<T: Real> AdaptiveFilter<T> {
         forget: T::ZERO,
         bank: Bank::BLANK,
         probes: Probes::BLANK,
+        global: WindowSearch::BLANK,
         block: Information::BLANK,
         acc: Information::BLANK,
         acc_sq: [[T::ZERO; MAXP]; MAXP],
@@ -237,6 +262,7 @@ impl<T: Real> AdaptiveFilter<T> {
         last_gain: T::ZERO,
         searching: false,
         clamped: false,
+        last_global: Found::BLANK,
     };
 
     /// Starts from `model` (its parameters are the initial guess).
@@ -294,6 +320,7 @@ impl<T: Real> AdaptiveFilter<T> {
             self.probes.init(&Specs::new(), T::lit(2.0), self.bank.p0());
         }
         self.probes.anchor(&theta, &bounds, specs.len());
+        self.global.init(cfg.global, &theta);
         self.base = model;
         self.specs = specs;
         self.theta = theta;
@@ -313,6 +340,7 @@ impl<T: Real> AdaptiveFilter<T> {
         self.last_gain = T::zero();
         self.searching = true;
         self.clamped = false;
+        self.last_global = Found::BLANK;
         Ok(())
     }
 
@@ -356,6 +384,13 @@ impl<T: Real> AdaptiveFilter<T> {
             );
             rejected |= res.is_err();
         }
+        self.global.push(z);
+        if self.global.due() {
+            self.global.start(&self.theta);
+        }
+        if let Some(found) = self.global.work(&self.base, &self.specs, &self.bounds) {
+            jumped |= self.global_end(&found);
+        }
         self.steps = self.steps.wrapping_add(1);
         if !self.probes.is_empty() && self.steps.checked_rem(self.cfg.epoch) == Some(0) {
             match self.epoch_end() {
@@ -368,8 +403,11 @@ impl<T: Real> AdaptiveFilter<T> {
         if self.steps.checked_rem(self.cfg.block) == Some(0) {
             // No Gauss-Newton move on the step of a jump (its information was just discarded),
             // nor before the first epoch has chosen the basin.
-            let holding = self.cfg.hold_first_epoch && self.searching && !self.probes.is_empty();
-            let allow = !holding && !jumped;
+            let holding = self.cfg.hold_first_epoch
+                && self.searching
+                && (!self.probes.is_empty() || self.cfg.global.enabled());
+            let held = self.cfg.global.enabled() && self.cfg.global.hold_recursion;
+            let allow = !holding && !jumped && !held;
             match self.update(allow) {
                 Ok(m) => moved = m,
                 Err(_) => rejected = true,
@@ -430,6 +468,63 @@ impl<T: Real> AdaptiveFilter<T> {
         self.probes
             .anchor(&self.theta, &self.bounds, self.specs.len());
         Ok(jumped)
+    }
+
+    /// End of a global search: jump to its best point when it beats the anchor by the margin.
+    /// Unlike a probe, the point has no 1-Hz filter state: the centre keeps its `x, P`, and the
+    /// windowed information is discarded (it was gathered at another point).
+    fn global_end(&mut self, found: &Found<T>) -> bool {
+        self.last_global = *found;
+        if !self.cfg.adapt {
+            return false;
+        }
+        // The first finished search ends the search phase: the recursion then climbs from
+        // the basin the window chose.
+        let first = core::mem::replace(&mut self.searching, false) && self.probes.is_empty();
+        if !(found.gain.is_finite() && found.gain > self.cfg.global.margin) {
+            return false;
+        }
+        let _ = first;
+        if self.bank.set_theta(&found.theta).is_err() {
+            return false;
+        }
+        // A move within a factor two keeps the windowed information (it still describes the
+        // likelihood near the new point, as after a Gauss-Newton move); a longer one is a jump to
+        // another basin, where it does not.
+        let far = self
+            .theta
+            .iter()
+            .zip(found.theta.iter())
+            .take(self.specs.len())
+            .any(|(a, b)| (*a - *b).abs() > T::lit(core::f64::consts::LN_2));
+        self.theta = found.theta;
+        if far {
+            self.acc = Information::default();
+            self.acc_sq = [[T::zero(); MAXP]; MAXP];
+            self.block = Information::default();
+        }
+        self.jumps = self.jumps.saturating_add(1);
+        self.searching = false;
+        if !self.probes.is_empty() {
+            self.probes
+                .anchor(&self.theta, &self.bounds, self.specs.len());
+        }
+        true
+    }
+
+    /// The global stage's window and search state.
+    pub fn global(&self) -> &WindowSearch<T> {
+        &self.global
+    }
+
+    /// The model this filter started from (what `theta` is applied to).
+    pub fn base(&self) -> &InsModel<T> {
+        &self.base
+    }
+
+    /// The last finished global search (zero gain and no evaluations before the first).
+    pub fn last_global(&self) -> &Found<T> {
+        &self.last_global
     }
 
     /// The block update (module documentation). Returns whether `theta` moved.

@@ -147,8 +147,10 @@ mod firmware {
         let mut model_bytes = [0u8; wire::MAX_LEN];
         let n = read_all(model_path, &mut model_bytes)?;
         let bytes = model_bytes.get(..n).ok_or(FirmwareError::Read)?;
-        let (model, adapt) = wire::decode::<f32>(bytes).map_err(FirmwareError::Model)?;
-        let cfg = if adapt {
+        let (model, opts) = wire::decode_options::<f32>(bytes).map_err(FirmwareError::Model)?;
+        let cfg = if opts & wire::OPT_GLOBAL != 0 {
+            StepConfig::adaptive_global()
+        } else if opts & wire::OPT_ADAPT != 0 {
             StepConfig::adaptive()
         } else {
             StepConfig::default()

@@ -37,6 +37,9 @@ pub const MAGIC: [u8; 4] = *b"IMUM";
 pub const VERSION: u16 = 1;
 /// Option bit: identify the model online.
 pub const OPT_ADAPT: u16 = 1;
+/// Option bit (with [`OPT_ADAPT`]): the global stage on, as in
+/// [`AdaptConfig::global`](crate::adapt::AdaptConfig::global).
+pub const OPT_GLOBAL: u16 = 2;
 const HEAD: usize = 8 + 32 + 4;
 const COMP: usize = 25;
 const COLORED: usize = 16;
@@ -94,10 +97,20 @@ fn fields(c: &Component<f64>) -> (u8, [f64; 3]) {
 
 /// Writes `model` with the option `adapt` into `out`; returns the number of bytes.
 pub fn encode(model: &InsModel<f64>, adapt: bool, out: &mut [u8]) -> Result<usize, WireError> {
+    encode_options(model, if adapt { OPT_ADAPT } else { 0 }, out)
+}
+
+/// Writes `model` with the option bits `options` (`OPT_*`) into `out`; returns the number of
+/// bytes.
+pub fn encode_options(
+    model: &InsModel<f64>,
+    options: u16,
+    out: &mut [u8],
+) -> Result<usize, WireError> {
     let mut o = Out { buf: out, n: 0 };
     o.put(&MAGIC)?;
     o.put(&VERSION.to_le_bytes())?;
-    o.put(&(if adapt { OPT_ADAPT } else { 0 }).to_le_bytes())?;
+    o.put(&options.to_le_bytes())?;
     for v in [model.dt, model.sigma_v, model.sigma_dv0, model.sigma_delta0] {
         o.f(v)?;
     }
@@ -151,6 +164,11 @@ fn component<T: Real>(kind: u8, a: T, b: T, c: T) -> Result<Component<T>, WireEr
 /// Reads a model (in precision `T`) and its `adapt` option. Values are not validated here: the
 /// filter does that when it is built from the model.
 pub fn decode<T: Real>(bytes: &[u8]) -> Result<(InsModel<T>, bool), WireError> {
+    decode_options(bytes).map(|(m, o)| (m, o & OPT_ADAPT != 0))
+}
+
+/// Reads a model (in precision `T`) and its option bits (`OPT_*`; unknown bits are an error).
+pub fn decode_options<T: Real>(bytes: &[u8]) -> Result<(InsModel<T>, u16), WireError> {
     let body_len = bytes.len().checked_sub(4).ok_or(WireError::BadLength)?;
     let (body, crc) = bytes.split_at(body_len);
     let mut i = In { b: body, n: 0 };
@@ -161,7 +179,7 @@ pub fn decode<T: Real>(bytes: &[u8]) -> Result<(InsModel<T>, bool), WireError> {
         return Err(WireError::BadVersion);
     }
     let opts = u16::from_le_bytes(i.take::<2>()?);
-    if opts & !OPT_ADAPT != 0 {
+    if opts & !(OPT_ADAPT | OPT_GLOBAL) != 0 {
         return Err(WireError::BadField);
     }
     let mut m = InsModel::empty(i.f()?, i.f()?);
@@ -191,7 +209,7 @@ pub fn decode<T: Real>(bytes: &[u8]) -> Result<(InsModel<T>, bool), WireError> {
     if crc != c.value().to_le_bytes() {
         return Err(WireError::BadChecksum);
     }
-    Ok((m, opts & OPT_ADAPT != 0))
+    Ok((m, opts))
 }
 
 #[cfg(test)]

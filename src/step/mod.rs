@@ -127,6 +127,15 @@ impl<T: Real> StepConfig<T> {
             ..Self::default()
         }
     }
+
+    /// The default settings with the online identification's global stage
+    /// ([`AdaptConfig::global`]).
+    pub fn adaptive_global() -> Self {
+        Self {
+            adapt: Some(AdaptConfig::global()),
+            ..Self::default()
+        }
+    }
 }
 
 /// What one tick did.

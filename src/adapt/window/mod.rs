@@ -1,0 +1,647 @@
+//! The global stage (issue 13): maximum likelihood over a buffered window of block means,
+//! searched from a grid that does not depend on where the recursion happens to be.
+//!
+//! # Why
+//! The recursive Gauss-Newton of [`super`] climbs locally, and the likelihood of one velocity
+//! channel is multi-modal (accelerometer and gyro errors reach `z` through the same state and
+//! are told apart only by their spectra). Measured on the host (`examples/ml_probe.rs`,
+//! `docs/ADAPTATION.md` §7): a compass search on the window's likelihood from the start still
+//! ends in the wrong basin from 2 of 8 starts, while a grid of factors `10^{-1, 0, 1}` in every
+//! parameter followed by a local polish reaches, from all 8, the maximum that an offline fit
+//! to the same hours reaches.
+//!
+//! # What
+//! - Every `block` ticks the mean of the observations is pushed into a ring of [`WINDOW_CAP`]
+//!   block means (a block with a missing observation is missing).
+//! - A search evaluates, each over the same frozen window of the most recent `window` blocks,
+//!   the exact innovation log-likelihood (Schweppe) of the block means: the model over one
+//!   block is the exact system of the block sums ([`pass::block_system`]), so nothing is
+//!   approximated but the information the averaging removes (frequencies above `1 / (2 block
+//!   dt)`). The velocity and tilt errors start diffuse (the window begins hours into the run).
+//! - Points: the anchor (the filter's current `theta`), then the `3^p` grid around the start
+//!   model (spacing `spacing` in `ln`: factors 0.1, 1, 10), then a polish of the best
+//!   [`TOP`] of them by Levenberg-Marquardt Fisher scoring on the window: each iteration is one
+//!   pass of `2p + 1` filters giving the score and the Fisher information by central
+//!   differences ([`pass::Pass`]), the step `(I + lambda diag I)^-1 g` is accepted when the
+//!   next pass's likelihood is not lower, and `lambda` grows tenfold when it is.
+//! - The work is time-sliced: [`WindowSearch::work`] runs at most `budget` decimated filter
+//!   steps per tick, so a tick's cost is bounded whatever the window.
+//!
+//! The answer is the best point and its advantage over the anchor on the same window; the
+//! caller decides whether to jump (a likelihood-ratio margin).
+//!
+//! # Cost law (`p` identified parameters, window `W` blocks, `n` states)
+//! Filter-steps per search: `W (1 + 3^p + TOP c (2p + 1))` with `c` about 3-8 scoring
+//! iterations; each is a step of an `n + 1`-state filter. RAM: the ring, `WINDOW_CAP` values,
+//! plus `2p + 1` filters.
+//! The grid is exponential in `p`: it is the price of not depending on the start, and why
+//! larger systems search per sensor (`p <= 4` per search), one group after another.
+
+// Small fixed-size code reads best with explicit indices.
+#![allow(clippy::needless_range_loop)]
+
+pub mod pass;
+
+use crate::adapt::guard::{Bounds, Mat};
+use crate::adapt::params::{Specs, MAXP};
+use crate::linalg::{chol_solve, cholesky};
+use crate::model::InsModel;
+use crate::Real;
+use pass::Pass;
+
+/// Capacity of the ring of block means (8 h of 10-s blocks plus the blocks that arrive while
+/// a search over a full window runs).
+pub const WINDOW_CAP: usize = 3200;
+/// Points of the anchor and the grid that are polished briefly (multi-start: measured, one
+/// polish from the best grid point, or three, end on the accelerometer's random-walk ridge from
+/// some starts: the grid point nearest the maximum need not be among the best three).
+pub const TOP: usize = 8;
+/// Scoring iterations of the brief polish.
+const SHORT_ITERATIONS: u32 = 3;
+/// The best points after the brief polish that are refined to convergence.
+const FINAL: usize = 2;
+/// Scoring iterations per polish at most.
+const MAX_ITERATIONS: u32 = 12;
+/// Grid points per search (`3^MAXP`).
+const GRID: usize = 81;
+/// Finite-difference step of the polish's derivatives (`ln`), as the bank's.
+const DIFF_STEP: f64 = 0.1;
+
+/// Tuning of the global stage.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct WindowConfig<T> {
+    /// Ticks per block mean (`0`: the global stage is off).
+    pub block: u32,
+    /// Blocks in the searched window (at most `WINDOW_CAP` minus the blocks that arrive during
+    /// a search).
+    pub window: u32,
+    /// Blocks before the first search.
+    pub first: u32,
+    /// Blocks between the starts of two searches.
+    pub every: u32,
+    /// Decimated filter steps per tick.
+    pub budget: u32,
+    /// Grid spacing in `ln` (`ln 10`: factors 0.1, 1, 10).
+    pub spacing: T,
+    /// The polish stops when its step falls below this (`ln`).
+    pub min_step: T,
+    /// Advantage [nats] over the anchor the best point needs before the filter jumps to it.
+    pub margin: T,
+    /// `true`: the recursive Gauss-Newton does not move the parameters between searches (it
+    /// still accumulates the information for the Cramér-Rao deviations); the window's polish is
+    /// the local refinement.
+    pub hold_recursion: bool,
+}
+
+impl<T: Real> WindowConfig<T> {
+    /// Off.
+    pub const OFF: Self = Self {
+        block: 0,
+        window: 0,
+        first: 0,
+        every: 0,
+        budget: 0,
+        spacing: T::ZERO,
+        min_step: T::ZERO,
+        margin: T::ZERO,
+        hold_recursion: false,
+    };
+
+    /// The measured default: 10-s blocks, 8-h window, first search after 4 h, then every 2 h,
+    /// 200 decimated steps per tick; margin 0 (the filter runs at the window's maximum: the
+    /// search replaces the recursion, which is held).
+    pub fn default_on() -> Self {
+        Self {
+            block: 10,
+            window: 2880,
+            first: 1440,
+            every: 720,
+            budget: 200,
+            spacing: T::lit(core::f64::consts::LN_10),
+            min_step: T::lit(0.05),
+            margin: T::lit(0.0),
+            hold_recursion: true,
+        }
+    }
+
+    /// Whether the global stage runs.
+    pub fn enabled(&self) -> bool {
+        self.block > 0 && self.window > 1 && self.budget > 0
+    }
+}
+
+/// The result of a finished search.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Found<T> {
+    /// The best point (`ln` parameters).
+    pub theta: [T; MAXP],
+    /// Its log-likelihood minus the anchor's, over the same window [nats].
+    pub gain: T,
+    /// Blocks in the window.
+    pub blocks: u32,
+    /// Likelihood evaluations spent.
+    pub evaluations: u32,
+}
+
+impl<T: Real> Found<T> {
+    /// No search yet.
+    pub const BLANK: Self = Self {
+        theta: [T::ZERO; MAXP],
+        gain: T::ZERO,
+        blocks: 0,
+        evaluations: 0,
+    };
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    Idle,
+    Anchor,
+    Grid(usize),
+    /// Brief polish of the `k`-th best point of the grid.
+    Polish(usize),
+    /// Polish to convergence of the `k`-th best point after the brief polishes.
+    Refine(usize),
+}
+
+/// The buffered window and the time-sliced search over it.
+#[derive(Debug, Clone)]
+pub struct WindowSearch<T: Real> {
+    cfg: WindowConfig<T>,
+    ring: [T; WINDOW_CAP],
+    /// Index the next block mean goes to.
+    head: usize,
+    /// Block means pushed since the start.
+    pushed: u32,
+    acc: T,
+    acc_n: u32,
+    missing: bool,
+    /// Frozen window of the running search: first block (ring index) and length.
+    w0: usize,
+    wlen: usize,
+    /// Blocks pushed when the running search started.
+    started_at: u32,
+    phase: Phase,
+    /// Centre of the grid: the start model (fixed, so that the grid covers the same region
+    /// whatever happened since).
+    centre: [T; MAXP],
+    anchor: [T; MAXP],
+    anchor_ll: T,
+    best: [T; MAXP],
+    best_ll: T,
+    /// The best `TOP` points of the anchor and the grid, best first.
+    top: [[T; MAXP]; TOP],
+    top_ll: [T; TOP],
+    /// Polish: the last accepted point, its likelihood, score and information; the damping.
+    acc_theta: [T; MAXP],
+    acc_ll: T,
+    acc_score: [T; MAXP],
+    acc_fisher: Mat<T>,
+    lambda: T,
+    iterations: u32,
+    pass: Pass<T>,
+    running: bool,
+    evaluations: u32,
+    next_search: u32,
+    /// Searches started.
+    searches: u32,
+}
+
+impl<T: Real> WindowSearch<T> {
+    /// Nothing buffered, off (a compile-time value).
+    pub const BLANK: Self = Self {
+        cfg: WindowConfig::OFF,
+        ring: [T::ZERO; WINDOW_CAP],
+        head: 0,
+        pushed: 0,
+        acc: T::ZERO,
+        acc_n: 0,
+        missing: false,
+        w0: 0,
+        wlen: 0,
+        started_at: 0,
+        phase: Phase::Idle,
+        centre: [T::ZERO; MAXP],
+        anchor: [T::ZERO; MAXP],
+        anchor_ll: T::ZERO,
+        best: [T::ZERO; MAXP],
+        best_ll: T::ZERO,
+        top: [[T::ZERO; MAXP]; TOP],
+        top_ll: [T::ZERO; TOP],
+        acc_theta: [T::ZERO; MAXP],
+        acc_ll: T::ZERO,
+        acc_score: [T::ZERO; MAXP],
+        acc_fisher: [[T::ZERO; MAXP]; MAXP],
+        lambda: T::ZERO,
+        iterations: 0,
+        pass: Pass::BLANK,
+        running: false,
+        evaluations: 0,
+        next_search: 0,
+        searches: 0,
+    };
+
+    /// Starts empty with `cfg`, the grid centred on `centre` (the start model's parameters), in
+    /// place like the rest of the adaptive filter.
+    pub fn init(&mut self, cfg: WindowConfig<T>, centre: &[T; MAXP]) {
+        *self = Self::BLANK;
+        self.centre = *centre;
+        // The window leaves a tenth of the ring for the blocks that arrive during a search.
+        self.cfg = WindowConfig {
+            window: cfg.window.min(WINDOW_CAP as u32 / 10 * 9),
+            block: cfg.block.min(pass::MAX_BLOCK),
+            ..cfg
+        };
+        self.next_search = cfg.first.max(2);
+    }
+
+    /// Whether a search is running.
+    pub fn searching(&self) -> bool {
+        self.phase != Phase::Idle
+    }
+
+    /// Passes of the last or running search.
+    pub fn evaluations(&self) -> u32 {
+        self.evaluations
+    }
+
+    /// Adds one tick's observation (non-finite: missing) to the current block.
+    pub fn push(&mut self, z: T) {
+        if !self.cfg.enabled() {
+            return;
+        }
+        if z.is_finite() {
+            self.acc += z;
+        } else {
+            self.missing = true;
+        }
+        self.acc_n += 1;
+        if self.acc_n >= self.cfg.block {
+            let mean = if self.missing {
+                T::lit(f64::NAN)
+            } else {
+                self.acc / T::lit(f64::from(self.acc_n))
+            };
+            if let Some(v) = self.ring.get_mut(self.head) {
+                *v = mean;
+            }
+            self.head = (self.head + 1) % WINDOW_CAP;
+            self.pushed = self.pushed.saturating_add(1);
+            self.acc = T::zero();
+            self.acc_n = 0;
+            self.missing = false;
+        }
+    }
+
+    /// Whether a search should start now (enough new blocks since the last one).
+    pub fn due(&self) -> bool {
+        self.cfg.enabled() && self.phase == Phase::Idle && self.pushed >= self.next_search
+    }
+
+    /// The block means of the last search's window, oldest first (host tools and tests).
+    pub fn window_blocks(&self) -> impl Iterator<Item = T> + '_ {
+        (0..self.wlen).map(move |i| {
+            self.ring
+                .get((self.w0 + i) % WINDOW_CAP)
+                .copied()
+                .unwrap_or(T::lit(f64::NAN))
+        })
+    }
+
+    fn window_intact(&self) -> bool {
+        let arrived = self.pushed.saturating_sub(self.started_at) as usize;
+        arrived + self.wlen <= WINDOW_CAP
+    }
+
+    fn first_finite(&self) -> T {
+        self.window_blocks()
+            .find(|v| v.is_finite())
+            .unwrap_or(T::zero())
+    }
+
+    /// The log-likelihood of `theta` over the window of the last (or running) search, computed
+    /// at once (for tests and host tools: it costs a whole window). `None` if the model cannot be
+    /// discretised or the window was overwritten since.
+    pub fn window_loglik(&self, base: &InsModel<T>, specs: &Specs, theta: &[T; MAXP]) -> Option<T> {
+        if !self.window_intact() {
+            return None;
+        }
+        let mut p = self.pass.clone();
+        p.begin(
+            base,
+            specs,
+            theta,
+            None,
+            self.cfg.block,
+            self.first_finite(),
+        )
+        .ok()?;
+        for z in self.window_blocks() {
+            p.push(z);
+        }
+        Some(p.ll)
+    }
+
+    /// Starts a search anchored at `anchor` over the most recent blocks.
+    pub fn start(&mut self, anchor: &[T; MAXP]) {
+        let avail = (self.pushed as usize).min(WINDOW_CAP);
+        self.wlen = avail.min(self.cfg.window as usize);
+        self.w0 = (self.head + WINDOW_CAP - self.wlen) % WINDOW_CAP;
+        self.started_at = self.pushed;
+        self.anchor = *anchor;
+        self.best = *anchor;
+        self.anchor_ll = T::lit(f64::NEG_INFINITY);
+        self.best_ll = T::lit(f64::NEG_INFINITY);
+        self.top = [*anchor; TOP];
+        self.top_ll = [T::lit(f64::NEG_INFINITY); TOP];
+        self.phase = Phase::Anchor;
+        self.running = false;
+        self.evaluations = 0;
+        self.searches = self.searches.wrapping_add(1);
+        self.next_search = self.pushed.saturating_add(self.cfg.every.max(1));
+    }
+
+    /// Runs at most `budget` filter steps (a pass with derivatives counts `2p + 1` per block).
+    /// Returns the result when the search ends on this tick. `base`/`specs`/`bounds` describe
+    /// the model (as the bank's).
+    pub fn work(
+        &mut self,
+        base: &InsModel<T>,
+        specs: &Specs,
+        bounds: &Bounds<T>,
+    ) -> Option<Found<T>> {
+        if self.phase == Phase::Idle {
+            return None;
+        }
+        if !self.window_intact() {
+            // The ring wrapped onto the window: abandon the search.
+            self.phase = Phase::Idle;
+            return None;
+        }
+        let p = specs.len().min(MAXP);
+        let mut budget = self.cfg.budget as usize;
+        let z0 = self.first_finite();
+        // Each turn starts a pass, runs some blocks, or ends one: a pass takes at most three
+        // turns on a tick, and a tick ends when the budget is spent.
+        for _ in 0..(3 * GRID + 64) {
+            if !self.running {
+                let (theta, derivs) = self.next_point(p, bounds)?;
+                let h = derivs.then(|| T::lit(DIFF_STEP));
+                if self
+                    .pass
+                    .begin(base, specs, &theta, h, self.cfg.block, z0)
+                    .is_err()
+                {
+                    // A point that cannot be discretised counts as evaluated, with no likelihood.
+                    self.pass.theta = theta;
+                    self.pass.ll = T::lit(f64::NEG_INFINITY);
+                    if let Some(done) = self.complete(p, bounds) {
+                        return Some(done);
+                    }
+                    continue;
+                }
+                self.running = true;
+            }
+            let cost = if self.pass.info.steps == 0 && self.phase_derivs() {
+                2 * p + 1
+            } else if self.phase_derivs() {
+                2 * p + 1
+            } else {
+                1
+            };
+            let steps = (budget / cost).min(self.wlen.saturating_sub(self.pass.pos));
+            if steps == 0 && self.pass.pos < self.wlen {
+                return None;
+            }
+            for i in 0..steps {
+                let z = self
+                    .ring
+                    .get((self.w0 + self.pass.pos) % WINDOW_CAP)
+                    .copied()
+                    .unwrap_or(T::lit(f64::NAN));
+                self.pass.push(z);
+                let _ = i;
+            }
+            budget = budget.saturating_sub(steps * cost);
+            if self.pass.pos >= self.wlen {
+                self.running = false;
+                if let Some(done) = self.complete(p, bounds) {
+                    return Some(done);
+                }
+            }
+        }
+        None
+    }
+
+    fn phase_derivs(&self) -> bool {
+        matches!(self.phase, Phase::Polish(_) | Phase::Refine(_))
+    }
+
+    /// The point to evaluate next and whether with derivatives; `None` only when idle.
+    fn next_point(&self, p: usize, bounds: &Bounds<T>) -> Option<([T; MAXP], bool)> {
+        match self.phase {
+            Phase::Idle => None,
+            Phase::Anchor => Some((self.anchor, false)),
+            Phase::Grid(k) => {
+                let mut t = self.centre;
+                let mut q = k;
+                // Every other search shifts the lattice by half a spacing in every parameter, so
+                // that successive searches sample between each other's points (the anchor carries
+                // the best point found so far from one search to the next).
+                let shift = if self.searches % 2 == 1 {
+                    self.cfg.spacing * T::lit(0.5)
+                } else {
+                    T::zero()
+                };
+                for v in t.iter_mut().take(p) {
+                    let level = (q % 3) as i32 - 1;
+                    q /= 3;
+                    *v += T::lit(f64::from(level)) * self.cfg.spacing - shift;
+                }
+                Some((bounds.clamp(&t, p), false))
+            }
+            Phase::Polish(_) | Phase::Refine(_) => Some((self.pass.theta, true)),
+        }
+    }
+
+    /// Keeps `theta` among the `TOP` best points of the anchor and the grid.
+    fn offer(&mut self, ll: T, theta: &[T; MAXP]) {
+        // Insertion into a sorted array of TOP entries (best first).
+        let mut cand = (ll, *theta);
+        for (l, t) in self.top_ll.iter_mut().zip(self.top.iter_mut()) {
+            if cand.0 > *l {
+                core::mem::swap(l, &mut cand.0);
+                core::mem::swap(t, &mut cand.1);
+            }
+        }
+    }
+
+    /// Starts polishing the `k`-th best point (`refine`: to convergence), or ends the stage.
+    fn start_polish(&mut self, k: usize, refine: bool) -> Phase {
+        match (self.top.get(k), self.top_ll.get(k)) {
+            (Some(t), Some(&l)) if l.is_finite() => {
+                self.acc_theta = *t;
+                self.acc_ll = T::lit(f64::NEG_INFINITY);
+                self.lambda = T::lit(0.1);
+                self.iterations = 0;
+                // The first pass of the polish runs at the point itself.
+                self.pass.theta = *t;
+                if refine {
+                    Phase::Refine(k)
+                } else {
+                    Phase::Polish(k)
+                }
+            }
+            _ if !refine => {
+                // End of the brief polishes: rank their results, refine the best FINAL.
+                let (mut tl, mut tt) = (self.top_ll, self.top);
+                self.top_ll = [T::lit(f64::NEG_INFINITY); TOP];
+                for (l, t) in tl.iter_mut().zip(tt.iter_mut()) {
+                    let (l, t) = (*l, *t);
+                    self.offer(l, &t);
+                }
+                self.start_polish(0, true)
+            }
+            _ => Phase::Idle,
+        }
+    }
+
+    /// The damped scoring step from the last accepted point, limited to half the grid spacing
+    /// per parameter (direction kept).
+    fn scoring_step(&self, p: usize, bounds: &Bounds<T>) -> Option<[T; MAXP]> {
+        let mut a = self.acc_fisher;
+        for (i, row) in a.iter_mut().enumerate().take(p) {
+            row[i] = row[i] * (T::one() + self.lambda) + T::lit(1e-9);
+        }
+        let l = cholesky(&a, p)?;
+        let mut d = chol_solve(&l, &self.acc_score, p);
+        let big = d.iter().take(p).fold(T::zero(), |m, v| m.max(v.abs()));
+        let limit = self.cfg.spacing * T::lit(0.5);
+        if !big.is_finite() {
+            return None;
+        }
+        if big > limit {
+            for v in d.iter_mut() {
+                *v *= limit / big;
+            }
+        }
+        let mut t = self.acc_theta;
+        for i in 0..p {
+            t[i] += d[i];
+        }
+        Some(bounds.clamp(&t, p))
+    }
+
+    /// Records the finished pass and moves on; the result when the search ends.
+    fn complete(&mut self, p: usize, bounds: &Bounds<T>) -> Option<Found<T>> {
+        self.evaluations = self.evaluations.saturating_add(1);
+        let grid_len = 3usize.pow(p as u32).min(GRID);
+        let (theta, ll) = (self.pass.theta, self.pass.ll);
+        let next = match self.phase {
+            Phase::Idle => Phase::Idle,
+            Phase::Anchor => {
+                self.anchor_ll = ll;
+                self.best_ll = ll;
+                self.offer(ll, &theta);
+                Phase::Grid(0)
+            }
+            Phase::Grid(k) => {
+                self.offer(ll, &theta);
+                if k + 1 < grid_len {
+                    Phase::Grid(k + 1)
+                } else {
+                    self.start_polish(0, false)
+                }
+            }
+            Phase::Polish(k) => self.polish_step(k, false, theta, ll, p, bounds),
+            Phase::Refine(k) => self.polish_step(k, true, theta, ll, p, bounds),
+        };
+        self.phase = next;
+        if next == Phase::Idle {
+            return Some(Found {
+                theta: self.best,
+                gain: self.best_ll - self.anchor_ll,
+                blocks: u32::try_from(self.wlen).unwrap_or(u32::MAX),
+                evaluations: self.evaluations,
+            });
+        }
+        None
+    }
+
+    /// One Levenberg-Marquardt decision after a polish pass at `theta` with likelihood `ll`.
+    fn polish_step(
+        &mut self,
+        k: usize,
+        refine: bool,
+        theta: [T; MAXP],
+        ll: T,
+        p: usize,
+        bounds: &Bounds<T>,
+    ) -> Phase {
+        self.iterations += 1;
+        let most = if refine {
+            MAX_ITERATIONS
+        } else {
+            SHORT_ITERATIONS
+        };
+        if ll.is_finite() && ll >= self.acc_ll {
+            // Accepted: the new point, its score and information.
+            let moved = theta
+                .iter()
+                .zip(self.acc_theta.iter())
+                .take(p)
+                .fold(T::zero(), |m, (a, b)| m.max((*a - *b).abs()));
+            self.acc_theta = theta;
+            self.acc_ll = ll;
+            self.acc_score = self.pass.info.score;
+            self.acc_fisher = self.pass.info.fisher;
+            self.lambda = (self.lambda / T::lit(3.0)).max(T::lit(1e-3));
+            let converged = self.iterations > 1 && moved < self.cfg.min_step;
+            if converged || self.iterations >= most {
+                return self.end_polish(k, refine);
+            }
+        } else {
+            self.lambda *= T::lit(10.0);
+            if self.lambda > T::lit(1e4) || self.iterations >= most {
+                return self.end_polish(k, refine);
+            }
+        }
+        match self.scoring_step(p, bounds) {
+            Some(t) => {
+                self.pass.theta = t;
+                if refine {
+                    Phase::Refine(k)
+                } else {
+                    Phase::Polish(k)
+                }
+            }
+            None => self.end_polish(k, refine),
+        }
+    }
+
+    /// Ends a polish: a brief one stores its result in place of its start point; a refinement
+    /// competes for the answer.
+    fn end_polish(&mut self, k: usize, refine: bool) -> Phase {
+        if self.acc_ll > self.best_ll {
+            self.best_ll = self.acc_ll;
+            self.best = self.acc_theta;
+        }
+        if refine {
+            if k + 1 < FINAL {
+                self.start_polish(k + 1, true)
+            } else {
+                Phase::Idle
+            }
+        } else {
+            if let (Some(t), Some(l)) = (self.top.get_mut(k), self.top_ll.get_mut(k)) {
+                if self.acc_ll.is_finite() && self.acc_ll >= *l {
+                    *t = self.acc_theta;
+                    *l = self.acc_ll;
+                }
+            }
+            self.start_polish(k + 1, false)
+        }
+    }
+}

@@ -1,0 +1,254 @@
+//! One pass of the global stage over its frozen window: the exact likelihood of the block
+//! means for one parameter point, and optionally its score and Fisher information by central
+//! differences (`2p + 1` filters, as in the likelihood bank, [`accumulate`]).
+
+// Small fixed-size code reads best with explicit indices (they mirror the equations).
+#![allow(clippy::needless_range_loop)]
+
+use crate::adapt::bank::{accumulate, Information, Member, MemberInnovation, MEMBERS};
+use crate::adapt::params::{apply, Specs, MAXP};
+use crate::filter::UpdateStatus;
+use crate::linalg::{dot, from_mat, from_vec, mul, mul_t_sym, zeros, Arr};
+use crate::model::{idx, InsModel, NX};
+use crate::Real;
+
+/// Longest block [ticks] (bounds the loop of [`block_system`]).
+pub const MAX_BLOCK: u32 = 600;
+/// Diffuse initial standard deviations of a pass's velocity [m/s] and tilt [rad] errors (far
+/// above what a free one-channel INS reaches in a day).
+const DIFFUSE_DV: f64 = 300.0;
+const DIFFUSE_TILT: f64 = 0.05;
+/// Leading innovations of a pass not summed: the two diffuse states are fixed by the first
+/// two observations; one more for margin.
+pub const BURN: usize = 3;
+
+/// The exact discrete system of block sums: over `m` ticks of `(phi, qd)` (`n` states), the
+/// state at the block's end and `s = sum_{j=1..m} h x_j`, the sum of the noise-free
+/// observations over the block, as one `n + 1`-state step `[x; s]' = A [x; s] + w`:
+///
+/// ```text
+/// A = [[Phi^m, 0], [sum_j h Phi^j, 0]],   Cov(w) = [[E_m, C_m], [C_m^T, V_m]]
+/// E_j = Phi E_{j-1} Phi^T + Qd                       (noise accumulated in x)
+/// C_j = Phi C_{j-1} + E_j h^T                        (its covariance with the sum's noise)
+/// V_j = V_{j-1} + 2 h Phi C_{j-1} + h E_j h^T        (the sum's noise variance)
+/// ```
+///
+/// (`e_j = Phi e_{j-1} + w_j`, `sigma_j = sigma_{j-1} + h e_j`, `E_0 = 0`, `C_0 = 0`,
+/// `V_0 = 0`). The block mean is then `s / m` plus the mean of `m` white observation errors:
+/// the likelihood of the block means is exact, not the sampled-point approximation.
+/// `None` when `n + 1` states do not fit.
+#[allow(clippy::type_complexity)]
+pub fn block_system<T: Real>(
+    phi: &Arr<T, NX>,
+    qd: &Arr<T, NX>,
+    h: &[T; NX],
+    n: usize,
+    m: u32,
+) -> Option<(Arr<T, NX>, Arr<T, NX>, usize)> {
+    if n + 1 > NX || n == 0 {
+        return None;
+    }
+    let mut pj: Arr<T, NX> = zeros();
+    for i in 0..n {
+        pj[i][i] = T::one();
+    }
+    let mut e: Arr<T, NX> = zeros();
+    let mut c = [T::zero(); NX];
+    let mut v = T::zero();
+    let mut r = [T::zero(); NX];
+    for _ in 0..m.min(MAX_BLOCK) {
+        let mut phic = [T::zero(); NX];
+        for i in 0..n {
+            phic[i] = dot(&phi[i], &c, n);
+        }
+        let hphic = dot(h, &phic, n);
+        let pe = mul(phi, &e, n);
+        e = mul_t_sym(&pe, phi, qd, n);
+        let mut eh = [T::zero(); NX];
+        for i in 0..n {
+            eh[i] = dot(&e[i], h, n);
+        }
+        for i in 0..n {
+            c[i] = phic[i] + eh[i];
+        }
+        v += T::lit(2.0) * hphic + dot(h, &eh, n);
+        pj = mul(phi, &pj, n);
+        for k in 0..n {
+            let mut acc = T::zero();
+            for i in 0..n {
+                acc += h[i] * pj[i][k];
+            }
+            r[k] += acc;
+        }
+    }
+    let mut a: Arr<T, NX> = zeros();
+    let mut q: Arr<T, NX> = zeros();
+    for i in 0..n {
+        for k in 0..n {
+            a[i][k] = pj[i][k];
+            q[i][k] = e[i][k];
+        }
+        a[n][i] = r[i];
+        q[i][n] = c[i];
+        q[n][i] = c[i];
+    }
+    q[n][n] = v;
+    Some((a, q, n + 1))
+}
+
+/// A pass in progress: `count` filters (`1`, or `2p + 1` with derivatives) over the window.
+#[derive(Debug, Clone)]
+pub struct Pass<T: Real> {
+    members: [Member<T>; MEMBERS],
+    count: usize,
+    np: usize,
+    h: [T; NX],
+    r: T,
+    /// Finite-difference step (`ln`).
+    step: T,
+    /// The point.
+    pub theta: [T; MAXP],
+    /// Log-likelihood of the centre so far (`-inf` once a filter broke).
+    pub ll: T,
+    /// Score and information so far (with derivatives).
+    pub info: Information<T>,
+    /// Blocks consumed.
+    pub pos: usize,
+}
+
+impl<T: Real> Pass<T> {
+    /// Nothing (a compile-time value).
+    pub const BLANK: Self = Self {
+        members: [Member::BLANK; MEMBERS],
+        count: 0,
+        np: 0,
+        h: [T::ZERO; NX],
+        r: T::ZERO,
+        step: T::ZERO,
+        theta: [T::ZERO; MAXP],
+        ll: T::ZERO,
+        info: Information::BLANK,
+        pos: 0,
+    };
+
+    /// Prepares a pass at `theta` (with `derivs`, also at `theta +- step e_i`) for blocks of
+    /// `block` ticks whose first finite mean is `z0`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn begin(
+        &mut self,
+        base: &InsModel<T>,
+        specs: &Specs,
+        theta: &[T; MAXP],
+        derivs: Option<T>,
+        block: u32,
+        z0: T,
+    ) -> Result<(), ()> {
+        let np = specs.len().min(MAXP);
+        let count = if derivs.is_some() { 2 * np + 1 } else { 1 };
+        let step = derivs.unwrap_or(T::zero());
+        let k = T::lit(f64::from(block.max(1)));
+        let mut n_aug = 0;
+        let mut r = T::zero();
+        for j in 0..count.min(MEMBERS) {
+            let mut th = *theta;
+            if j > 0 {
+                let i = (j - 1) / 2;
+                let sign = if j % 2 == 1 { T::one() } else { -T::one() };
+                if let Some(v) = th.get_mut(i) {
+                    *v += sign * step;
+                }
+            }
+            let m = apply(base, specs, &th).ok_or(())?;
+            let scale = m.scaling().map_err(|_| ())?;
+            let sys = m.continuous(&scale).map_err(|_| ())?;
+            let (phi1, qd1) = m.discretise_block(&scale).map_err(|_| ())?;
+            let h1 = from_vec(&sys.H);
+            let (phi, qd, n) = block_system(&phi1, &qd1, &h1, sys.n, block).ok_or(())?;
+            // Diffuse start of the INS states: the window begins hours into the run, where the
+            // velocity and tilt errors are far outside the model's initial covariance (a free
+            // Schuler loop drifts to metres per second). A tight prior there makes the first
+            // innovations dominate the comparison and favours whichever model absorbs them
+            // fastest (measured: 386 nats for a 10x accelerometer sigma). Velocity starts at the
+            // first block mean; the first BURN terms, dominated by the prior, are not summed.
+            let mut p0 = from_mat(&sys.P0);
+            for (i, sd) in [(idx::DV, DIFFUSE_DV), (idx::DELTA, DIFFUSE_TILT)] {
+                let s = scale.get(i).copied().unwrap_or(T::one());
+                for row in p0.iter_mut() {
+                    if let Some(v) = row.get_mut(i) {
+                        *v = T::zero();
+                    }
+                }
+                if let Some(row) = p0.get_mut(i) {
+                    row.fill(T::zero());
+                    if let Some(v) = row.get_mut(i) {
+                        let sd = T::lit(sd) / s;
+                        *v = sd * sd;
+                    }
+                }
+            }
+            let mem = self.members.get_mut(j).ok_or(())?;
+            mem.reset(&p0, n);
+            if let (Some(x), Some(s)) = (mem.kf.x.get_mut(idx::DV), scale.get(idx::DV)) {
+                *x = z0 / *s;
+            }
+            mem.set_system(&phi, &qd);
+            n_aug = n;
+            r = m.sigma_v * m.sigma_v / k;
+        }
+        // z_block = s / k + the mean of k white observation errors.
+        self.h = [T::zero(); NX];
+        if let Some(v) = self.h.get_mut(n_aug.wrapping_sub(1)) {
+            *v = T::one() / k;
+        }
+        self.r = r;
+        self.count = count.min(MEMBERS);
+        self.np = np;
+        self.step = step;
+        self.theta = *theta;
+        self.ll = T::zero();
+        self.info = Information::BLANK;
+        self.pos = 0;
+        Ok(())
+    }
+
+    /// One block mean through every filter of the pass (non-finite: missing).
+    pub fn push(&mut self, z: T) {
+        self.pos += 1;
+        let mut inn = [MemberInnovation::<T>::default(); MEMBERS];
+        let mut all = z.is_finite() && self.pos > BURN;
+        for (j, (m, out)) in self
+            .members
+            .iter_mut()
+            .zip(inn.iter_mut())
+            .take(self.count)
+            .enumerate()
+        {
+            m.predict();
+            let i = m.update(z, &self.h, self.r, None);
+            match i.status {
+                UpdateStatus::Updated => {
+                    *out = MemberInnovation {
+                        nu: i.innovation,
+                        s: i.variance,
+                    };
+                    if j == 0 && self.pos > BURN {
+                        self.ll += i.loglik();
+                    }
+                }
+                UpdateStatus::Missing => all = false,
+                UpdateStatus::Gated | UpdateStatus::BadInnovationVariance => {
+                    all = false;
+                    if j == 0 {
+                        self.ll = T::lit(f64::NEG_INFINITY);
+                    }
+                }
+            }
+            if !m.kf.diagonal_healthy() && j == 0 {
+                self.ll = T::lit(f64::NEG_INFINITY);
+            }
+        }
+        if all && self.count > 1 {
+            accumulate(&inn, self.np, self.step, &mut self.info);
+        }
+    }
+}
