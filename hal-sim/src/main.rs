@@ -106,8 +106,9 @@ enum Command {
         /// Non-holonomic constraint: the body lateral and vertical velocity at --nhc-lever are
         /// zero with this standard deviation [m/s], every filter step while moving faster than
         /// 1 m/s with the heading known (also during outages). Off by default; with --identify
-        /// its factor is identified too.
-        #[arg(long, conflicts_with = "qemu_elf")]
+        /// its factor is identified too. With --qemu-elf the firmware applies it too (the
+        /// replay carries it).
+        #[arg(long)]
         nhc: Option<f64>,
         /// Where the constraint holds, from the IMU, forward,right,down [m] (the body origin).
         /// Default: minus import.imu_lever of a meta.json beside --imu (hal-sim import-drive),

@@ -4,7 +4,10 @@
 //! The log is turned into the core's navigation replay ([`imu_ident::nav::replay`]) with the
 //! same start and per-fix decisions as the host run ([`crate::nav::setup`], used by
 //! [`crate::nav::run_with`]): the records are the IMU samples after the start, each followed by
-//! the fixes it reaches, exactly the order in which `run_with` processes them. QEMU is run with
+//! the fixes it reaches, exactly the order in which `run_with` processes them. The
+//! non-holonomic constraint (`--nhc`) travels in the setup (sd, lever arm, whether the heading
+//! is given); the firmware's loop applies it after each filter step with the core code the host
+//! calls (`imu_ident::nav::Nhc::after_step`). QEMU is run with
 //! [`crate::qemu::run_qemu`] and the defmt frames are parsed structurally like the estimator
 //! firmware's ([`crate::qemu`]).
 //!
@@ -110,10 +113,6 @@ pub fn replay_records(
 
 /// The replay file of a run with `args` on `imu` and `fixes`.
 pub fn encode_replay(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<Vec<u8>> {
-    if args.nhc.is_some() {
-        // The replay format carries no constraint, and the firmware applies none.
-        anyhow::bail!("the navigation firmware replay has no non-holonomic constraint (--nhc)");
-    }
     let (setup, records) = replay_records(args, imu, fixes)?;
     let mut out = Vec::new();
     encode(&setup, &records, |b| out.extend_from_slice(b))
@@ -146,7 +145,8 @@ pub struct NavFirmwareRun {
     /// One per GNSS epoch after the start.
     pub epochs: Vec<NavEpoch>,
     /// Instruction counts: `imu` (mechanisation only), `step` (IMU sample + 1 Hz filter
-    /// propagation), `gnss` (fusion of one fix).
+    /// propagation), `nhc` (the same plus the non-holonomic constraint; none without it),
+    /// `gnss` (fusion of one fix).
     pub icount: Vec<Icount>,
     /// Stack high-water marks: `init` (building the navigator) and `run`.
     pub stack: Vec<Stack>,
@@ -263,7 +263,7 @@ pub struct FirmwareComparison {
     /// Worst position difference firmware minus host over the common epochs, N/E/D, in units
     /// of the host's position standard deviation.
     pub worst_position_diff_sigma: f64,
-    /// Instruction counts (`imu`, `step`, `gnss`).
+    /// Instruction counts (`imu`, `step`, `nhc`, `gnss`).
     pub icount: Vec<Icount>,
     /// Stack high-water marks.
     pub stack: Vec<Stack>,

@@ -1,7 +1,8 @@
 //! Every parser on arbitrary input (issue 7): the host's log and model parsers (never a panic;
 //! rows/models, or an error that names the file) and the firmware's decoders, the replay log
-//! [`Decoder`] and the serial [`FrameDecoder`] (never a panic; a valid log decodes exactly and
-//! any damage to it is an error; a valid frame is always recovered after arbitrary noise).
+//! [`Decoder`], the navigation replay's decoder (`imu_ident::nav::replay`, its version-2 setup
+//! fields above all) and the serial [`FrameDecoder`] (never a panic; a valid log decodes exactly
+//! and any damage to it is an error; a valid frame is always recovered after arbitrary noise).
 //!
 //! Case count per test: `FUZZ_CASES` (default [`DEFAULT_CASES`], the CI budget); each test
 //! prints its number of inputs and the time. The long run of issue 7 is the same tests with a
@@ -343,6 +344,144 @@ fn frame_decoder_recovers_a_frame_after_noise() {
                 .filter(|(i, r)| *i != last && encode_frame(*r) != copy)
                 .count();
             prop_assert_eq!(spurious, 0, "spurious frames {:?}", got);
+            Ok(())
+        },
+    );
+}
+
+/// The navigation replay's setup with arbitrary version-2 fields (the non-holonomic
+/// constraint's sd and lever arm, any bit pattern, NaN = off; the heading flag) and a few
+/// records. The encoding is the comparison: a NaN field has no `==`.
+fn nav_replay(nhc: (u64, [u64; 3], bool), n: usize) -> Vec<u8> {
+    use imu_ident::nav::replay::{GnssRecord, ImuRecord, Record};
+    use imu_ident::nav::{ImuErrorModel, NavInit, NavSetup};
+    use imu_ident::strapdown::{Geodetic, Quat};
+    let (sd, lever, heading_known) = nhc;
+    let pos = Geodetic {
+        lat: 0.8,
+        lon: 0.1,
+        h: 300.0,
+    };
+    let setup = NavSetup {
+        t0: 100.0,
+        pos,
+        att: Quat::from_euler(0.0, 0.0, 0.4),
+        vel: [0.0; 3],
+        gyro_bias: None,
+        imu: ImuErrorModel::default(),
+        init: NavInit {
+            sd_att: nalgebra::Vector3::repeat(0.02),
+            sd_vel: 0.1,
+            sd_pos: 1.0,
+        },
+        lever_arm: [0.3, 0.0, -0.8],
+        obs_sd: [0.5, 0.5, 1.0, 0.1, 0.1, 0.2],
+        step: 1.0,
+        gate: Some(1.0),
+        max_imu_gap: 0.1,
+        max_rejections: 3,
+        sd_factor: [1.0; 2],
+        heading_sd: 0.035,
+        scale_factor_sd: None,
+        nhc_sd: Some(f64::from_bits(sd)).filter(|v| !v.is_nan()),
+        nhc_lever: lever.map(f64::from_bits),
+        heading_known,
+    };
+    let records: Vec<Record> = (0..n)
+        .map(|k| {
+            let t = 100.0 + 0.01 * (k + 1) as f64;
+            if k % 4 == 3 {
+                Record::Gnss(GnssRecord {
+                    t,
+                    pos,
+                    vel: [1.0, 0.0, 0.0],
+                    sd_pos: [f32::NAN; 3],
+                    sd_vel: [f32::NAN; 3],
+                    flags: 4,
+                    yaw: 0.0,
+                })
+            } else {
+                Record::Imu(ImuRecord {
+                    t,
+                    gyro: [0.0; 3],
+                    accel: [0.0, 0.0, -9.8],
+                })
+            }
+        })
+        .collect();
+    let mut out = Vec::new();
+    imu_ident::nav::replay::encode(&setup, &records, |b| out.extend_from_slice(b))
+        .unwrap_or_else(|e| panic!("{e}"));
+    out
+}
+
+/// The setup decoded from `bytes` encoded again (with no records), and the decoder's verdict.
+fn nav_decode(
+    bytes: &[u8],
+) -> (
+    Option<Vec<u8>>,
+    Result<u32, imu_ident::nav::replay::NavReplayError>,
+) {
+    use imu_ident::nav::replay::{encode, Decoder, Event};
+    let mut dec = Decoder::new();
+    let mut setup = None;
+    for &b in bytes {
+        match dec.push(b) {
+            Ok(Some(Event::Setup)) => {
+                let mut out = Vec::new();
+                if let Some(s) = dec.setup() {
+                    let _ = encode(s, &[], |b| out.extend_from_slice(b));
+                }
+                setup = Some(out);
+            }
+            Ok(_) => {}
+            Err(e) => return (setup, Err(e)),
+        }
+    }
+    (setup, dec.finish())
+}
+
+#[test]
+fn nav_replay_decoder_on_mutated_setups() {
+    let fields = (any::<u64>(), any::<[u64; 3]>(), any::<bool>());
+    fuzz(
+        "nav_replay_mutated",
+        (fields, 0usize..6, damage()),
+        |(nhc, n, damage)| {
+            let good = nav_replay(nhc, n);
+            let (setup, fin) = nav_decode(&good);
+            prop_assert_eq!(fin, Ok(n as u32));
+            // The setup round-trips bit for bit (NaN sd: off; any lever, any flag).
+            prop_assert_eq!(setup, Some(nav_replay(nhc, 0)));
+            let mut bad = good.clone();
+            match damage {
+                Damage::Byte { at, xor } => {
+                    let i = at % bad.len();
+                    bad[i] ^= xor;
+                    prop_assert!(nav_decode(&bad).1.is_err(), "byte {} ^ {:#x}", i, xor);
+                }
+                Damage::Truncate { len } => {
+                    bad.truncate(len % good.len());
+                    prop_assert!(nav_decode(&bad).1.is_err());
+                }
+                Damage::Append(extra) => {
+                    bad.extend_from_slice(&extra);
+                    let (_, fin) = nav_decode(&bad);
+                    prop_assert_eq!(
+                        fin,
+                        Err(imu_ident::nav::replay::NavReplayError::TrailingData)
+                    );
+                }
+                Damage::Many(changes) => {
+                    for (at, v) in changes {
+                        let i = at % bad.len();
+                        bad[i] = v;
+                    }
+                    // Anything but a panic; accepted only if unchanged (or a CRC collision).
+                    let (_, fin) = nav_decode(&bad);
+                    prop_assert!(fin.is_err() || bad == good, "damaged replay accepted");
+                }
+            }
             Ok(())
         },
     );

@@ -16,13 +16,17 @@
 //!   is the only source is checked without QEMU: the replay through the same loop on the host
 //!   reproduces the host run bit for bit (`nav_replay_on_the_host_is_the_host_run_bit_for_bit`).
 //! - firmware against host f64: within 0.05 sigma, the bar of the f32 core (nav_sim.rs).
+//!
+//! The same bars hold with the non-holonomic constraint on (`--nhc`, applied by the core's
+//! `Nhc::after_step` in both runs), on a second drive whose heading comes from the GNSS course
+//! (so the constraint starts with the first heading fix, a decision the replay carries).
 
 use std::path::PathBuf;
 
 use hal_sim::nav::{run_with, NavArgs, NavRun};
 use hal_sim::nav_io::{read_gnss_csv, read_imu_csv};
 use hal_sim::nav_qemu::{
-    encode_replay, run_nav_firmware, run_nav_firmware_bytes, NavEpoch, NAV_ELF_ENV,
+    encode_replay, run_nav_firmware, run_nav_firmware_bytes, NavEpoch, NavFirmwareRun, NAV_ELF_ENV,
 };
 use hal_sim::qemu::QemuConfig;
 use imu_ident::nav::replay::{gnss_flags, Decoder, Event, Record};
@@ -59,14 +63,26 @@ fn mems() -> ImuErrorModel<f64> {
 /// The simulated drive and the run's options (those of nav_sim.rs, with the gyro bias seeded
 /// from the static window so that the replay carries it too).
 fn drive(dir: &std::path::Path) -> NavArgs {
-    hal_sim::trajectory::write::simulate_drive_files(
-        1.0 / 6.0,
-        100.0,
-        16,
-        vec![(400.0, 440.0)],
-        dir,
-    )
-    .unwrap_or_else(|e| panic!("{e:#}"));
+    drive_of(dir, 1.0 / 6.0, 16, vec![(400.0, 440.0)])
+}
+
+/// [`drive`] with the non-holonomic constraint: the same course (one figure-eight, climbs and
+/// a speed dip; a shorter `hours` would drop them, leaving a straight run), seed 17, no gap in
+/// the GNSS file, the scheduled 30-s outage at 250 s; heading from the GNSS course (no yaw
+/// given); constraint sd 0.05 m/s at a point 0.65 m below the IMU.
+fn drive_nhc(dir: &std::path::Path) -> NavArgs {
+    NavArgs {
+        yaw_deg: None,
+        nhc: Some(0.05),
+        nhc_lever: [0.0, 0.0, 0.65],
+        ..drive_of(dir, 1.0 / 6.0, 17, vec![])
+    }
+}
+
+/// A simulated drive of `hours` (seed, GNSS gaps) written into `dir`, and the run's options.
+fn drive_of(dir: &std::path::Path, hours: f64, seed: u64, gaps: Vec<(f64, f64)>) -> NavArgs {
+    hal_sim::trajectory::write::simulate_drive_files(hours, 100.0, seed, gaps, dir)
+        .unwrap_or_else(|e| panic!("{e:#}"));
     let truth =
         hal_sim::nav_io::read_truth_csv(&dir.join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
     NavArgs {
@@ -129,11 +145,63 @@ fn qemu_firmware_nav_matches_the_host_navigator() {
     let Some(elf) = firmware_elf() else { return };
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let args = drive(dir.path());
+    let (fw, h32) = parity_under_qemu(&elf, &args);
+    let fused = h32.epochs.iter().filter(|e| e.fused).count();
+    let withheld = h32.epochs.iter().filter(|e| e.withheld).count();
+    assert!(
+        withheld > 0 && fused > 300,
+        "the drive should fuse most fixes and withhold some"
+    );
+    let classes: Vec<&str> = fw.icount.iter().map(|c| c.class.as_str()).collect();
+    assert_eq!(classes, ["imu", "step", "nhc", "gnss"]);
+    assert_eq!(fw.icount[2].n, 0, "no constraint without --nhc");
+    // RAM of the STM32F405 (192 KiB in all; 128 KiB main SRAM) must hold statics and stack.
+    let ram = fw.stack.iter().map(|s| s.high_water).max().unwrap_or(0)
+        + fw.stack.first().map_or(0, |s| s.statics_end - 0x2000_0000);
+    assert!(ram <= 192 * 1024, "RAM {ram} B");
+}
+
+/// The parity check with the non-holonomic constraint on (`--nhc`): the firmware applies it
+/// through the replay (sd, lever arm, heading-known flag) exactly where the host does, once
+/// per filter step after the heading is known and above 1 m/s, GNSS or not.
+#[test]
+fn qemu_firmware_nav_with_the_constraint_matches_the_host_navigator() {
+    let Some(elf) = firmware_elf() else { return };
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let args = drive_nhc(dir.path());
+    let (fw, h32) = parity_under_qemu(&elf, &args);
+    let c = h32
+        .summary
+        .nhc
+        .as_ref()
+        .unwrap_or_else(|| panic!("no constraint summary"));
+    eprintln!(
+        "constraint: {} updates, {} gated, {} in outages",
+        c.updates, c.gated, c.in_outages
+    );
+    assert!(
+        c.updates > 200 && c.in_outages > 20,
+        "the constraint should act most steps, outages included"
+    );
+    let nhc = fw.icount.iter().find(|k| k.class == "nhc");
+    assert_eq!(
+        nhc.map(|k| k.n),
+        Some(c.updates as u32),
+        "firmware constraint updates"
+    );
+    // The heading came from the course: no update before the first heading fix.
+    assert!(h32.epochs.first().is_some_and(|e| !e.heading_known));
+}
+
+/// Runs `args` through the firmware under QEMU and the host (f32 and f64), prints the parity
+/// and instruction counts, asserts the bars (module docs); returns the firmware run and the
+/// host f32 run.
+fn parity_under_qemu(elf: &std::path::Path, args: &NavArgs) -> (NavFirmwareRun, NavRun) {
     let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));
     let fixes = read_gnss_csv(&args.gnss).unwrap_or_else(|e| panic!("{e:#}"));
 
     let started = std::time::Instant::now();
-    let fw = run_nav_firmware(&elf, &args, &imu, &fixes, &QemuConfig::default())
+    let fw = run_nav_firmware(elf, args, &imu, &fixes, &QemuConfig::default())
         .unwrap_or_else(|e| panic!("{e:#}"));
     let qemu_s = started.elapsed().as_secs_f64();
     assert!(
@@ -143,17 +211,13 @@ fn qemu_firmware_nav_matches_the_host_navigator() {
         fw.messages,
         fw.stderr
     );
-    let h32 = run_with::<f32>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
-    let h64 = run_with::<f64>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let h32 = run_with::<f32>(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let h64 = run_with::<f64>(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let fused = h32.epochs.iter().filter(|e| e.fused).count();
     let withheld = h32.epochs.iter().filter(|e| e.withheld).count();
     eprintln!(
         "{} epochs, {fused} fused, {withheld} withheld",
         h32.epochs.len()
-    );
-    assert!(
-        withheld > 0 && fused > 300,
-        "the drive should fuse most fixes and withhold some"
     );
 
     let (pos32, sd32) = compare(&fw.epochs, &h32);
@@ -183,12 +247,7 @@ fn qemu_firmware_nav_matches_the_host_navigator() {
         "firmware vs host f32 sigma: {sd32} (relative)"
     );
     assert!(pos64 <= 0.05, "firmware vs host f64: {pos64} sigma");
-    let classes: Vec<&str> = fw.icount.iter().map(|c| c.class.as_str()).collect();
-    assert_eq!(classes, ["imu", "step", "gnss"]);
-    // RAM of the STM32F405 (192 KiB in all; 128 KiB main SRAM) must hold statics and stack.
-    let ram = fw.stack.iter().map(|s| s.high_water).max().unwrap_or(0)
-        + fw.stack.first().map_or(0, |s| s.statics_end - 0x2000_0000);
-    assert!(ram <= 192 * 1024, "RAM {ram} B");
+    (fw, h32)
 }
 
 /// The firmware's loop on the host: the replay decoded and run through the library's
@@ -198,13 +257,36 @@ fn qemu_firmware_nav_matches_the_host_navigator() {
 #[test]
 fn nav_replay_on_the_host_is_the_host_run_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    let args = drive(dir.path());
+    let (updates, host) = replay_matches_host_bit_for_bit(&drive(dir.path()));
+    assert_eq!((updates, host.summary.nhc.is_none()), (0, true));
+}
+
+/// [`nav_replay_on_the_host_is_the_host_run_bit_for_bit`] with the non-holonomic constraint:
+/// the replay loop (`NavReplay::imu`) applies it at the same steps as the host driver, with
+/// the same result, because both call the core's `Nhc::after_step`.
+#[test]
+fn nav_replay_with_the_constraint_is_the_host_run_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let (updates, host) = replay_matches_host_bit_for_bit(&drive_nhc(dir.path()));
+    let c = host
+        .summary
+        .nhc
+        .unwrap_or_else(|| panic!("no constraint summary"));
+    assert!(c.updates > 200, "{} updates", c.updates);
+    assert_eq!(updates, c.updates);
+}
+
+/// The replay of `args` through `NavReplay<f32>` on the host against `run_with::<f32>`:
+/// asserts bit-for-bit equality at every epoch; returns the replay's constraint updates and
+/// the host run.
+fn replay_matches_host_bit_for_bit(args: &NavArgs) -> (usize, NavRun) {
     let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));
     let fixes = read_gnss_csv(&args.gnss).unwrap_or_else(|e| panic!("{e:#}"));
-    let bytes = encode_replay(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let bytes = encode_replay(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let mut dec = Decoder::new();
     let mut run: Option<NavReplay<f32, NAV_N>> = None;
     let mut epochs = Vec::new();
+    let mut updates = 0;
     for &b in &bytes {
         match dec.push(b).unwrap_or_else(|e| panic!("{e}")) {
             None => {}
@@ -218,7 +300,8 @@ fn nav_replay_on_the_host_is_the_host_run_bit_for_bit() {
                     .unwrap_or_else(|| panic!("record before setup"));
                 match r {
                     Record::Imu(r) => {
-                        run.imu(&r).unwrap_or_else(|e| panic!("{e:?}"));
+                        let done = run.imu(&r).unwrap_or_else(|e| panic!("{e:?}"));
+                        updates += usize::from(done.nhc.is_some());
                     }
                     Record::Gnss(r) => {
                         let fused = run.gnss(&r).unwrap_or_else(|e| panic!("{e:?}"));
@@ -238,7 +321,7 @@ fn nav_replay_on_the_host_is_the_host_run_bit_for_bit() {
         }
     }
     dec.finish().unwrap_or_else(|e| panic!("{e}"));
-    let host = run_with::<f32>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let host = run_with::<f32>(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     assert_eq!(epochs.len(), host.epochs.len());
     for (e, h) in epochs.iter().zip(&host.epochs) {
         assert_eq!(e.flags & 0x80 != 0, h.gated, "t = {}", h.t);
@@ -253,6 +336,7 @@ fn nav_replay_on_the_host_is_the_host_run_bit_for_bit() {
     }
     let (pos, sd) = compare(&epochs, &host);
     assert_eq!((pos, sd), (0.0, 0.0));
+    (updates, host)
 }
 
 #[test]

@@ -12,7 +12,9 @@
 //! - Output (defmt on semihosting stdout): `nav` per GNSS epoch (time, position f64 rad/m,
 //!   NED velocity, position sigmas N/E/D, flags); `icount` per class: `imu` (an IMU sample
 //!   mechanised, no filter step), `step` (an IMU sample whose end starts the 1 Hz filter step:
-//!   mechanisation + propagation), `gnss` (a fix fused: gate + six sequential updates +
+//!   mechanisation + propagation), `nhc` (the same with the non-holonomic constraint applied
+//!   after the propagation: gate + two sequential updates + closed-loop correction; none
+//!   without the constraint), `gnss` (a fix fused: gate + six sequential updates +
 //!   closed-loop correction); `stack` for start-up and for the run.
 //! - Exit: status 0 after a complete, checksum-valid replay; 1 otherwise.
 //!
@@ -116,8 +118,12 @@ mod firmware {
         let mut decoder = Decoder::new();
         let mut buf = [0u8; CHUNK];
         let mut nav: Option<&'static mut Run> = None;
-        let (mut imu, mut step, mut fuse) =
-            (Counts::default(), Counts::default(), Counts::default());
+        let (mut imu, mut step, mut nhc, mut fuse) = (
+            Counts::default(),
+            Counts::default(),
+            Counts::default(),
+            Counts::default(),
+        );
         let (mut n_imu, mut epochs) = (0u32, 0u32);
         loop {
             let n = file.read(&mut buf)?;
@@ -137,9 +143,13 @@ mod firmware {
                     Some(Event::Record(Record::Imu(r))) => {
                         let run = nav.as_deref_mut().ok_or(FirmwareError::NoSetup)?;
                         let t0 = SYST::get_current();
-                        let stepped = run.imu(&r).map_err(FirmwareError::Nav)?;
+                        let done = run.imu(&r).map_err(FirmwareError::Nav)?;
                         let t1 = SYST::get_current();
-                        let class = if stepped { &mut step } else { &mut imu };
+                        let class = match (done.stepped, done.nhc.is_some()) {
+                            (_, true) => &mut nhc,
+                            (true, false) => &mut step,
+                            (false, false) => &mut imu,
+                        };
                         class.add(semihost::instructions(t0, t1), n_imu);
                         n_imu = n_imu.wrapping_add(1);
                     }
@@ -165,6 +175,7 @@ mod firmware {
         }
         imu.log("imu");
         step.log("step");
+        nhc.log("nhc");
         fuse.log("gnss");
         let records = decoder.finish().map_err(FirmwareError::Log)?;
         Ok((records, epochs))

@@ -18,7 +18,7 @@ pub use error_model::{nav_idx, NavInit, NavPoint, StrapdownErrorModel, NAV_Z};
 pub use imu_model::{AxisModel, ImuErrorModel, ImuSensor, MAX_AXIS_COMPONENTS};
 pub use navigator::{GnssFix, NavConfig, NavError, Navigator, CHI2_9999, NHC_Z};
 pub use replay::NavSetup;
-pub use run::{Epoch, NavReplay};
+pub use run::{Epoch, ImuStep, NavReplay, Nhc, NHC_MIN_SPEED};
 
 /// Default filter capacity: 9 navigation errors plus up to 15 sensor-component states (for
 /// example a Gauss-Markov and a random constant on each of the six axes, plus three more).

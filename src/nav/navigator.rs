@@ -475,7 +475,8 @@ impl<T: Real, const N: usize> Navigator<T, N> {
     /// standard deviation `sd` [m/s] (how far the vehicle departs from it: side slip, bounce,
     /// mounting misalignment). Fused like a GNSS fix (vector gate, sequential scalar updates,
     /// closed-loop correction), with its own count of consecutive rejections (module docs).
-    /// Only meaningful while the vehicle moves and the heading is known; the caller decides.
+    /// Only meaningful while the vehicle moves and the heading is known; the caller decides
+    /// (the host driver and the firmware's replay loop through [`super::run::Nhc::after_step`]).
     pub fn nhc(&mut self, sd: T, lever: &Vector3<T>) -> Result<Fused<T, NHC_Z>, NavError> {
         if !(sd.is_finite() && sd > T::zero() && lever.iter().all(|v| v.is_finite())) {
             return Err(NavError::Model(ModelError::BadSigma));

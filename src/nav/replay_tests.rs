@@ -3,6 +3,7 @@
 extern crate std;
 use super::*;
 use crate::model::{Component, GaussMarkov, RandomWalk, WhiteNoise};
+use nalgebra::Vector3;
 use std::vec;
 use std::vec::Vec;
 
@@ -45,6 +46,9 @@ fn setup() -> NavSetup {
         sd_factor: [1.0, 2.0],
         heading_sd: 0.035,
         scale_factor_sd: Some([0.01, 0.002]),
+        nhc_sd: Some(0.05),
+        nhc_lever: [0.1, -0.2, 0.65],
+        heading_known: true,
     }
 }
 
@@ -121,6 +125,14 @@ fn round_trip_is_bit_exact() {
     );
     let (back_s, back_r) = decoded(&bytes).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(back_s.as_ref(), Some(&s));
+    let back_s = back_s.unwrap_or_else(|| panic!("no setup"));
+    // The version-2 fields, bit for bit.
+    assert_eq!(back_s.nhc_sd.map(f64::to_bits), Some(0.05f64.to_bits()));
+    assert_eq!(
+        back_s.nhc_lever.map(f64::to_bits),
+        s.nhc_lever.map(f64::to_bits)
+    );
+    assert!(back_s.heading_known);
     assert_eq!(back_r.len(), r.len());
     for (a, b) in r.iter().zip(&back_r) {
         assert!(same_bits(a, b), "{a:?} != {b:?}");
@@ -128,11 +140,14 @@ fn round_trip_is_bit_exact() {
 }
 
 #[test]
-fn no_gate_no_bias_and_no_records_round_trip() {
+fn no_gate_no_bias_no_constraint_and_no_records_round_trip() {
     let mut s = setup();
     s.gate = None;
     s.gyro_bias = None;
     s.imu = ImuErrorModel::default();
+    // Without the constraint its lever arm is kept, and the heading flag is off.
+    s.nhc_sd = None;
+    s.heading_known = false;
     let (back, recs) = decoded(&encoded(&s, &[])).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(back, Some(s));
     assert!(recs.is_empty());
@@ -162,10 +177,55 @@ fn header_errors_are_specific() {
     assert_eq!(decoded(&bad), Err(NavReplayError::BadMagic));
     let mut bad = good.clone();
     bad[4] = 9;
-    assert_eq!(decoded(&bad), Err(NavReplayError::BadVersion));
-    let mut bad = good;
+    assert_eq!(decoded(&bad), Err(NavReplayError::BadVersion(9)));
+    let mut bad = good.clone();
     bad[HEADER_LEN + SETUP_LEN - 7] = 9; // gyro x: 9 components
     assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
+    let mut bad = good;
+    bad[HEADER_LEN + SETUP_LEN - 1] = 2; // an undefined setup flag
+    assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
+}
+
+/// A version-1 replay (no constraint, 48 bytes shorter setup) is refused at its header with
+/// the version it has, before its setup could be misread; the message says which one is read.
+#[test]
+fn version_1_is_refused_with_its_number() {
+    let mut v1 = encoded(&setup(), &records(2));
+    v1[4..6].copy_from_slice(&1u16.to_le_bytes());
+    let e = decoded(&v1).err();
+    assert_eq!(e, Some(NavReplayError::BadVersion(1)));
+    let msg = std::format!("{}", NavReplayError::BadVersion(1));
+    assert!(
+        msg.contains("version 1") && msg.contains("version 2"),
+        "{msg}"
+    );
+    let mut dec = Decoder::new();
+    let errs: Vec<_> = v1[..HEADER_LEN].iter().map(|&b| dec.push(b)).collect();
+    assert_eq!(errs.last(), Some(&Err(NavReplayError::BadVersion(1))));
+}
+
+/// Every setup field lands at its documented offset: the constraint's sd and lever arm are the
+/// last four `f64` of the block, the setup flags its last byte.
+#[test]
+fn version_2_fields_are_at_their_documented_offsets() {
+    let s = setup();
+    let bytes = encoded(&s, &[]);
+    let f64_at = |k: usize| {
+        let o = HEADER_LEN + 8 * k;
+        f64::from_le_bytes(bytes[o..o + 8].try_into().unwrap_or([0; 8]))
+    };
+    assert_eq!(SETUP_LEN, 40 * 8 + 8);
+    assert_eq!(f64_at(36), 0.05);
+    assert_eq!([f64_at(37), f64_at(38), f64_at(39)], s.nhc_lever);
+    assert_eq!(
+        bytes[HEADER_LEN + SETUP_LEN - 1],
+        setup_flags::HEADING_KNOWN
+    );
+    let mut off = s.clone();
+    off.nhc_sd = None;
+    let bytes = encoded(&off, &[]);
+    let o = HEADER_LEN + 8 * 36;
+    assert!(f64::from_le_bytes(bytes[o..o + 8].try_into().unwrap_or([0; 8])).is_nan());
 }
 
 #[test]

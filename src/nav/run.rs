@@ -2,11 +2,16 @@
 //! [`NavSetup`] and applies each IMU sample and GNSS fix exactly as the host driver
 //! (`hal_sim::nav::run_with`) does, so that the firmware and the host run the same arithmetic
 //! on the same inputs. The firmware only reads the bytes and times the calls.
+//!
+//! The non-holonomic constraint is the one decision that depends on the filter (the speed of
+//! the solution), so it cannot be recorded in the replay like the GNSS flags: it is taken here,
+//! by [`Nhc::after_step`], which the host driver calls too.
 
-use super::navigator::{GnssFix, NavConfig, NavError, Navigator};
+use super::navigator::{GnssFix, NavConfig, NavError, Navigator, NHC_Z};
 use super::replay::{gnss_flags, GnssRecord, ImuRecord, NavSetup};
 use super::{NavInit, NavPoint, StrapdownErrorModel, NAV_Z};
 use crate::filter::Fused;
+use crate::model::ModelError;
 use crate::strapdown::{earth, Geodetic, Increment, Strapdown};
 use crate::Real;
 use nalgebra::Vector3;
@@ -46,6 +51,68 @@ impl NavSetup {
         }
         Ok(nav)
     }
+
+    /// The non-holonomic constraint this setup describes (`None` without it). A standard
+    /// deviation that is not finite and positive, or a lever arm that is not finite, is refused
+    /// here ([`ModelError::BadSigma`], as [`Navigator::nhc`] would), so that a bad setup fails
+    /// at the start rather than at the first filter step in motion.
+    pub fn nhc<T: Real>(&self) -> Result<Option<Nhc<T>>, NavError> {
+        let Some(sd) = self.nhc_sd else {
+            return Ok(None);
+        };
+        if !(sd.is_finite() && sd > 0.0 && self.nhc_lever.iter().all(|v| v.is_finite())) {
+            return Err(NavError::Model(ModelError::BadSigma));
+        }
+        Ok(Some(Nhc {
+            sd: T::lit(sd),
+            lever: Vector3::from(self.nhc_lever).map(T::lit),
+        }))
+    }
+}
+
+/// Speed [m/s] of the solution from which the non-holonomic constraint is applied: below it
+/// the heading of the velocity is ill-defined and the car may be at rest, where a zero-velocity
+/// update, not this constraint, is the right pseudo-observation.
+pub const NHC_MIN_SPEED: f64 = 1.0;
+
+/// The non-holonomic constraint of a run ([`Navigator::nhc`]), applied by the host driver and
+/// the replay loop alike through [`after_step`](Self::after_step).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Nhc<T: Real> {
+    /// Standard deviation of the body lateral and vertical velocity [m/s].
+    pub sd: T,
+    /// The point the constraint holds at, from the IMU, body FRD [m].
+    pub lever: Vector3<T>,
+}
+
+impl<T: Real> Nhc<T> {
+    /// The constraint after an IMU sample that ended a filter step (the caller checks that
+    /// one did: once per step, with or without GNSS, since during an outage it is the only
+    /// aiding). Not applied before the heading is known (`heading_known`: it would pull the
+    /// velocity onto a wrong body axis), nor while the solution is slower than
+    /// [`NHC_MIN_SPEED`]. Returns the fusion result when applied.
+    pub fn after_step<const N: usize>(
+        &self,
+        nav: &mut Navigator<T, N>,
+        heading_known: bool,
+    ) -> Result<Option<Fused<T, NHC_Z>>, NavError> {
+        // The speed in f64 whatever T (as the host driver has always computed it), so the
+        // threshold is compared at the same precision in f32 and f64 runs.
+        let speed = nav.ins().velocity().map(|v| v.as_f64()).norm();
+        if !(heading_known && speed > NHC_MIN_SPEED) {
+            return Ok(None);
+        }
+        nav.nhc(self.sd, &self.lever).map(Some)
+    }
+}
+
+/// What one IMU sample did ([`NavReplay::imu`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImuStep<T> {
+    /// The sample ended a filter step (the filter was propagated).
+    pub stepped: bool,
+    /// The non-holonomic constraint's update after the step, when it was applied.
+    pub nhc: Option<Fused<T, NHC_Z>>,
 }
 
 /// The solution at a GNSS epoch.
@@ -86,16 +153,24 @@ pub struct NavReplay<T: Real, const N: usize> {
     t: f64,
     sd_factor: [T; 2],
     heading_sd: T,
+    nhc: Option<Nhc<T>>,
+    /// Given at the start, or set from a fix flagged [`gnss_flags::HEADING`] since.
+    heading_known: bool,
 }
 
 impl<T: Real, const N: usize> NavReplay<T, N> {
     /// Starts the run `setup` describes.
     pub fn new(setup: &NavSetup) -> Result<Self, NavError> {
+        // The constraint first: a fallible step after the navigator's construction would hold
+        // the navigator (about 6 KB in f32) in one more stack temporary on the firmware.
+        let nhc = setup.nhc()?;
         Ok(Self {
             nav: setup.navigator()?,
             t: setup.t0,
             sd_factor: setup.sd_factor.map(T::lit),
             heading_sd: T::lit(setup.heading_sd),
+            nhc,
+            heading_known: setup.heading_known,
         })
     }
 
@@ -109,9 +184,15 @@ impl<T: Real, const N: usize> NavReplay<T, N> {
         self.t
     }
 
-    /// One IMU sample (mean rates over `(previous t, r.t]`). Returns true when a filter step
-    /// was taken.
-    pub fn imu(&mut self, r: &ImuRecord) -> Result<bool, NavError> {
+    /// The heading is known (given at the start, or set from the course by a fix since).
+    pub fn heading_known(&self) -> bool {
+        self.heading_known
+    }
+
+    /// One IMU sample (mean rates over `(previous t, r.t]`), then, when it ended a filter
+    /// step, the non-holonomic constraint if the setup has one ([`Nhc::after_step`]): the host
+    /// driver's order, before the fixes this sample reaches.
+    pub fn imu(&mut self, r: &ImuRecord) -> Result<ImuStep<T>, NavError> {
         let dt = r.t - self.t;
         if dt.is_nan() || dt <= 0.0 {
             return Err(NavError::BadTime);
@@ -123,7 +204,11 @@ impl<T: Real, const N: usize> NavReplay<T, N> {
         );
         let stepped = self.nav.imu(r.t, &inc)?;
         self.t = r.t;
-        Ok(stepped)
+        let nhc = match (&self.nhc, stepped) {
+            (Some(c), true) => c.after_step(&mut self.nav, self.heading_known)?,
+            _ => None,
+        };
+        Ok(ImuStep { stepped, nhc })
     }
 
     /// One GNSS fix: the heading is set and the fix fused as its flags say. Returns the fusion
@@ -133,6 +218,7 @@ impl<T: Real, const N: usize> NavReplay<T, N> {
         if r.flags & gnss_flags::HEADING != 0 {
             self.nav
                 .set_heading(T::lit(r.yaw), self.heading_sd, Some(v3(&r.vel)))?;
+            self.heading_known = true;
         }
         if r.flags & gnss_flags::FUSE == 0 {
             return Ok(None);

@@ -82,10 +82,9 @@ pub struct NavArgs {
     pub nhc_lever: [f64; 3],
 }
 
-/// Speed [m/s] of the solution from which the non-holonomic constraint is applied: below it
-/// the heading of the velocity is ill-defined and the car may be at rest, where a zero-velocity
-/// update, not this constraint, is the right pseudo-observation.
-pub const NHC_MIN_SPEED: f64 = 1.0;
+/// Speed [m/s] of the solution from which the non-holonomic constraint is applied (the core's,
+/// shared with the firmware: `imu_ident::nav::run::Nhc::after_step`).
+pub use imu_ident::nav::NHC_MIN_SPEED;
 
 impl NavArgs {
     /// A run of `imu` and `gnss` with `model` and the command's defaults (`hal-sim nav --help`):
@@ -260,7 +259,11 @@ pub fn run_observed<T: Real>(
 
     // 3. The loop.
     let mut fix_k = fixes.partition_point(|f| f.t < t_start);
-    let nhc_lever = Vector3::from(args.nhc_lever).map(T::lit);
+    // The constraint from the setup, applied by the core's `Nhc::after_step`: the same code
+    // and the same values as the firmware's replay loop (`NavReplay::imu`).
+    let nhc_core = setup
+        .nhc::<T>()
+        .map_err(|e| anyhow::anyhow!("nav: constraint (--nhc, --nhc-lever): {e:?}"))?;
     let mut nhc = args.nhc.map(|sd| records::NhcSummary {
         sd,
         lever: args.nhc_lever,
@@ -288,15 +291,13 @@ pub fn run_observed<T: Real>(
         let stepped = nav
             .imu(b.t, &inc)
             .map_err(|e| anyhow::anyhow!("nav: IMU sample at t = {}: {e:?}", b.t))?;
-        // The non-holonomic constraint once per filter step, with or without GNSS: during an
-        // outage it is the only aiding. Not before the heading is known (the constraint would
-        // pull the velocity onto a wrong body axis), nor slower than NHC_MIN_SPEED.
-        if let (true, Some(sum), Some(sd)) = (stepped, nhc.as_mut(), args.nhc) {
-            let speed = nav.ins().velocity().map(|v| v.as_f64()).norm();
-            if planner.heading_known() && speed > NHC_MIN_SPEED {
-                let f = nav
-                    .nhc(T::lit(sd), &nhc_lever)
-                    .map_err(|e| anyhow::anyhow!("nav: constraint at t = {}: {e:?}", b.t))?;
+        // The non-holonomic constraint once per filter step, with or without GNSS, once the
+        // heading is known and above NHC_MIN_SPEED (the core decides: `Nhc::after_step`).
+        if let (true, Some(c)) = (stepped, nhc_core.as_ref()) {
+            let fused = c
+                .after_step(&mut nav, planner.heading_known())
+                .map_err(|e| anyhow::anyhow!("nav: constraint at t = {}: {e:?}", b.t))?;
+            if let (Some(f), Some(sum)) = (fused, nhc.as_mut()) {
                 let nu = f.innovation.map(|v| v.as_f64());
                 let s = f.variance.map(|v| v.as_f64());
                 sum.add(nu, s, f.gated, planner.withheld_at(b.t));

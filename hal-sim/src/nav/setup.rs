@@ -114,6 +114,10 @@ pub fn start(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<Sta
         sd_factor: args.gnss_sd_factor,
         heading_sd: HEADING_SD_DEG.to_radians(),
         scale_factor_sd: args.scale_factor_sd,
+        nhc_sd: args.nhc,
+        nhc_lever: args.nhc_lever,
+        // The planner's start (`FixPlanner::new`): a given yaw.
+        heading_known: args.yaw_deg.is_some(),
     };
     Ok(Start { setup, k, outages })
 }
