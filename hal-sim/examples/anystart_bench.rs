@@ -4,8 +4,11 @@
 //! (an offline Nelder-Mead fit of the same structure to hours 0-8, run as a fixed filter).
 //!
 //! ```text
-//! cargo run --release -p hal-sim --example anystart_bench -- [first=9100] [seeds=20] [starts=32] [design=global|probes]
+//! cargo run --release -p hal-sim --example anystart_bench -- [first=9100] [seeds=20] [starts=32] [design=global|probes] [f32]
 //! ```
+//! `design=global` is `AdaptConfig::global()`; the environment overrides its window settings
+//! for experiments (`BLOCK`, `WIN`, `FIRST`, `EVERY`, `BUDGET`, `PM` probe factor, `GN` set:
+//! recursion not held). `design=probes` is `AdaptConfig::default()`, today's design.
 #![allow(clippy::needless_range_loop)]
 
 use argmin::core::{CostFunction, Error, Executor, State};
@@ -13,7 +16,7 @@ use argmin::solver::neldermead::NelderMead;
 use hal_sim::adaptive::{self, tilt_window};
 use hal_sim::log::LogRow;
 use hal_sim::{replay, scenario, sim};
-use imu_ident::adapt::{AdaptConfig, WindowConfig};
+use imu_ident::adapt::AdaptConfig;
 use imu_ident::model::{Component, InsModel};
 use rand::{Rng, SeedableRng};
 
@@ -134,10 +137,16 @@ fn main() -> anyhow::Result<()> {
     let seeds: u64 = get("seeds").and_then(|s| s.parse().ok()).unwrap_or(20);
     let nstarts: usize = get("starts").and_then(|s| s.parse().ok()).unwrap_or(32);
     let design = get("design").unwrap_or_else(|| "global".into());
+    let f32_mode = args.iter().any(|a| a == "f32");
     let mut cfg = AdaptConfig::<f64>::default();
     if design == "global" {
-        cfg.global = WindowConfig::default_on();
-        cfg.global.hold_recursion = std::env::var("GN").is_err();
+        cfg = AdaptConfig::global();
+        if let Ok(v) = std::env::var("PM") {
+            cfg.probe_factor = v.parse()?;
+        }
+        if std::env::var("GN").is_ok() {
+            cfg.global.hold_recursion = false;
+        }
         let envu = |k: &str, d: u32| {
             std::env::var(k)
                 .ok()
@@ -150,10 +159,6 @@ fn main() -> anyhow::Result<()> {
         cfg.global.every = envu("EVERY", cfg.global.every);
         cfg.global.budget = envu("BUDGET", cfg.global.budget);
         println!("{:?}", cfg.global);
-        cfg.probe_factor = std::env::var("PM")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(0.0);
     }
     let truth = scenario::load("paper")?.to_core()?;
     let th0 = theta(&truth);
@@ -197,7 +202,11 @@ fn main() -> anyhow::Result<()> {
         for (k, f) in starts.iter().enumerate() {
             let s0: Vec<f64> = th0.iter().zip(f.iter()).map(|(a, k)| a + k.ln()).collect();
             let start = set(&truth, &s0);
-            let r = adaptive::run::<f64>(&start, &log, cfg)?;
+            let r = if f32_mode {
+                adaptive::run::<f32>(&start, &log, cfg)?
+            } else {
+                adaptive::run::<f64>(&start, &log, cfg)?
+            };
             let (rms, out) = tilt(&r.estimates);
             let ratio = rms / oracle;
             if k == starts.len() - 1 {

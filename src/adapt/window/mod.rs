@@ -49,9 +49,9 @@ use crate::model::InsModel;
 use crate::Real;
 use pass::Pass;
 
-/// Capacity of the ring of block means (8 h of 10-s blocks plus the blocks that arrive while
-/// a search over a full window runs).
-pub const WINDOW_CAP: usize = 3200;
+/// Capacity of the ring of block means: 8 h of 60-s blocks (480) plus the blocks that arrive
+/// while a search over a full window runs (a tenth of the ring, 1 h).
+pub const WINDOW_CAP: usize = 600;
 /// Points of the anchor and the grid that are polished briefly (multi-start: measured, one
 /// polish from the best grid point, or three, end on the accelerometer's random-walk ridge from
 /// some starts: the grid point nearest the maximum need not be among the best three).
@@ -64,6 +64,9 @@ const FINAL: usize = 2;
 const MAX_ITERATIONS: u32 = 12;
 /// Grid points per search (`3^MAXP`).
 const GRID: usize = 81;
+/// Filter steps one filter's construction (a discretisation and a block system of 60 ticks) is
+/// counted as in the budget: about 40 filter steps' instructions on the Cortex-M4.
+const PREPARE_COST: usize = 40;
 /// Finite-difference step of the polish's derivatives (`ln`), as the bank's.
 const DIFF_STEP: f64 = 0.1;
 
@@ -108,16 +111,18 @@ impl<T: Real> WindowConfig<T> {
         hold_recursion: false,
     };
 
-    /// The measured default: 10-s blocks, 8-h window, first search after 4 h, then every 2 h,
-    /// 200 decimated steps per tick; margin 0 (the filter runs at the window's maximum: the
+    /// The measured default (`docs/ADAPTATION.md` §7): 60-s blocks, 8-h window, first search
+    /// after 4 h, then every 4 h, 64 filter steps and at most one filter construction per tick
+    /// (a search over a full window takes about 1.3 h; the Cortex-M4's mean and worst tick stay
+    /// within 50k and 500k instructions); margin 0 (the filter runs at the window's maximum: the
     /// search replaces the recursion, which is held).
     pub fn default_on() -> Self {
         Self {
-            block: 10,
-            window: 2880,
-            first: 1440,
-            every: 720,
-            budget: 200,
+            block: 60,
+            window: 480,
+            first: 240,
+            every: 240,
+            budget: 64,
             spacing: T::lit(core::f64::consts::LN_10),
             min_step: T::lit(0.05),
             margin: T::lit(0.0),
@@ -329,15 +334,8 @@ impl<T: Real> WindowSearch<T> {
             return None;
         }
         let mut p = self.pass.clone();
-        p.begin(
-            base,
-            specs,
-            theta,
-            None,
-            self.cfg.block,
-            self.first_finite(),
-        )
-        .ok()?;
+        p.start(theta, specs.len(), None, self.cfg.block, self.first_finite());
+        p.prepare(base, specs).ok()?;
         for z in self.window_blocks() {
             p.push(z);
         }
@@ -383,46 +381,47 @@ impl<T: Real> WindowSearch<T> {
         let p = specs.len().min(MAXP);
         let mut budget = self.cfg.budget as usize;
         let z0 = self.first_finite();
+        let mut prepared_this_tick = false;
         // Each turn starts a pass, runs some blocks, or ends one: a pass takes at most three
         // turns on a tick, and a tick ends when the budget is spent.
-        for _ in 0..(3 * GRID + 64) {
+        for _ in 0..(3 * GRID + 64 + 2 * pass::MEMBERS_MAX) {
             if !self.running {
                 let (theta, derivs) = self.next_point(p, bounds)?;
                 let h = derivs.then(|| T::lit(DIFF_STEP));
-                if self
-                    .pass
-                    .begin(base, specs, &theta, h, self.cfg.block, z0)
-                    .is_err()
-                {
+                self.pass.start(&theta, p, h, self.cfg.block, z0);
+                self.running = true;
+            }
+            if !self.pass.ready() {
+                // Building a filter (a discretisation and a block system, about as costly as
+                // PREPARE_COST filter steps) happens at most once per tick and ends the tick's
+                // work: it bounds the worst tick.
+                if prepared_this_tick {
+                    return None;
+                }
+                prepared_this_tick = true;
+                budget = budget.saturating_sub(PREPARE_COST);
+                if self.pass.prepare(base, specs).is_err() {
                     // A point that cannot be discretised counts as evaluated, with no likelihood.
-                    self.pass.theta = theta;
                     self.pass.ll = T::lit(f64::NEG_INFINITY);
+                    self.running = false;
                     if let Some(done) = self.complete(p, bounds) {
                         return Some(done);
                     }
-                    continue;
                 }
-                self.running = true;
+                continue;
             }
-            let cost = if self.pass.info.steps == 0 && self.phase_derivs() {
-                2 * p + 1
-            } else if self.phase_derivs() {
-                2 * p + 1
-            } else {
-                1
-            };
+            let cost = self.pass.count().max(1);
             let steps = (budget / cost).min(self.wlen.saturating_sub(self.pass.pos));
             if steps == 0 && self.pass.pos < self.wlen {
                 return None;
             }
-            for i in 0..steps {
+            for _ in 0..steps {
                 let z = self
                     .ring
                     .get((self.w0 + self.pass.pos) % WINDOW_CAP)
                     .copied()
                     .unwrap_or(T::lit(f64::NAN));
                 self.pass.push(z);
-                let _ = i;
             }
             budget = budget.saturating_sub(steps * cost);
             if self.pass.pos >= self.wlen {
@@ -433,10 +432,6 @@ impl<T: Real> WindowSearch<T> {
             }
         }
         None
-    }
-
-    fn phase_derivs(&self) -> bool {
-        matches!(self.phase, Phase::Polish(_) | Phase::Refine(_))
     }
 
     /// The point to evaluate next and whether with derivatives; `None` only when idle.

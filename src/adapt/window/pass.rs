@@ -6,6 +6,9 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::adapt::bank::{accumulate, Information, Member, MemberInnovation, MEMBERS};
+
+/// Filters of a pass at most (`2 MAXP + 1`).
+pub const MEMBERS_MAX: usize = MEMBERS;
 use crate::adapt::params::{apply, Specs, MAXP};
 use crate::filter::UpdateStatus;
 use crate::linalg::{dot, from_mat, from_vec, mul, mul_t_sym, zeros, Arr};
@@ -14,10 +17,14 @@ use crate::Real;
 
 /// Longest block [ticks] (bounds the loop of [`block_system`]).
 pub const MAX_BLOCK: u32 = 600;
-/// Diffuse initial standard deviations of a pass's velocity [m/s] and tilt [rad] errors (far
-/// above what a free one-channel INS reaches in a day).
-const DIFFUSE_DV: f64 = 300.0;
-const DIFFUSE_TILT: f64 = 0.05;
+/// Loose initial standard deviations of a pass's velocity [m/s] and tilt [rad] errors. The
+/// velocity starts at the first block mean, which differs from the velocity error at the
+/// block's end by half a block of its slope (about 0.75 m/s for a free Schuler loop 20 m/s in
+/// amplitude and 60-s blocks); a free one-channel INS's tilt stays within a few mrad in a day.
+/// Not larger: the first update's `P - K S K^T` cancels about `P / R` of precision, and with
+/// 300 m/s every f32 pass broke (measured).
+const DIFFUSE_DV: f64 = 2.0;
+const DIFFUSE_TILT: f64 = 0.01;
 /// Leading innovations of a pass not summed: the two diffuse states are fixed by the first
 /// two observations; one more for margin.
 pub const BURN: usize = 3;
@@ -114,6 +121,9 @@ pub struct Pass<T: Real> {
     pub info: Information<T>,
     /// Blocks consumed.
     pub pos: usize,
+    block: u32,
+    z0: T,
+    prepared: usize,
 }
 
 impl<T: Real> Pass<T> {
@@ -129,86 +139,97 @@ impl<T: Real> Pass<T> {
         ll: T::ZERO,
         info: Information::BLANK,
         pos: 0,
+        block: 0,
+        z0: T::ZERO,
+        prepared: 0,
     };
 
-    /// Prepares a pass at `theta` (with `derivs`, also at `theta +- step e_i`) for blocks of
-    /// `block` ticks whose first finite mean is `z0`.
-    #[allow(clippy::too_many_arguments)]
-    pub fn begin(
-        &mut self,
-        base: &InsModel<T>,
-        specs: &Specs,
-        theta: &[T; MAXP],
-        derivs: Option<T>,
-        block: u32,
-        z0: T,
-    ) -> Result<(), ()> {
-        let np = specs.len().min(MAXP);
-        let count = if derivs.is_some() { 2 * np + 1 } else { 1 };
-        let step = derivs.unwrap_or(T::zero());
-        let k = T::lit(f64::from(block.max(1)));
-        let mut n_aug = 0;
-        let mut r = T::zero();
-        for j in 0..count.min(MEMBERS) {
-            let mut th = *theta;
-            if j > 0 {
-                let i = (j - 1) / 2;
-                let sign = if j % 2 == 1 { T::one() } else { -T::one() };
-                if let Some(v) = th.get_mut(i) {
-                    *v += sign * step;
-                }
-            }
-            let m = apply(base, specs, &th).ok_or(())?;
-            let scale = m.scaling().map_err(|_| ())?;
-            let sys = m.continuous(&scale).map_err(|_| ())?;
-            let (phi1, qd1) = m.discretise_block(&scale).map_err(|_| ())?;
-            let h1 = from_vec(&sys.H);
-            let (phi, qd, n) = block_system(&phi1, &qd1, &h1, sys.n, block).ok_or(())?;
-            // Diffuse start of the INS states: the window begins hours into the run, where the
-            // velocity and tilt errors are far outside the model's initial covariance (a free
-            // Schuler loop drifts to metres per second). A tight prior there makes the first
-            // innovations dominate the comparison and favours whichever model absorbs them
-            // fastest (measured: 386 nats for a 10x accelerometer sigma). Velocity starts at the
-            // first block mean; the first BURN terms, dominated by the prior, are not summed.
-            let mut p0 = from_mat(&sys.P0);
-            for (i, sd) in [(idx::DV, DIFFUSE_DV), (idx::DELTA, DIFFUSE_TILT)] {
-                let s = scale.get(i).copied().unwrap_or(T::one());
-                for row in p0.iter_mut() {
-                    if let Some(v) = row.get_mut(i) {
-                        *v = T::zero();
-                    }
-                }
-                if let Some(row) = p0.get_mut(i) {
-                    row.fill(T::zero());
-                    if let Some(v) = row.get_mut(i) {
-                        let sd = T::lit(sd) / s;
-                        *v = sd * sd;
-                    }
-                }
-            }
-            let mem = self.members.get_mut(j).ok_or(())?;
-            mem.reset(&p0, n);
-            if let (Some(x), Some(s)) = (mem.kf.x.get_mut(idx::DV), scale.get(idx::DV)) {
-                *x = z0 / *s;
-            }
-            mem.set_system(&phi, &qd);
-            n_aug = n;
-            r = m.sigma_v * m.sigma_v / k;
-        }
-        // z_block = s / k + the mean of k white observation errors.
-        self.h = [T::zero(); NX];
-        if let Some(v) = self.h.get_mut(n_aug.wrapping_sub(1)) {
-            *v = T::one() / k;
-        }
-        self.r = r;
-        self.count = count.min(MEMBERS);
+    /// Starts a pass at `theta` (with `derivs`, also at `theta +- step e_i`) for blocks of
+    /// `block` ticks whose first finite mean is `z0`. Its filters are then built one per
+    /// [`prepare`](Self::prepare) call (each is a discretisation and a block system: spreading
+    /// them over ticks bounds the worst tick).
+    pub fn start(&mut self, theta: &[T; MAXP], np: usize, derivs: Option<T>, block: u32, z0: T) {
+        let np = np.min(MAXP);
+        self.count = if derivs.is_some() { 2 * np + 1 } else { 1 }.min(MEMBERS);
         self.np = np;
-        self.step = step;
+        self.step = derivs.unwrap_or(T::zero());
+        self.block = block.max(1);
+        self.z0 = z0;
+        self.prepared = 0;
         self.theta = *theta;
         self.ll = T::zero();
         self.info = Information::BLANK;
         self.pos = 0;
+    }
+
+    /// Whether every filter of the pass is built.
+    pub fn ready(&self) -> bool {
+        self.prepared >= self.count
+    }
+
+    /// Builds the next filter of the pass: the model at its point as the exact system of the
+    /// block sums, with a diffuse start.
+    pub fn prepare(&mut self, base: &InsModel<T>, specs: &Specs) -> Result<(), ()> {
+        let j = self.prepared;
+        if j >= self.count {
+            return Ok(());
+        }
+        let k = T::lit(f64::from(self.block));
+        let mut th = self.theta;
+        if j > 0 {
+            let i = (j - 1) / 2;
+            let sign = if j % 2 == 1 { T::one() } else { -T::one() };
+            if let Some(v) = th.get_mut(i) {
+                *v += sign * self.step;
+            }
+        }
+        let m = apply(base, specs, &th).ok_or(())?;
+        let scale = m.scaling().map_err(|_| ())?;
+        let sys = m.continuous(&scale).map_err(|_| ())?;
+        let (phi1, qd1) = m.discretise_block(&scale).map_err(|_| ())?;
+        let h1 = from_vec(&sys.H);
+        let (phi, qd, n) = block_system(&phi1, &qd1, &h1, sys.n, self.block).ok_or(())?;
+        // Diffuse start of the INS states: the window begins hours into the run, where the
+        // velocity and tilt errors are far outside the model's initial covariance (a free
+        // Schuler loop drifts to metres per second). A tight prior there makes the first
+        // innovations dominate the comparison and favours whichever model absorbs them fastest
+        // (measured: 386 nats for a 10x accelerometer sigma). Velocity starts at the first
+        // block mean; the first BURN terms, dominated by the prior, are not summed.
+        let mut p0 = from_mat(&sys.P0);
+        for (i, sd) in [(idx::DV, DIFFUSE_DV), (idx::DELTA, DIFFUSE_TILT)] {
+            let s = scale.get(i).copied().unwrap_or(T::one());
+            for row in p0.iter_mut() {
+                if let Some(v) = row.get_mut(i) {
+                    *v = T::zero();
+                }
+            }
+            if let Some(row) = p0.get_mut(i) {
+                row.fill(T::zero());
+                if let Some(v) = row.get_mut(i) {
+                    let sd = T::lit(sd) / s;
+                    *v = sd * sd;
+                }
+            }
+        }
+        let mem = self.members.get_mut(j).ok_or(())?;
+        mem.reset(&p0, n);
+        if let (Some(x), Some(s)) = (mem.kf.x.get_mut(idx::DV), scale.get(idx::DV)) {
+            *x = self.z0 / *s;
+        }
+        mem.set_system(&phi, &qd);
+        // z_block = s / k + the mean of k white observation errors.
+        self.h = [T::zero(); NX];
+        if let Some(v) = self.h.get_mut(n.wrapping_sub(1)) {
+            *v = T::one() / k;
+        }
+        self.r = m.sigma_v * m.sigma_v / k;
+        self.prepared += 1;
         Ok(())
+    }
+
+    /// Filters in the pass (`1` or `2p + 1`).
+    pub fn count(&self) -> usize {
+        self.count
     }
 
     /// One block mean through every filter of the pass (non-finite: missing).
