@@ -4,7 +4,10 @@ use hal_sim::{replay, scenario, sim};
 use imu_ident::adapt::{AdaptConfig, AdaptiveFilter};
 use imu_ident::Real;
 
-fn trace<T: Real>(start: &imu_ident::model::InsModel<f64>, log: &[hal_sim::log::LogRow]) -> Vec<(usize, [f64; 4], f64)> {
+fn trace<T: Real>(
+    start: &imu_ident::model::InsModel<f64>,
+    log: &[hal_sim::log::LogRow],
+) -> Vec<(usize, [f64; 4], f64)> {
     let cfg = replay::adapt_config::<T>(&AdaptConfig::<f64>::global());
     let mut f = AdaptiveFilter::<T>::new(start.cast(), cfg).expect("filter");
     let mut out = Vec::new();
@@ -22,9 +25,16 @@ fn trace<T: Real>(start: &imu_ident::model::InsModel<f64>, log: &[hal_sim::log::
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let get = |k: &str| args.iter().find_map(|a| a.strip_prefix(&format!("{k}=")).map(str::to_string));
+    let get = |k: &str| {
+        args.iter()
+            .find_map(|a| a.strip_prefix(&format!("{k}=")).map(str::to_string))
+    };
     let seed: u64 = get("seed").and_then(|s| s.parse().ok()).unwrap_or(1);
-    let f: Vec<f64> = get("f").unwrap_or_else(|| "1,1,1,1".into()).split(',').filter_map(|v| v.parse().ok()).collect();
+    let f: Vec<f64> = get("f")
+        .unwrap_or_else(|| "1,1,1,1".into())
+        .split(',')
+        .filter_map(|v| v.parse().ok())
+        .collect();
     let truth = scenario::load("paper")?.to_core()?;
     let mut start = truth.clone();
     for (k, comps) in [&mut start.accel, &mut start.gyro].into_iter().enumerate() {
@@ -37,8 +47,15 @@ fn main() -> anyhow::Result<()> {
     let a = trace::<f64>(&start, &log);
     let b = trace::<f32>(&start, &log);
     for (x, y) in a.iter().zip(b.iter()) {
-        let d = x.1.iter().zip(y.1.iter()).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
-        println!("f64 t {} gain {:.3} | f32 t {} gain {:.3} | max |d ln theta| {:.2e}", x.0, x.2, y.0, y.2, d);
+        let d =
+            x.1.iter()
+                .zip(y.1.iter())
+                .map(|(p, q)| (p - q).abs())
+                .fold(0.0, f64::max);
+        println!(
+            "f64 t {} gain {:.3} | f32 t {} gain {:.3} | max |d ln theta| {:.2e}",
+            x.0, x.2, y.0, y.2, d
+        );
     }
     println!("searches: f64 {} f32 {}", a.len(), b.len());
     Ok(())

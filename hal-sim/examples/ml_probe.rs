@@ -207,7 +207,7 @@ fn main() -> anyhow::Result<()> {
                         let y: Vec<f64> = x.iter().zip(d).map(|(a, b)| a + step * b).collect();
                         let fy = cost.cost(&y).unwrap();
                         evals += 1;
-                        if fy < fx && bestd.as_ref().map_or(true, |b| fy < b.1) {
+                        if fy < fx && bestd.as_ref().is_none_or(|b| fy < b.1) {
                             bestd = Some((y, fy));
                         }
                     }

@@ -285,3 +285,53 @@ fn cramer_rao_intervals_describe_the_spread() {
 /// Seeds of the Cramér-Rao check (not those of the other tests or of the bench).
 const CR_FIRST_SEED: u64 = 3000;
 const CR_SEEDS: u64 = 6;
+
+/// Issue 13: the global stage reaches the oracle from starts today's recursion cannot leave:
+/// both sigmas 10x and 0.1x with the right taus (the recursion ends at 2.1x the oracle from the
+/// first, BENCHMARKS.md §7) and a start wrong in four directions at once (factors 0.24, 6.43,
+/// 0.48, 0.73 of sigma_a, tau_a, sigma_g, tau_g). The bound 1.10 is the issue's 95th
+/// percentile bar; on this seed the offline ML reference is at 0.995x and all 32 starts of the
+/// bench ended within 1.05x of it (docs/ADAPTATION.md §7), so 1.10 leaves room without letting
+/// a wrong basin (1.2-9x) pass. Host pace: a search every 2 h at 1000 filter steps per tick.
+#[test]
+fn global_stage_reaches_the_oracle_from_any_start() {
+    let truth = truth();
+    let log = sim::simulate(&truth, STEPS, 1001).unwrap_or_else(|e| panic!("{e:#}"));
+    let (oracle, _) = replay::estimates::<f64>(&truth, &log).unwrap_or_else(|e| panic!("{e:#}"));
+    let (orms, _) = tilt_window(&log, &oracle, T0, T1).unwrap_or_else(|| panic!("oracle"));
+    let mut cfg = AdaptConfig::global();
+    cfg.global.every = 120;
+    cfg.global.budget = 1000;
+    for f in [
+        [10.0, 1.0, 10.0, 1.0],
+        [0.1, 1.0, 0.1, 1.0],
+        [0.24, 6.43, 0.48, 0.73],
+    ] {
+        let mut start = truth.clone();
+        for (k, comps) in [&mut start.accel, &mut start.gyro].into_iter().enumerate() {
+            if let Some(imu_ident::model::Component::GaussMarkov(g)) = comps.first_mut() {
+                g.sigma *= f[2 * k];
+                g.tau *= f[2 * k + 1];
+            }
+        }
+        let r = adaptive::run::<f64>(&start, &log, cfg).unwrap_or_else(|e| panic!("{e:#}"));
+        let (rms, out) = tilt_window(&log, &r.estimates, T0, T1).unwrap_or_else(|| panic!("run"));
+        eprintln!(
+            "global stage from {f:?}: tilt/oracle {:.3}, outside 3 sigma {:.2} %, jumps {}",
+            rms / orms,
+            out * 100.0,
+            r.jumps
+        );
+        assert!(
+            rms / orms <= 1.10,
+            "from {f:?}: {:.3}x the oracle",
+            rms / orms
+        );
+        assert!(
+            out <= 0.03,
+            "from {f:?}: {:.2} % outside 3 sigma",
+            out * 100.0
+        );
+        assert!(r.jumps >= 1, "from {f:?}: the search never moved the model");
+    }
+}

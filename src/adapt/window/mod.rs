@@ -334,7 +334,13 @@ impl<T: Real> WindowSearch<T> {
             return None;
         }
         let mut p = self.pass.clone();
-        p.start(theta, specs.len(), None, self.cfg.block, self.first_finite());
+        p.start(
+            theta,
+            specs.len(),
+            None,
+            self.cfg.block,
+            self.first_finite(),
+        );
         p.prepare(base, specs).ok()?;
         for z in self.window_blocks() {
             p.push(z);
@@ -411,7 +417,10 @@ impl<T: Real> WindowSearch<T> {
                 continue;
             }
             let cost = self.pass.count().max(1);
-            let steps = (budget / cost).min(self.wlen.saturating_sub(self.pass.pos));
+            let steps = budget
+                .checked_div(cost)
+                .unwrap_or(0)
+                .min(self.wlen.saturating_sub(self.pass.pos));
             if steps == 0 && self.pass.pos < self.wlen {
                 return None;
             }

@@ -10,6 +10,7 @@ use crate::adapt::bank::{accumulate, Information, Member, MemberInnovation, MEMB
 /// Filters of a pass at most (`2 MAXP + 1`).
 pub const MEMBERS_MAX: usize = MEMBERS;
 use crate::adapt::params::{apply, Specs, MAXP};
+use crate::adapt::AdaptError;
 use crate::filter::UpdateStatus;
 use crate::linalg::{dot, from_mat, from_vec, mul, mul_t_sym, zeros, Arr};
 use crate::model::{idx, InsModel, NX};
@@ -52,9 +53,11 @@ pub fn block_system<T: Real>(
     n: usize,
     m: u32,
 ) -> Option<(Arr<T, NX>, Arr<T, NX>, usize)> {
-    if n + 1 > NX || n == 0 {
+    if n >= NX || n == 0 {
         return None;
     }
+    // Restated so that the optimiser sees `n < NX` for the indexing below (no panic path).
+    let n = n.min(NX - 1);
     let mut pj: Arr<T, NX> = zeros();
     for i in 0..n {
         pj[i][i] = T::one();
@@ -88,18 +91,22 @@ pub fn block_system<T: Real>(
             r[k] += acc;
         }
     }
-    let mut a: Arr<T, NX> = zeros();
-    let mut q: Arr<T, NX> = zeros();
-    for i in 0..n {
-        for k in 0..n {
-            a[i][k] = pj[i][k];
-            q[i][k] = e[i][k];
-        }
-        a[n][i] = r[i];
-        q[i][n] = c[i];
-        q[n][i] = c[i];
+    // `pj` and `e` are zero outside their leading n x n blocks (`mul` and `mul_t_sym` write
+    // only those), so they are the blocks of A and Q; row and column n are the block sum's.
+    let (mut a, mut q) = (pj, e);
+    if let Some(row) = a.get_mut(n) {
+        row.copy_from_slice(&r);
     }
-    q[n][n] = v;
+    for (i, row) in q.iter_mut().enumerate() {
+        if let (Some(x), Some(ci)) = (row.get_mut(n), c.get(i)) {
+            *x = if i == n { v } else { *ci };
+        }
+    }
+    if let Some(row) = q.get_mut(n) {
+        for (x, ci) in row.iter_mut().zip(c.iter()).take(n) {
+            *x = *ci;
+        }
+    }
     Some((a, q, n + 1))
 }
 
@@ -169,7 +176,7 @@ impl<T: Real> Pass<T> {
 
     /// Builds the next filter of the pass: the model at its point as the exact system of the
     /// block sums, with a diffuse start.
-    pub fn prepare(&mut self, base: &InsModel<T>, specs: &Specs) -> Result<(), ()> {
+    pub fn prepare(&mut self, base: &InsModel<T>, specs: &Specs) -> Result<(), AdaptError> {
         let j = self.prepared;
         if j >= self.count {
             return Ok(());
@@ -183,12 +190,13 @@ impl<T: Real> Pass<T> {
                 *v += sign * self.step;
             }
         }
-        let m = apply(base, specs, &th).ok_or(())?;
-        let scale = m.scaling().map_err(|_| ())?;
-        let sys = m.continuous(&scale).map_err(|_| ())?;
-        let (phi1, qd1) = m.discretise_block(&scale).map_err(|_| ())?;
+        let m = apply(base, specs, &th).ok_or(AdaptError::BadParameter)?;
+        let scale = m.scaling().map_err(AdaptError::Model)?;
+        let sys = m.continuous(&scale).map_err(AdaptError::Model)?;
+        let (phi1, qd1) = m.discretise_block(&scale).map_err(AdaptError::Model)?;
         let h1 = from_vec(&sys.H);
-        let (phi, qd, n) = block_system(&phi1, &qd1, &h1, sys.n, self.block).ok_or(())?;
+        let (phi, qd, n) =
+            block_system(&phi1, &qd1, &h1, sys.n, self.block).ok_or(AdaptError::BadParameter)?;
         // Diffuse start of the INS states: the window begins hours into the run, where the
         // velocity and tilt errors are far outside the model's initial covariance (a free
         // Schuler loop drifts to metres per second). A tight prior there makes the first
@@ -211,7 +219,7 @@ impl<T: Real> Pass<T> {
                 }
             }
         }
-        let mem = self.members.get_mut(j).ok_or(())?;
+        let mem = self.members.get_mut(j).ok_or(AdaptError::BadParameter)?;
         mem.reset(&p0, n);
         if let (Some(x), Some(s)) = (mem.kf.x.get_mut(idx::DV), scale.get(idx::DV)) {
             *x = self.z0 / *s;
@@ -270,6 +278,75 @@ impl<T: Real> Pass<T> {
         }
         if all && self.count > 1 {
             accumulate(&inn, self.np, self.step, &mut self.info);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::InsModel;
+
+    /// `block_system` against the plain propagation of the augmented per-tick system
+    /// `[x; s]_j = [[Phi, 0], [h Phi, 1]] [x; s]_{j-1} + [w; h w]` from `s = 0` over `m` ticks:
+    /// the transition's first `n` columns and the accumulated noise covariance must agree.
+    #[test]
+    fn block_system_equals_the_augmented_propagation() {
+        let m = InsModel::<f64>::paper();
+        let scale = m.scaling().unwrap();
+        let sys = m.continuous(&scale).unwrap();
+        let (phi, qd) = m.discretise_block(&scale).unwrap();
+        let h = from_vec(&sys.H);
+        let n = sys.n;
+        let ticks = 60;
+        let (a, q, na) = block_system(&phi, &qd, &h, n, ticks).unwrap();
+        assert_eq!(na, n + 1);
+        // Per-tick augmented transition and noise.
+        let mut t: Arr<f64, NX> = zeros();
+        let mut w: Arr<f64, NX> = zeros();
+        for i in 0..n {
+            for k in 0..n {
+                t[i][k] = phi[i][k];
+                w[i][k] = qd[i][k];
+            }
+        }
+        for k in 0..n {
+            t[n][k] = (0..n).map(|i| h[i] * phi[i][k]).sum();
+        }
+        t[n][n] = 1.0;
+        for i in 0..n {
+            let qh: f64 = (0..n).map(|k| qd[i][k] * h[k]).sum();
+            w[i][n] = qh;
+            w[n][i] = qh;
+        }
+        w[n][n] = (0..n)
+            .map(|i| h[i] * (0..n).map(|k| qd[i][k] * h[k]).sum::<f64>())
+            .sum();
+        let mut prod: Arr<f64, NX> = zeros();
+        for i in 0..=n {
+            prod[i][i] = 1.0;
+        }
+        let mut cov: Arr<f64, NX> = zeros();
+        for _ in 0..ticks {
+            prod = mul(&t, &prod, n + 1);
+            let tc = mul(&t, &cov, n + 1);
+            cov = mul_t_sym(&tc, &t, &w, n + 1);
+        }
+        for i in 0..=n {
+            for k in 0..n {
+                let d = (a[i][k] - prod[i][k]).abs();
+                assert!(d <= 1e-9 * (1.0 + prod[i][k].abs()), "A[{i}][{k}]");
+            }
+            assert_eq!(a[i][n], 0.0, "the block sum restarts every block");
+            for k in 0..=n {
+                let d = (q[i][k] - cov[i][k]).abs();
+                assert!(
+                    d <= 1e-9 * (1.0 + cov[i][k].abs()),
+                    "Q[{i}][{k}] {} vs {}",
+                    q[i][k],
+                    cov[i][k]
+                );
+            }
         }
     }
 }
