@@ -17,25 +17,27 @@
 //!   the exact innovation log-likelihood (Schweppe) of the block means: the model over one
 //!   block is the exact system of the block sums ([`pass::block_system`]), so nothing is
 //!   approximated but the information the averaging removes (frequencies above `1 / (2 block
-//!   dt)`). The velocity and tilt errors start diffuse (the window begins hours into the run).
+//!   dt)`). The velocity and tilt errors start loose (the window begins hours into the run).
 //! - Points: the anchor (the filter's current `theta`), then the `3^p` grid around the start
-//!   model (spacing `spacing` in `ln`: factors 0.1, 1, 10), then a polish of the best
-//!   [`TOP`] of them by Levenberg-Marquardt Fisher scoring on the window: each iteration is one
+//!   model (spacing `spacing` in `ln`: factors 0.1, 1, 10; shifted by half a spacing every other
+//!   search), then a brief polish (3 iterations) of the best [`TOP`] of them and a polish to
+//!   convergence of the best 2, by Levenberg-Marquardt Fisher scoring on the window: each iteration is one
 //!   pass of `2p + 1` filters giving the score and the Fisher information by central
 //!   differences ([`pass::Pass`]), the step `(I + lambda diag I)^-1 g` is accepted when the
 //!   next pass's likelihood is not lower, and `lambda` grows tenfold when it is.
-//! - The work is time-sliced: [`WindowSearch::work`] runs at most `budget` decimated filter
-//!   steps per tick, so a tick's cost is bounded whatever the window.
+//! - The work is time-sliced: [`WindowSearch::work`] runs at most `budget` filter steps and one
+//!   filter construction per tick, so a tick's cost is bounded whatever the window.
 //!
 //! The answer is the best point and its advantage over the anchor on the same window; the
 //! caller decides whether to jump (a likelihood-ratio margin).
 //!
 //! # Cost law (`p` identified parameters, window `W` blocks, `n` states)
-//! Filter-steps per search: `W (1 + 3^p + TOP c (2p + 1))` with `c` about 3-8 scoring
+//! Filter steps per search: `W (1 + 3^p + (3 TOP + 2 c) (2p + 1))` with `c` about 3-8 scoring
 //! iterations; each is a step of an `n + 1`-state filter. RAM: the ring, `WINDOW_CAP` values,
 //! plus `2p + 1` filters.
-//! The grid is exponential in `p`: it is the price of not depending on the start, and why
-//! larger systems search per sensor (`p <= 4` per search), one group after another.
+//! The grid is exponential in `p`: it is the price of not depending on the start, and why a
+//! larger system would search per sensor (`p <= 4` per search), one group after another (not
+//! built: `MAXP = 4`).
 
 // Small fixed-size code reads best with explicit indices.
 #![allow(clippy::needless_range_loop)]
