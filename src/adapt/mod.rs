@@ -478,17 +478,17 @@ impl<T: Real> AdaptiveFilter<T> {
         if !self.cfg.adapt {
             return false;
         }
-        // The first finished search ends the search phase: the recursion then climbs from
-        // the basin the window chose.
-        let first = core::mem::replace(&mut self.searching, false) && self.probes.is_empty();
+        // The first finished search ends the search phase (the recursion, when not held,
+        // then climbs from the basin the window chose).
+        self.searching = false;
         if !(found.gain.is_finite() && found.gain > self.cfg.global.margin) {
             return false;
         }
-        let _ = first;
         // Staggered (one member re-discretised per tick, the centre first), unlike a probe's
         // jump: the recursion is held, so only the information waits for the members, and the
-        // tick that ends a search keeps its cost bounded (measured on the Cortex-M4: 823k
-        // instructions on that tick with every member at once, against the 500k bar).
+        // tick that ends a search does not add the 2p + 1 re-discretisations of a jump at once
+        // (about 230k instructions on the Cortex-M4, §5 of docs/ADAPTATION.md) to its share
+        // of the search.
         self.bank.request_theta(&found.theta);
         // A move within a factor two keeps the windowed information (it still describes the
         // likelihood near the new point, as after a Gauss-Newton move); a longer one is a jump to
@@ -506,7 +506,6 @@ impl<T: Real> AdaptiveFilter<T> {
             self.block = Information::default();
         }
         self.jumps = self.jumps.saturating_add(1);
-        self.searching = false;
         if !self.probes.is_empty() {
             self.probes
                 .anchor(&self.theta, &self.bounds, self.specs.len());
