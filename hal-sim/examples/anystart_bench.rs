@@ -16,29 +16,25 @@ use argmin::solver::neldermead::NelderMead;
 use hal_sim::adaptive::{self, tilt_window};
 use hal_sim::log::LogRow;
 use hal_sim::{replay, scenario, sim};
+use imu_ident::adapt::params::{apply, specs, theta_of, MAXP};
 use imu_ident::adapt::AdaptConfig;
-use imu_ident::model::{Component, InsModel};
+use imu_ident::model::InsModel;
 use rand::{Rng, SeedableRng};
 
+/// `m` at the `ln` parameters `th` (the core's mapping, `imu_ident::adapt::params`).
 fn set(m: &InsModel<f64>, th: &[f64]) -> InsModel<f64> {
-    let mut m = m.clone();
-    for (k, comps) in [&mut m.accel, &mut m.gyro].into_iter().enumerate() {
-        if let Some(Component::GaussMarkov(g)) = comps.first_mut() {
-            g.sigma = th[2 * k].exp();
-            g.tau = th[2 * k + 1].exp();
-        }
+    let sp = specs(m);
+    let mut t = [0.0; MAXP];
+    for (o, v) in t.iter_mut().zip(th) {
+        *o = *v;
     }
-    m
+    apply(m, &sp, &t).unwrap_or_else(|| m.clone())
 }
+
+/// The `ln` parameters of `m` (accelerometer sigma, tau, gyro sigma, tau for `paper`).
 fn theta(m: &InsModel<f64>) -> Vec<f64> {
-    let mut v = vec![];
-    for comps in [&m.accel, &m.gyro] {
-        if let Some(Component::GaussMarkov(g)) = comps.first() {
-            v.push(g.sigma.ln());
-            v.push(g.tau.ln());
-        }
-    }
-    v
+    let sp = specs(m);
+    theta_of(m, &sp)[..sp.len()].to_vec()
 }
 
 struct Nll<'a> {

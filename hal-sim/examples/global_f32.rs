@@ -36,13 +36,8 @@ fn main() -> anyhow::Result<()> {
         .filter_map(|v| v.parse().ok())
         .collect();
     let truth = scenario::load("paper")?.to_core()?;
-    let mut start = truth.clone();
-    for (k, comps) in [&mut start.accel, &mut start.gyro].into_iter().enumerate() {
-        if let Some(imu_ident::model::Component::GaussMarkov(g)) = comps.first_mut() {
-            g.sigma *= f[2 * k];
-            g.tau *= f[2 * k + 1];
-        }
-    }
+    let start =
+        hal_sim::mismatch::factored(&truth, &f).ok_or_else(|| anyhow::anyhow!("start {f:?}"))?;
     let log = sim::simulate(&truth, 12 * 3600, seed)?;
     let a = trace::<f64>(&start, &log);
     let b = trace::<f32>(&start, &log);

@@ -35,3 +35,17 @@ pub fn scaled(model: &InsModel<f64>, ka: f64, kg: f64) -> InsModel<f64> {
     }
     m
 }
+
+/// The model with each identified quantity (`imu_ident::adapt::params` order: accelerometer
+/// first, then gyro; `sigma, tau` for a Gauss-Markov component) multiplied by the matching
+/// factor (missing factors 1): the starts of the identification benches (issue 13). `None` if
+/// the result is not a valid model.
+pub fn factored(model: &InsModel<f64>, factors: &[f64]) -> Option<InsModel<f64>> {
+    use imu_ident::adapt::params::{apply, specs, theta_of};
+    let sp = specs(model);
+    let mut theta = theta_of(model, &sp);
+    for (t, f) in theta.iter_mut().zip(factors) {
+        *t += f.ln();
+    }
+    apply(model, &sp, &theta)
+}

@@ -307,13 +307,7 @@ fn global_stage_reaches_the_oracle_from_any_start() {
         [0.1, 1.0, 0.1, 1.0],
         [0.24, 6.43, 0.48, 0.73],
     ] {
-        let mut start = truth.clone();
-        for (k, comps) in [&mut start.accel, &mut start.gyro].into_iter().enumerate() {
-            if let Some(imu_ident::model::Component::GaussMarkov(g)) = comps.first_mut() {
-                g.sigma *= f[2 * k];
-                g.tau *= f[2 * k + 1];
-            }
-        }
+        let start = mismatch::factored(&truth, &f).unwrap_or_else(|| panic!("start {f:?}"));
         let r = adaptive::run::<f64>(&start, &log, cfg).unwrap_or_else(|e| panic!("{e:#}"));
         let (rms, out) = tilt_window(&log, &r.estimates, T0, T1).unwrap_or_else(|| panic!("run"));
         eprintln!(

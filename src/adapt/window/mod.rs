@@ -190,6 +190,8 @@ pub struct WindowSearch<T: Real> {
     wlen: usize,
     /// Blocks pushed when the running search started.
     started_at: u32,
+    /// The window's first finite block mean.
+    z0: T,
     phase: Phase,
     /// Centre of the grid: the start model (fixed, so that the grid covers the same region
     /// whatever happened since).
@@ -229,6 +231,7 @@ impl<T: Real> WindowSearch<T> {
         w0: 0,
         wlen: 0,
         started_at: 0,
+        z0: T::ZERO,
         phase: Phase::Idle,
         centre: [T::ZERO; MAXP],
         anchor: [T::ZERO; MAXP],
@@ -309,12 +312,15 @@ impl<T: Real> WindowSearch<T> {
 
     /// The block means of the last search's window, oldest first (host tools and tests).
     pub fn window_blocks(&self) -> impl Iterator<Item = T> + '_ {
-        (0..self.wlen).map(move |i| {
-            self.ring
-                .get((self.w0 + i) % WINDOW_CAP)
-                .copied()
-                .unwrap_or(T::lit(f64::NAN))
-        })
+        (0..self.wlen).map(move |i| self.block(i))
+    }
+
+    /// The `i`-th block mean of the window (NaN outside it).
+    fn block(&self, i: usize) -> T {
+        self.ring
+            .get((self.w0 + i) % WINDOW_CAP)
+            .copied()
+            .unwrap_or(T::lit(f64::NAN))
     }
 
     fn window_intact(&self) -> bool {
@@ -336,13 +342,7 @@ impl<T: Real> WindowSearch<T> {
             return None;
         }
         let mut p = self.pass.clone();
-        p.start(
-            theta,
-            specs.len(),
-            None,
-            self.cfg.block,
-            self.first_finite(),
-        );
+        p.start(theta, specs.len(), None, self.cfg.block, self.z0);
         p.prepare(base, specs).ok()?;
         for z in self.window_blocks() {
             p.push(z);
@@ -356,6 +356,8 @@ impl<T: Real> WindowSearch<T> {
         self.wlen = avail.min(self.cfg.window as usize);
         self.w0 = (self.head + WINDOW_CAP - self.wlen) % WINDOW_CAP;
         self.started_at = self.pushed;
+        // The window is frozen: its first finite mean (every pass's velocity start) once.
+        self.z0 = self.first_finite();
         self.anchor = *anchor;
         self.best = *anchor;
         self.anchor_ll = T::lit(f64::NEG_INFINITY);
@@ -388,7 +390,6 @@ impl<T: Real> WindowSearch<T> {
         }
         let p = specs.len().min(MAXP);
         let mut budget = self.cfg.budget as usize;
-        let z0 = self.first_finite();
         let mut prepared_this_tick = false;
         // Each turn starts a pass, runs some blocks, or ends one: a pass takes at most three
         // turns on a tick, and a tick ends when the budget is spent.
@@ -396,7 +397,7 @@ impl<T: Real> WindowSearch<T> {
             if !self.running {
                 let (theta, derivs) = self.next_point(p, bounds)?;
                 let h = derivs.then(|| T::lit(DIFF_STEP));
-                self.pass.start(&theta, p, h, self.cfg.block, z0);
+                self.pass.start(&theta, p, h, self.cfg.block, self.z0);
                 self.running = true;
             }
             if !self.pass.ready() {
@@ -427,11 +428,7 @@ impl<T: Real> WindowSearch<T> {
                 return None;
             }
             for _ in 0..steps {
-                let z = self
-                    .ring
-                    .get((self.w0 + self.pass.pos) % WINDOW_CAP)
-                    .copied()
-                    .unwrap_or(T::lit(f64::NAN));
+                let z = self.block(self.pass.pos);
                 self.pass.push(z);
             }
             budget = budget.saturating_sub(steps * cost);
