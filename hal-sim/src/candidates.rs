@@ -223,9 +223,11 @@ impl Candidate {
 }
 
 /// The kind swaps the diagnosis proposes, `(from, to)`: a component of kind `from` in the model
-/// may be replaced by one of kind `to`. Gauss-Markov and exponential-cosine are the pair the
-/// data confuse (both stationary, same sigma and tau; the cosine adds a period). Any pair of
-/// kinds the library can fit may be added here; nothing else depends on the list.
+/// may be replaced by one of kind `to`. Gauss-Markov and exponential-cosine are the pair a
+/// model gets wrong most easily: both stationary with a sigma and a tau, the Gauss-Markov being
+/// the exp-cosine's infinite-period limit. Any pair of library kinds may be added here: the
+/// starts, the fit and the penalty follow from the kinds (`Replacement::starts` maps shared
+/// quantities through the core's kind table).
 pub const SWAPS: [(ComponentKind, ComponentKind); 2] = [
     (ComponentKind::GaussMarkov, ComponentKind::ExpCosine),
     (ComponentKind::ExpCosine, ComponentKind::GaussMarkov),
@@ -319,7 +321,8 @@ impl Replacement {
     }
 
     /// Starting points: the new kind's own starts (as an addition would use them), with every
-    /// quantity the replaced component also has set to its value. Gauss-Markov ->
+    /// quantity the replaced component also has set to its value (log-parameter `i` is the
+    /// kind's `quantities()[i]`, the order [`Candidate::component`] reads them in). Gauss-Markov ->
     /// exp-cosine keeps sigma and tau and tries the additions' grid of periods; the reverse
     /// keeps sigma and tau (one start).
     pub fn starts(&self, model: &InsModel<f64>) -> Vec<Vec<f64>> {
@@ -475,5 +478,56 @@ impl Proposal {
             Self::Add(a) => a.explain(c),
             Self::Replace(r) => r.explain(c),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The swaps of `paper` (one Gauss-Markov per sensor) and of a model whose gyro is an
+    /// exp-cosine: starts keep sigma and tau, an exp-cosine tries the additions' periods, and
+    /// `apply` changes only the named component.
+    #[test]
+    fn replacements_start_from_the_replaced_component_and_change_only_it() {
+        let paper = InsModel::<f64>::paper();
+        let swaps = Replacement::all(&paper);
+        let labels: Vec<String> = swaps.iter().map(|r| r.label()).collect();
+        assert_eq!(
+            labels,
+            [
+                "accel/gauss-markov->exp-cosine",
+                "gyro/gauss-markov->exp-cosine"
+            ]
+        );
+        let gyro = swaps[1];
+        let Component::GaussMarkov(old) = paper.gyro[0] else {
+            panic!("paper gyro is a Gauss-Markov")
+        };
+        let starts = gyro.starts(&paper);
+        let periods: Vec<f64> = starts.iter().map(|p| p[2].exp().round()).collect();
+        assert_eq!(periods, [120.0, 600.0, 3000.0]);
+        for p in &starts {
+            assert!((p[0] - old.sigma.ln()).abs() < 1e-12 && (p[1] - old.tau.ln()).abs() < 1e-12);
+        }
+        let m = gyro.apply(&paper, &starts[1]).unwrap();
+        assert_eq!(m.accel, paper.accel);
+        assert_eq!(m.gyro.len(), 1);
+        let Component::ExpCosine(e) = m.gyro[0] else {
+            panic!("replaced by an exp-cosine")
+        };
+        assert!((2.0 * PI / e.beta - 600.0).abs() < 1e-6 && (e.tau - old.tau).abs() < 1e-9);
+        // The reverse swap on that model: one start, sigma and tau kept; the penalty counts
+        // the new component's parameters in both directions.
+        let back = Replacement::all(&m)
+            .into_iter()
+            .find(|r| r.sensor == Sensor::Gyro)
+            .unwrap();
+        assert_eq!(back.label(), "gyro/exp-cosine->gauss-markov");
+        assert_eq!(back.starts(&m), [vec![e.sigma.ln(), e.tau.ln()]]);
+        assert_eq!(Proposal::Replace(back).free_params(), 2);
+        assert_eq!(Proposal::Replace(gyro).free_params(), 3);
+        // A stale replacement (the model's component changed) applies to nothing.
+        assert!(back.apply(&paper, &back.starts(&m)[0]).is_none());
     }
 }
