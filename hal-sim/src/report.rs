@@ -454,19 +454,13 @@ fn candidate_table(cands: &[crate::diagnose::CandidateScore]) -> String {
     sorted.sort_by(|a, b| b.score.total_cmp(&a.score));
     let mut h = "<table><tr><th>candidate</th><th>log-lik gain</th><th>BIC penalty</th><th>score</th><th style=\"text-align:left\">what the fit means</th></tr>".to_string();
     for c in sorted {
-        let explanation = crate::hidden::by_label(&c.label)
-            .zip(c.params.to_core().ok())
-            .map_or_else(
-                || "(no explanation: unknown candidate)".to_string(),
-                |(cand, comp)| cand.explain(&comp),
-            );
         h += &format!(
             "<tr><td style=\"text-align:left\">{}</td><td>{}</td><td>{}</td><td>{}</td><td style=\"text-align:left\">{}</td></tr>",
             esc(&c.label),
             sig4(c.gain, "nats"),
             sig4(c.penalty, "nats"),
             sig4(c.score, "nats"),
-            esc(&explanation)
+            esc(&c.explanation)
         );
     }
     h + "</table>"
@@ -506,7 +500,13 @@ pub fn html_with(
             d.verdict
         );
         if let (Some(s), Some(e)) = (d.sensor, d.effect) {
-            h += &format!("<p><b>{s} / {e}</b>: {}</p>", esc(&d.explanation));
+            // A replacement names the component it replaces; its explanation starts with
+            // "replace ...".
+            let what = match &d.replaces {
+                Some(r) => format!("{s} / {} → {e}", r.kind),
+                None => format!("{s} / {e}"),
+            };
+            h += &format!("<p><b>{}</b>: {}</p>", esc(&what), esc(&d.explanation));
             h += &format!(
                 "<pre>{}</pre>",
                 esc(&toml::to_string(&d.params).unwrap_or_default())

@@ -5,7 +5,10 @@
 //! Bounds: the verdict uses BIC, so under the null a candidate with k parameters is accepted
 //! only if 2 x gain > k ln n = 10.7 k at n = 43200; for a nested candidate 2 x gain is about
 //! chi2(k), so the false-alarm chance per candidate is below P(chi2(1) > 10.7) = 1e-3, and
-//! about 1 % over the 11 candidates. The seeds are fixed.
+//! about 1 % over the 11 candidates and the 2 kind swaps of `paper` (a swap to an
+//! exp-cosine is charged its three fitted parameters, like an addition; the Gauss-Markov it
+//! replaces is the exp-cosine's infinite-period limit, so the swap is nested). The seeds are
+//! fixed.
 
 use hal_sim::log::LogRow;
 use hal_sim::{compare, diagnose, hidden, scenario, sim};
@@ -142,6 +145,94 @@ fn true_model_is_adequate() {
         .map(|c| (c.label.clone(), c.gain, c.penalty));
     assert_eq!(d.verdict, "adequate", "best candidate {best:?}");
     assert!(d.sensor.is_none() && d.suggested == base);
+    // The kind swaps were on offer (the model has two Gauss-Markov components) and lost.
+    assert!(
+        d.evidence
+            .candidates
+            .iter()
+            .filter(|c| c.label.contains("->"))
+            .count()
+            == 2
+    );
+}
+
+/// `paper` with a gyro drift that is an exponential-cosine (period 600 s, tau 1200 s,
+/// sigma 0.1 deg/h) instead of a Gauss-Markov.
+const GYRO_EXP_COSINE: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/tests/data/paper-gyro-exp-cosine.toml"
+);
+
+/// Issue 13: a gyro drift that *is* an exponential-cosine, diagnosed from the Gauss-Markov-only
+/// `paper` model, is named as a replacement of the gyro's Gauss-Markov (not as an addition,
+/// and not on the accelerometer), its period is found within 10 %, the suggested model (and
+/// its TOML) holds the exp-cosine in place of the Gauss-Markov, and its tilt RMS over hours
+/// 8-12 is within 1.10x the true model's on the same log.
+///
+/// Bounds: 1.10x and 10 % are the issue's bars. With the right structure the fitted model
+/// differs from the truth only by parameter error: on 10 fresh seeds (`examples/replace_bench`,
+/// BENCHMARKS.md "Replacing a component's kind") the tilt ratio was 0.92x to 1.03x and the
+/// period within 10 % in 9 (the miss, 755 s, is that log's own likelihood maximum, 600 s being
+/// 1.9 nats below it: the period's spread over 12 h is about 10 %, so this bar can fail on an
+/// unlucky seed). This seed (not among the bench's) gives 601 s and 1.00x.
+#[test]
+fn gyro_exp_cosine_drift_is_named_as_a_replacement_and_fixed() {
+    use imu_ident::model::{Component, ComponentKind};
+    let base = nominal();
+    let truth = scenario::load(GYRO_EXP_COSINE).unwrap().to_core().unwrap();
+    let log = sim::simulate(&truth, 43_200, 9001).unwrap();
+    let d = diagnose::diagnose(&base, &without_truth(&log)).unwrap();
+    let top: Vec<_> = d
+        .evidence
+        .candidates
+        .iter()
+        .take(4)
+        .map(|c| (c.label.clone(), c.score))
+        .collect();
+    assert_eq!(
+        (
+            d.verdict,
+            d.sensor,
+            d.effect,
+            d.replaces.as_ref().map(|r| r.kind)
+        ),
+        (
+            "wrong-kind",
+            Some("gyro"),
+            Some("exp-cosine"),
+            Some("gauss-markov")
+        ),
+        "{} (best {top:?})",
+        d.explanation
+    );
+    assert!(
+        d.explanation
+            .starts_with("replace gyro Gauss-Markov by exp-cosine (period "),
+        "{}",
+        d.explanation
+    );
+    let Some(Component::ExpCosine(ec)) = d.params.map(|p| p.0) else {
+        panic!("params {:?}", d.params)
+    };
+    let period = 2.0 * std::f64::consts::PI / ec.beta;
+    assert!((period / 600.0 - 1.0).abs() <= 0.10, "period {period:.1} s");
+    // The suggested model is the replaced one, and so is the TOML the CLI writes.
+    let kinds: Vec<_> = d.suggested.gyro.iter().map(|c| c.kind()).collect();
+    assert_eq!(kinds, [ComponentKind::ExpCosine]);
+    assert_eq!(d.suggested.accel, base.accel);
+    let text = hal_sim::model_toml::to_string(&d.suggested).unwrap();
+    let back = hal_sim::model_toml::parse(&text, "suggested").unwrap();
+    assert_eq!(back.gyro.len(), 1, "{text}");
+    assert_eq!(back.gyro[0].kind(), ComponentKind::ExpCosine, "{text}");
+    let window = |m| {
+        let (est, _) = hal_sim::replay::estimates::<f64>(m, &log).unwrap();
+        hal_sim::adaptive::tilt_window(&log, &est, 8.0 * 3600.0, 12.0 * 3600.0 + 1.0)
+            .unwrap()
+            .0
+    };
+    let ratio = window(&d.suggested) / window(&truth);
+    println!("period {period:.1} s; tilt RMS h8-12 {ratio:.3}x the true model's");
+    assert!(ratio <= 1.10, "tilt RMS h8-12 {ratio:.3}x the true model's");
 }
 
 /// The CLI writes diagnosis.json with the documented fields, a suggested model that parses,

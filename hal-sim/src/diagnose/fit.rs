@@ -1,10 +1,11 @@
-//! Fitting a candidate effect's parameters by maximum innovation likelihood.
+//! Fitting a candidate change's parameters by maximum innovation likelihood.
 //!
-//! The base model stays fixed; the candidate's log-parameters are fitted with Nelder-Mead
+//! The base model stays fixed (apart from the replaced component, for a replacement); the
+//! candidate's log-parameters are fitted with Nelder-Mead
 //! (argmin) from each of the candidate's starting points, and the best is kept. The likelihood
 //! is the core filter's own (`replay::log_likelihood`, through the firmware's step): no second copy of the filter.
 
-use crate::candidates::Candidate;
+use crate::candidates::Proposal;
 use crate::log::LogRow;
 use crate::replay::log_likelihood;
 use argmin::core::{CostFunction, Error, Executor, State};
@@ -18,13 +19,13 @@ const MAX_ITERS: u64 = 60;
 /// The result of fitting one candidate.
 #[derive(Debug, Clone)]
 pub struct Fit {
-    /// The candidate.
-    pub candidate: Candidate,
+    /// The candidate: an addition or a replacement.
+    pub candidate: Proposal,
     /// Fitted log-parameters.
     pub params: Vec<f64>,
     /// The fitted component.
     pub component: Component<f64>,
-    /// Log-likelihood of the model with the candidate added.
+    /// Log-likelihood of the model with the candidate applied.
     pub log_likelihood: f64,
     /// Likelihood evaluations spent.
     pub evaluations: u64,
@@ -32,7 +33,7 @@ pub struct Fit {
 
 struct NegLogLik<'a> {
     base: &'a InsModel<f64>,
-    candidate: Candidate,
+    candidate: Proposal,
     log: &'a [LogRow],
 }
 
@@ -45,7 +46,7 @@ impl CostFunction for NegLogLik<'_> {
         if p.iter().any(|v| !v.is_finite() || v.abs() > 80.0) {
             return Ok(f64::INFINITY);
         }
-        let Some(m) = self.candidate.add_to(self.base, p) else {
+        let Some(m) = self.candidate.apply(self.base, p) else {
             return Ok(f64::INFINITY);
         };
         match log_likelihood(&m, self.log) {
@@ -111,12 +112,14 @@ pub fn refine(base: &InsModel<f64>, f: &Fit, log: &[LogRow]) -> Fit {
     }
 }
 
-/// Fits `candidate` added to `base` on `log`; `None` if no start gave a finite likelihood.
+/// Fits `candidate` (a library candidate to add, or any [`Proposal`]) applied to `base` on
+/// `log`; `None` if no start gave a finite likelihood.
 ///
 /// Every starting point is evaluated once and Nelder-Mead runs from the best of them: the starts
 /// span decades of time scale, and the likelihood separates them clearly, so one local search
 /// suffices and the fit costs about a third of searching from every start.
-pub fn fit(base: &InsModel<f64>, candidate: Candidate, log: &[LogRow]) -> Option<Fit> {
+pub fn fit(base: &InsModel<f64>, candidate: impl Into<Proposal>, log: &[LogRow]) -> Option<Fit> {
+    let candidate = candidate.into();
     let cost = NegLogLik {
         base,
         candidate,

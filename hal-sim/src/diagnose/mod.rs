@@ -5,9 +5,14 @@
 //!    windowed NIS — checks that need no truth.
 //! 2. For every candidate of the library ([`crate::candidates::LIBRARY`]), add it to the model,
 //!    fit its parameters by maximum innovation likelihood, and score the gain in log-likelihood
-//!    against the BIC penalty `k/2 ln n` (k free parameters, n innovations).
+//!    against the BIC penalty `k/2 ln n` (k free parameters, n innovations). Next to the
+//!    additions, every component of the model whose kind has a swap in
+//!    [`crate::candidates::SWAPS`] is replaced by the other kind and fitted the same way, with
+//!    `k` the new component's parameters, as for an addition (why not the +1 of Gauss-Markov ->
+//!    exp-cosine: [`crate::candidates::Proposal::free_params`]).
 //! 3. The verdict is "adequate" when no candidate's gain exceeds its penalty, else the best
-//!    candidate, with its parameters and a physical explanation.
+//!    candidate, with its parameters and a physical explanation: "missing-effect" for an
+//!    addition, "wrong-kind" for a replacement.
 //!
 //! Detection uses what the filter sees (innovations and likelihood), not the ACF of the
 //! filter's own sensor-error estimates, which hides an oscillating drift behind a Markov-1
@@ -19,7 +24,7 @@ pub mod limits;
 pub mod tie;
 pub mod whiteness;
 
-use crate::candidates::{Candidate, LIBRARY};
+use crate::candidates::Proposal;
 use crate::log::LogRow;
 use crate::model_toml::ComponentToml;
 use crate::replay;
@@ -48,7 +53,7 @@ pub const CHOSEN_BY_TIE: &str =
 /// One candidate's score.
 #[derive(Debug, Clone, Serialize)]
 pub struct CandidateScore {
-    /// `sensor/kind`.
+    /// `sensor/kind` (an addition) or `sensor/old->new` (a replacement).
     pub label: String,
     /// Fitted component, in model-TOML form.
     pub params: ComponentToml,
@@ -60,6 +65,19 @@ pub struct CandidateScore {
     pub score: f64,
     /// Likelihood evaluations spent on the fit.
     pub evaluations: u64,
+    /// One line on what the fitted change means.
+    pub explanation: String,
+}
+
+/// The component a "wrong-kind" verdict replaces.
+#[derive(Debug, Clone, Serialize)]
+pub struct Replaced {
+    /// Its position in the sensor's component list of the input model.
+    pub index: usize,
+    /// Its kind (model-TOML spelling).
+    pub kind: &'static str,
+    /// Its parameters in the input model.
+    pub params: ComponentToml,
 }
 
 /// Evidence behind the verdict.
@@ -92,17 +110,20 @@ pub struct Evidence {
 /// The outcome written to `diagnosis.json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct Diagnosis {
-    /// "adequate" or "missing-effect".
+    /// "adequate", "missing-effect" (add a component) or "wrong-kind" (replace one).
     pub verdict: &'static str,
-    /// "accel", "gyro" or "observation" (missing-effect only).
+    /// "accel", "gyro" or "observation" (not when adequate).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sensor: Option<&'static str>,
-    /// A model-TOML kind (missing-effect only).
+    /// A model-TOML kind: the component to add, or the kind that replaces [`Self::replaces`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub effect: Option<&'static str>,
     /// The fitted parameters of the effect.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub params: Option<ComponentToml>,
+    /// The component replaced (wrong-kind only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub replaces: Option<Replaced>,
     /// One line on the physics.
     pub explanation: String,
     /// How the verdict was chosen among the candidates: [`CHOSEN_BY_LIKELIHOOD`] or, when
@@ -119,7 +140,8 @@ pub struct Diagnosis {
     pub evidence: Evidence,
     /// What this observation cannot show, whatever the verdict (see [`limits`]).
     pub limits: Vec<limits::Limit>,
-    /// The input model plus the effect (the input model when adequate).
+    /// The input model plus the effect, or with the component replaced (the input model when
+    /// adequate).
     #[serde(skip)]
     pub suggested: InsModel<f64>,
 }
@@ -135,11 +157,10 @@ pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
     let (ll0, n) = tel.log_likelihood();
     let penalty_per_param = 0.5 * (n.max(2) as f64).ln();
 
-    type Indexed = Vec<(usize, Candidate)>;
+    type Indexed = Vec<(usize, Proposal)>;
     let fits: Vec<Option<Fit>> = std::thread::scope(|s| {
-        let (even, odd): (Indexed, Indexed) = LIBRARY
-            .iter()
-            .copied()
+        let (even, odd): (Indexed, Indexed) = Proposal::all(model)
+            .into_iter()
             .enumerate()
             .partition(|(i, _)| i % 2 == 0);
         let work = |part: Indexed| {
@@ -157,7 +178,8 @@ pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
     // a few log-likelihood units.
     let mut fits: Vec<Fit> = fits.into_iter().flatten().collect();
     fits.sort_by(|a, b| {
-        let score = |f: &Fit| f.log_likelihood - penalty_per_param * f.candidate.n_params() as f64;
+        let score =
+            |f: &Fit| f.log_likelihood - penalty_per_param * f.candidate.free_params() as f64;
         score(b).total_cmp(&score(a))
     });
     let top = fits.len().min(REFINED);
@@ -177,7 +199,7 @@ pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
         .into_iter()
         .map(|f| {
             let gain = f.log_likelihood - ll0;
-            let penalty = penalty_per_param * f.candidate.n_params() as f64;
+            let penalty = penalty_per_param * f.candidate.free_params() as f64;
             let s = CandidateScore {
                 label: f.candidate.label(),
                 params: ComponentToml::from_core(&f.component),
@@ -185,6 +207,7 @@ pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
                 penalty,
                 score: gain - penalty,
                 evaluations: f.evaluations,
+                explanation: f.candidate.explain(&f.component),
             };
             (s, f)
         })
@@ -218,7 +241,19 @@ pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
                 (0, CHOSEN_BY_LIKELIHOOD, None)
             };
             let (score, f) = scores[pick].clone();
-            let suggested = f.candidate.add_to(model, &f.params).unwrap_or_else(|| model.clone());
+            let suggested = f.candidate.apply(model, &f.params).unwrap_or_else(|| model.clone());
+            let (verdict, replaces) = match f.candidate {
+                Proposal::Add(_) => ("missing-effect", None),
+                Proposal::Replace(r) => (
+                    "wrong-kind",
+                    Some(Replaced {
+                        index: r.index,
+                        kind: r.old.kind().name(),
+                        params: ComponentToml::from_core(&r.old),
+                    }),
+                ),
+            };
+            let target = f.candidate.target();
             evidence.log_likelihood_gain = score.gain;
             evidence.penalty = score.penalty;
             let ties = tied
@@ -230,11 +265,12 @@ pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
                 chosen_by,
                 indistinguishable_from: ties,
                 tie,
-                verdict: "missing-effect",
-                sensor: Some(f.candidate.sensor.name()),
-                effect: Some(f.candidate.kind.name()),
+                verdict,
+                sensor: Some(target.sensor.name()),
+                effect: Some(target.kind.name()),
                 params: Some(score.params),
-                explanation: f.candidate.explain(&f.component),
+                replaces,
+                explanation: score.explanation,
                 evidence,
                 limits: limits::limits(model, log, n),
                 suggested,
@@ -246,6 +282,7 @@ pub fn diagnose(model: &InsModel<f64>, log: &[LogRow]) -> Result<Diagnosis> {
             sensor: None,
             effect: None,
             params: None,
+            replaces: None,
             indistinguishable_from: Vec::new(),
             tie: None,
             explanation: "no candidate effect raises the innovation likelihood by more than its complexity penalty".into(),

@@ -11,7 +11,7 @@
 //!
 //! So the choice is a decision under uncertainty, made on simulated data (the log's own truth
 //! columns are never read):
-//! - each tied model `M_j` (base model plus candidate `j` with its fitted parameters) is
+//! - each tied model `M_j` (base model changed by candidate `j` with its fitted parameters) is
 //!   simulated as the truth over the log's length, every tied model `M_i` is run on it, and
 //!   `regret[i][j] = tilt RMS(M_i) / tilt RMS(M_j)` on that simulation (1 on the diagonal);
 //! - the posterior weight of `j` is `exp(score_j)` normalised over the tied set (the BIC score
@@ -58,7 +58,7 @@ pub fn decide(
 ) -> (usize, TieBreak) {
     let models: Vec<Option<InsModel<f64>>> = tied
         .iter()
-        .map(|&i| scores[i].1.candidate.add_to(model, &scores[i].1.params))
+        .map(|&i| scores[i].1.candidate.apply(model, &scores[i].1.params))
         .collect();
     let tilt = |m: &InsModel<f64>, data: &[LogRow]| -> f64 {
         replay::estimates::<f64>(m, data)
