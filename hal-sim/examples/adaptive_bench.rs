@@ -46,7 +46,7 @@ struct Row {
     ratio: f64,
     outside: f64,
     est: [(f64, f64); 2],
-    crb: Option<[f64; 4]>,
+    crb: Option<[f64; imu_ident::adapt::params::MAXP]>,
 }
 
 fn main() -> anyhow::Result<()> {
@@ -242,7 +242,8 @@ fn main() -> anyhow::Result<()> {
                 ns
             );
             if method == "rgn" && ka == 1.0 && kg == 1.0 {
-                let c: Vec<[f64; 4]> = rows.iter().filter_map(|r| r.crb).collect();
+                let c: Vec<[f64; imu_ident::adapt::params::MAXP]> =
+                    rows.iter().filter_map(|r| r.crb).collect();
                 if let Some(first) = c.first() {
                     println!("  sqrt(I_total^-1) of ln(sigma_a, tau_a, sigma_g, tau_g), seed 0: {first:.3?}");
                 }
@@ -336,7 +337,7 @@ fn crb(truth: &InsModel<f64>, seeds: u64) -> anyhow::Result<()> {
         ..AdaptConfig::default()
     };
     let mut mean_i = [[0.0f64; 4]; 4];
-    let mut per: Vec<[f64; 4]> = Vec::new();
+    let mut per: Vec<[f64; imu_ident::adapt::params::MAXP]> = Vec::new();
     let mut t2 = Vec::new();
     for seed in 0..seeds {
         let log = sim::simulate(truth, STEPS, 1000 + seed)?;

@@ -7,7 +7,7 @@ use imu_ident::Real;
 fn trace<T: Real>(
     start: &imu_ident::model::InsModel<f64>,
     log: &[hal_sim::log::LogRow],
-) -> Vec<(usize, [f64; 4], f64)> {
+) -> Vec<(usize, [f64; imu_ident::adapt::params::MAXP], f64)> {
     let cfg = replay::adapt_config::<T>(&AdaptConfig::<f64>::global());
     let mut f = AdaptiveFilter::<T>::new(start.cast(), cfg).expect("filter");
     let mut out = Vec::new();

@@ -149,6 +149,7 @@ pub fn adapt_config<T: Real>(c: &AdaptConfig<f64>) -> AdaptConfig<T> {
             min_step: T::lit(c.global.min_step),
             margin: T::lit(c.global.margin),
             hold_recursion: c.global.hold_recursion,
+            structure: T::lit(c.global.structure),
         },
     }
 }

@@ -299,13 +299,25 @@ impl<T: Real> Bank<T> {
     /// and `P`. On error nothing is changed. (At start-up and on a jump to a probe; the
     /// Gauss-Newton moves use [`request_theta`](Self::request_theta).)
     pub fn set_theta(&mut self, theta: &[T; MAXP]) -> Result<(), AdaptError> {
-        let mut disc: [(Arr<T, NX>, Arr<T, NX>); MEMBERS] =
-            core::array::from_fn(|_| (zeros(), zeros()));
-        for (m, d) in disc.iter_mut().enumerate().take(2 * self.np + 1) {
-            *d = self.member_system(m, theta)?;
+        // Checked first, then applied, each member's system computed twice: holding all of them
+        // at once would put `2 MAXP + 1` pairs of matrices on the stack (5.6 KB in f32, the
+        // firmware's deepest frame), and this runs rarely (start-up, a probe's jump, a structure
+        // switch). The discretisation is deterministic, so the second pass cannot fail where
+        // the first did not.
+        let used = (2 * self.np + 1).min(MEMBERS);
+        for m in 0..used {
+            self.member_system(m, theta)?;
         }
-        for (mem, (phi, qd)) in self.members.iter_mut().zip(disc.iter()) {
-            mem.set_system(phi, qd);
+        let zero = zeros();
+        for m in 0..MEMBERS {
+            let (phi, qd) = if m < used {
+                self.member_system(m, theta)?
+            } else {
+                (zero, zero)
+            };
+            if let Some(mem) = self.members.get_mut(m) {
+                mem.set_system(&phi, &qd);
+            }
         }
         self.applied = *theta;
         self.target = *theta;

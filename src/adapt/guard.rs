@@ -28,8 +28,10 @@ impl<T: Real> Bounds<T> {
         hi: [T::ZERO; MAXP],
     };
 
-    /// Physical bounds around the starting `theta0`: `tau` within `[dt, tau_max]`, every scale
-    /// (sigma, q, density) within `spread` decades of its starting value either way. The finite
+    /// Physical bounds around the starting `theta0`: `tau` within `[dt, tau_max]`, `beta` within
+    /// `[2 pi / tau_max, pi / dt]` (periods from the longest correlation time down to the
+    /// Nyquist period `2 dt`), every scale (sigma, q, density) within `spread` decades of its
+    /// starting value either way. The finite
     /// difference step `h` is kept inside too, so that no bank member leaves the bounds.
     pub fn new(specs: &Specs, theta0: &[T; MAXP], dt: T, tau_max: T, spread: T, h: T) -> Self {
         let mut lo = [T::zero(); MAXP];
@@ -38,6 +40,10 @@ impl<T: Real> Bounds<T> {
         for (i, s) in specs.iter().enumerate().take(MAXP) {
             let (l, u) = match s.kind {
                 Quantity::Tau => (dt.ln(), tau_max.ln()),
+                Quantity::Beta => (
+                    (T::lit(core::f64::consts::TAU) / tau_max).ln(),
+                    (T::lit(core::f64::consts::PI) / dt).ln(),
+                ),
                 _ => (theta0[i] - dec, theta0[i] + dec),
             };
             lo[i] = l + h;
@@ -91,13 +97,11 @@ mod tests {
 
     #[test]
     fn step_limits() {
-        let d = limit_step(
-            &[2.0f64, -0.1, 0.5, 0.0],
-            &[0.1, 0.2, 0.1, 0.1],
-            1.0,
-            1.0,
-            4,
-        );
+        let mut delta = [0.0f64; MAXP];
+        delta[..4].copy_from_slice(&[2.0, -0.1, 0.5, 0.0]);
+        let mut se = [0.1f64; MAXP];
+        se[1] = 0.2;
+        let d = limit_step(&delta, &se, 1.0, 1.0, 4);
         assert_eq!(d[1], 0.0);
         assert!((d[0] - 1.0).abs() < 1e-12 && (d[2] - 0.25).abs() < 1e-12);
     }

@@ -34,6 +34,7 @@ pub mod bank;
 pub mod guard;
 pub mod params;
 pub mod probes;
+pub mod restructure;
 pub mod window;
 
 use crate::filter::Estimates;
@@ -45,7 +46,7 @@ use guard::{limit_step, Bounds, Mat};
 use params::{apply, specs, theta_of, Specs, MAXP};
 use probes::Probes;
 pub use window::WindowSearch;
-pub use window::{Found, WindowConfig};
+pub use window::{Found, Switch, WindowConfig};
 
 /// Why the adaptive filter could not be built or moved.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -203,6 +204,9 @@ pub struct StepReport<T> {
     pub rejected: bool,
     /// A parameter update hit a physical bound and was clamped.
     pub clamped: bool,
+    /// The model's structure changed at the end of this step (one component's kind replaced
+    /// by the global stage's structure test; `jumped` and `moved` are set too).
+    pub switched: bool,
 }
 
 /// An INS filter that identifies its own sensor-noise parameters online.
@@ -234,6 +238,7 @@ pub struct AdaptiveFilter<T: Real> {
     searching: bool,
     clamped: bool,
     last_global: Found<T>,
+    switches: u32,
 }
 
 impl<T: Real> AdaptiveFilter<T> {
@@ -263,6 +268,7 @@ impl<T: Real> AdaptiveFilter<T> {
         searching: false,
         clamped: false,
         last_global: Found::BLANK,
+        switches: 0,
     };
 
     /// Starts from `model` (its parameters are the initial guess).
@@ -341,6 +347,7 @@ impl<T: Real> AdaptiveFilter<T> {
         self.searching = true;
         self.clamped = false;
         self.last_global = Found::BLANK;
+        self.switches = 0;
         Ok(())
     }
 
@@ -364,7 +371,7 @@ impl<T: Real> AdaptiveFilter<T> {
         };
         // The probes see what the bank saw: a gated observation is missing for them too.
         let z = if out.gated.is_some() { nan } else { z };
-        let (mut moved, mut rejected, mut jumped) = (false, false, false);
+        let (mut moved, mut rejected, mut jumped, mut switched) = (false, false, false, false);
         if out.failed {
             // A staggered move could not be discretised: the bank rolls back; follow it.
             self.theta = *self.bank.theta();
@@ -389,7 +396,9 @@ impl<T: Real> AdaptiveFilter<T> {
             self.global.start(&self.theta);
         }
         if let Some(found) = self.global.work(&self.base, &self.specs, &self.bounds) {
+            let switches = self.switches;
             jumped |= self.global_end(&found);
+            switched = self.switches != switches;
         }
         self.steps = self.steps.wrapping_add(1);
         if !self.probes.is_empty() && self.steps.checked_rem(self.cfg.epoch) == Some(0) {
@@ -423,6 +432,7 @@ impl<T: Real> AdaptiveFilter<T> {
             jumped,
             rejected,
             clamped,
+            switched,
         }
     }
 
@@ -481,6 +491,13 @@ impl<T: Real> AdaptiveFilter<T> {
         // The first finished search ends the search phase (the recursion, when not held,
         // then climbs from the basin the window chose).
         self.searching = false;
+        if let Some(sw) = found.switch.get().filter(|s| self.switch_wins(s)) {
+            if self.switch_structure(sw).is_ok() {
+                self.jumps = self.jumps.saturating_add(1);
+                self.switches = self.switches.saturating_add(1);
+                return true;
+            }
+        }
         if !(found.gain.is_finite() && found.gain > self.cfg.global.margin) {
             return false;
         }
@@ -511,6 +528,90 @@ impl<T: Real> AdaptiveFilter<T> {
                 .anchor(&self.theta, &self.bounds, self.specs.len());
         }
         true
+    }
+
+    /// Whether a search's best alternative structure replaces the model: its log-likelihood
+    /// gain less the penalty of its extra parameters must exceed half a parameter's penalty
+    /// (hysteresis: with `c` nats per parameter, Gauss-Markov -> exponential-cosine needs
+    /// `1.5 c`, and the way back is taken once the exponential-cosine's advantage falls below
+    /// `0.5 c`, so that a borderline component does not switch at every search).
+    fn switch_wins(&self, s: &Switch<T>) -> bool {
+        let pen = self.cfg.global.structure;
+        pen > T::zero()
+            && s.gain.is_finite()
+            && s.gain - pen * T::lit(f64::from(s.extra)) > pen * T::lit(0.5)
+    }
+
+    /// Replaces the model's structure by the search's alternative `sw`: a new bank at `sw.theta`
+    /// that carries the centre's state ([`restructure`]), new specs and bounds, and fresh
+    /// information (its layout changed). On error nothing is changed.
+    fn switch_structure(&mut self, sw: &Switch<T>) -> Result<(), AdaptError> {
+        let beta0 = T::one();
+        let alt = window::structure::alternative(
+            &self.base,
+            &self.specs,
+            &self.theta,
+            &self.theta,
+            &self.bounds,
+            sw.site,
+            beta0,
+        )
+        .ok_or(AdaptError::BadParameter)?;
+        let model = apply(&alt.base, &alt.specs, &sw.theta).ok_or(AdaptError::BadParameter)?;
+        let map = restructure::state_map(&self.base, &model).map_err(AdaptError::Model)?;
+        let scale = model.scaling().map_err(AdaptError::Model)?;
+        let accel_row = model
+            .output_row(Sensor::Accel, &scale)
+            .map_err(AdaptError::Model)?;
+        let gyro_row = model
+            .output_row(Sensor::Gyro, &scale)
+            .map_err(AdaptError::Model)?;
+        let old_scale = *self.bank.scale();
+        let (x, p) = (self.bank.centre().kf.x, self.bank.centre().kf.P);
+        // In place (a second bank would not fit on the firmware's stack); `init` changes nothing
+        // on error, and a failed `set_theta` is rolled back to the bank `init` built (from
+        // `base`, whose scaling it keeps) at the old point and state.
+        self.bank.init(&model, &alt.specs, self.cfg.h)?;
+        if let Err(e) = self.bank.set_theta(&sw.theta) {
+            let _ = self.bank.init(&self.base, &self.specs, self.cfg.h);
+            let _ = self.bank.set_theta(&self.theta);
+            self.bank.reset_states(&x, &p);
+            return Err(e);
+        }
+        let (xn, pn) = restructure::carry(
+            &map,
+            &x,
+            &p,
+            &old_scale,
+            self.bank.scale(),
+            self.bank.p0(),
+            self.bank.active(),
+        );
+        self.bank.reset_states(&xn, &pn);
+        self.global.restructure(&self.specs, &alt.specs, &sw.theta);
+        // The bank's scaling comes from this model: it is the new base.
+        self.base = model;
+        self.specs = alt.specs;
+        self.theta = sw.theta;
+        self.bounds = alt.bounds;
+        self.accel_row = accel_row;
+        self.gyro_row = gyro_row;
+        self.acc = Information::default();
+        self.acc_sq = [[T::zero(); MAXP]; MAXP];
+        self.block = Information::default();
+        self.total = Information::default();
+        if self.cfg.probe_factor > T::one() {
+            self.probes
+                .init(&self.specs, self.cfg.probe_factor, self.bank.p0());
+            self.probes
+                .anchor(&self.theta, &self.bounds, self.specs.len());
+        }
+        Ok(())
+    }
+
+    /// Structure switches so far.
+    pub fn switches(&self) -> u32 {
+        self.switches
     }
 
     /// The global stage's window and search state.

@@ -12,13 +12,13 @@ use nalgebra::{Matrix2, RowVector2};
 /// model TOML, the binary model file, the telemetry records, the identification bank and the
 /// reports all read kinds, names, codes and parameters from here.
 ///
-/// | kind | name | code | quantities (file order) | identified online | telemetry `(tau, sigma, beta)` |
-/// |---|---|---|---|---|---|
-/// | Gauss-Markov | `gauss-markov` | 0 | sigma, tau | sigma, tau | tau, sigma, - |
-/// | exponential-cosine | `exp-cosine` | 1 | sigma, tau, beta | sigma, tau | tau, sigma, beta |
-/// | random walk | `random-walk` | 2 | q, sigma0 (optional) | q | -, sqrt(q), - |
-/// | random constant | `random-constant` | 3 | sigma | - | -, sigma, - |
-/// | white noise | `white` | 4 | density | density | -, density, - |
+/// | kind | name | code | quantities (file order) | identified online | may switch to | telemetry `(tau, sigma, beta)` |
+/// |---|---|---|---|---|---|---|
+/// | Gauss-Markov | `gauss-markov` | 0 | sigma, tau | sigma, tau | exp-cosine | tau, sigma, - |
+/// | exponential-cosine | `exp-cosine` | 1 | sigma, tau, beta | sigma, tau, beta | Gauss-Markov | tau, sigma, beta |
+/// | random walk | `random-walk` | 2 | q, sigma0 (optional) | q | - | -, sqrt(q), - |
+/// | random constant | `random-constant` | 3 | sigma | - | - | -, sigma, - |
+/// | white noise | `white` | 4 | density | density | - | -, density, - |
 ///
 /// ```
 /// use imu_ident::model::{Component, ComponentKind, GaussMarkov, Quantity};
@@ -162,10 +162,24 @@ impl ComponentKind {
     /// order. A random constant has no intensity to identify; beta is held (issue 13).
     pub const fn identified(self) -> &'static [Quantity] {
         match self {
-            Self::GaussMarkov | Self::ExpCosine => &[Quantity::Sigma, Quantity::Tau],
+            Self::GaussMarkov => &[Quantity::Sigma, Quantity::Tau],
+            // beta is identified too (issue 13): the global stage finds it by a scan of periods.
+            Self::ExpCosine => &[Quantity::Sigma, Quantity::Tau, Quantity::Beta],
             Self::RandomWalk => &[Quantity::Q],
             Self::White => &[Quantity::Density],
             Self::RandomConstant => &[],
+        }
+    }
+
+    /// The kind the global stage's structure test may replace this one by (issue 13: the
+    /// paper's structural identification): a Gauss-Markov process and an exponential-cosine
+    /// differ by `beta` alone (`beta = 0` is Gauss-Markov), so either can stand in for the
+    /// other with the same `sigma, tau`.
+    pub const fn alternative(self) -> Option<Self> {
+        match self {
+            Self::GaussMarkov => Some(Self::ExpCosine),
+            Self::ExpCosine => Some(Self::GaussMarkov),
+            _ => None,
         }
     }
 

@@ -43,6 +43,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod pass;
+pub mod structure;
 
 use crate::adapt::guard::{Bounds, Mat};
 use crate::adapt::params::{Specs, MAXP};
@@ -50,6 +51,7 @@ use crate::linalg::{chol_solve, cholesky};
 use crate::model::InsModel;
 use crate::Real;
 use pass::Pass;
+use structure::{Alternative, Site};
 
 /// Capacity of the ring of block means: 8 h of 60-s blocks (480) plus the blocks that arrive
 /// while a search over a full window runs (a tenth of the ring, 1 h).
@@ -64,13 +66,22 @@ const SHORT_ITERATIONS: u32 = 3;
 const FINAL: usize = 2;
 /// Scoring iterations per polish at most.
 const MAX_ITERATIONS: u32 = 12;
-/// Grid points per search (`3^MAXP`).
+/// Parameters the grid spans (the first ones in `theta` order: the accelerometer's and the
+/// gyro's first components); the others sit at the anchor's values and are found by the polish
+/// (and, for a new `beta`, by the structure test's scan).
+pub const GRID_DIMS: usize = 4;
+/// Grid points per search (`3^GRID_DIMS`).
 const GRID: usize = 81;
 /// Filter steps one filter's construction (a discretisation and a block system of 60 ticks) is
 /// counted as in the budget: about 40 filter steps' instructions on the Cortex-M4.
 const PREPARE_COST: usize = 40;
 /// Finite-difference step of the polish's derivatives (`ln`), as the bank's.
 const DIFF_STEP: f64 = 0.1;
+
+/// The structure test's penalty [nats per parameter] when it is switched on: see
+/// `docs/ADAPTATION.md` §7.6 (the statistic on `paper` data, without oscillation, stayed at or
+/// below 2.6 nats on 40 seeds; a switch to one more parameter needs 1.5 times this, 3 nats).
+pub const STRUCTURE_PENALTY: f64 = 2.0;
 
 /// Tuning of the global stage.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -97,6 +108,9 @@ pub struct WindowConfig<T> {
     /// still accumulates the information for the Cramér-Rao deviations); the window's polish is
     /// the local refinement.
     pub hold_recursion: bool,
+    /// Complexity penalty [nats per identified parameter] of the structure test
+    /// ([`structure`]); `0`: no structure test.
+    pub structure: T,
 }
 
 impl<T: Real> WindowConfig<T> {
@@ -111,6 +125,7 @@ impl<T: Real> WindowConfig<T> {
         min_step: T::ZERO,
         margin: T::ZERO,
         hold_recursion: false,
+        structure: T::ZERO,
     };
 
     /// The measured default (`docs/ADAPTATION.md` §7): 60-s blocks, 8-h window, first search
@@ -129,6 +144,10 @@ impl<T: Real> WindowConfig<T> {
             min_step: T::lit(0.05),
             margin: T::lit(0.0),
             hold_recursion: true,
+            // Off by default: measured, one false switch on `paper` data (1 seed in 25 fresh
+            // ones) left the tilt at 2.5x the oracle for the rest of the run
+            // (`docs/ADAPTATION.md` §7.6). Opt in with `structure: STRUCTURE_PENALTY`.
+            structure: T::ZERO,
         }
     }
 
@@ -150,6 +169,10 @@ pub struct Found<T> {
     pub blocks: u32,
     /// Likelihood evaluations spent.
     pub evaluations: u32,
+    /// The best alternative structure tried (`valid` false when the structure test is off or
+    /// nothing is switchable; not an `Option`: its `None` would not be all-zero bits, and the
+    /// firmware's estimator would move from `.bss` to `.data`, 56 KB of flash).
+    pub switch: Switch<T>,
 }
 
 impl<T: Real> Found<T> {
@@ -159,7 +182,40 @@ impl<T: Real> Found<T> {
         gain: T::ZERO,
         blocks: 0,
         evaluations: 0,
+        switch: Switch::NONE,
     };
+}
+
+/// The best alternative structure of a search: one component's kind replaced.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Switch<T> {
+    /// Which component, and its new kind.
+    pub site: Site,
+    /// Its best point (`ln` parameters in the alternative's own `specs` order).
+    pub theta: [T; MAXP],
+    /// Its log-likelihood minus that of the search's best point of the filter's model [nats].
+    pub gain: T,
+    /// Its identified parameters minus the filter model's.
+    pub extra: i8,
+    /// Whether an alternative was searched (the other fields are meaningful).
+    pub valid: bool,
+}
+
+impl<T: Real> Switch<T> {
+    /// No alternative (all zeros).
+    pub const NONE: Self = Self {
+        site: Site::BLANK,
+        theta: [T::ZERO; MAXP],
+        gain: T::ZERO,
+        extra: 0,
+        valid: false,
+    };
+
+    /// `Some` when an alternative was searched.
+    pub fn get(&self) -> Option<&Self> {
+        self.valid.then_some(self)
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -171,6 +227,10 @@ enum Phase {
     Polish(usize),
     /// Polish to convergence of the `k`-th best point after the brief polishes.
     Refine(usize),
+    /// Structure test: the `j`-th scan point of the current alternative.
+    AltScan(usize),
+    /// Structure test: the polish of the current alternative.
+    AltRefine,
 }
 
 /// The buffered window and the time-sliced search over it.
@@ -216,6 +276,16 @@ pub struct WindowSearch<T: Real> {
     next_search: u32,
     /// Searches started.
     searches: u32,
+    /// Structure test: the alternative being searched, its index among the model's switchable
+    /// components, its best scan point, and the best alternative so far.
+    alt: Alternative<T>,
+    alt_on: bool,
+    alt_k: usize,
+    scan_best: [T; MAXP],
+    scan_ll: T,
+    switch: Switch<T>,
+    /// Seconds per block (for the scan's periods).
+    block_s: T,
 }
 
 impl<T: Real> WindowSearch<T> {
@@ -251,6 +321,13 @@ impl<T: Real> WindowSearch<T> {
         evaluations: 0,
         next_search: 0,
         searches: 0,
+        alt: Alternative::BLANK,
+        alt_on: false,
+        alt_k: 0,
+        scan_best: [T::ZERO; MAXP],
+        scan_ll: T::ZERO,
+        switch: Switch::NONE,
+        block_s: T::ZERO,
     };
 
     /// Starts empty with `cfg`, the grid centred on `centre` (the start model's parameters), in
@@ -265,6 +342,16 @@ impl<T: Real> WindowSearch<T> {
             ..cfg
         };
         self.next_search = cfg.first.max(2);
+    }
+
+    /// After a structure switch: the grid's centre (the start model's parameters) in the new
+    /// layout `to` (a parameter new to the model is centred where the switch put it, `theta`);
+    /// a running search is abandoned (its window is searched again at the next one).
+    pub fn restructure(&mut self, from: &Specs, to: &Specs, theta: &[T; MAXP]) {
+        self.centre = crate::adapt::params::remap(from, &self.centre, to, theta);
+        self.phase = Phase::Idle;
+        self.running = false;
+        self.alt_on = false;
     }
 
     /// Whether a search is running.
@@ -367,6 +454,9 @@ impl<T: Real> WindowSearch<T> {
         self.phase = Phase::Anchor;
         self.running = false;
         self.evaluations = 0;
+        self.alt_on = false;
+        self.alt_k = 0;
+        self.switch = Switch::NONE;
         self.searches = self.searches.wrapping_add(1);
         self.next_search = self.pushed.saturating_add(self.cfg.every.max(1));
     }
@@ -389,6 +479,7 @@ impl<T: Real> WindowSearch<T> {
             return None;
         }
         let p = specs.len().min(MAXP);
+        self.block_s = T::lit(f64::from(self.cfg.block)) * base.dt;
         let mut budget = self.cfg.budget as usize;
         let mut prepared_this_tick = false;
         // Each turn starts a pass, runs some blocks, or ends one: a pass takes at most three
@@ -397,7 +488,12 @@ impl<T: Real> WindowSearch<T> {
             if !self.running {
                 let (theta, derivs) = self.next_point(p, bounds)?;
                 let h = derivs.then(|| T::lit(DIFF_STEP));
-                self.pass.start(&theta, p, h, self.cfg.block, self.z0);
+                let np = if self.in_alternative() {
+                    self.alt.specs.len()
+                } else {
+                    p
+                };
+                self.pass.start(&theta, np, h, self.cfg.block, self.z0);
                 self.running = true;
             }
             if !self.pass.ready() {
@@ -409,11 +505,16 @@ impl<T: Real> WindowSearch<T> {
                 }
                 prepared_this_tick = true;
                 budget = budget.saturating_sub(PREPARE_COST);
-                if self.pass.prepare(base, specs).is_err() {
+                let prepared = if self.in_alternative() {
+                    self.pass.prepare(&self.alt.base, &self.alt.specs)
+                } else {
+                    self.pass.prepare(base, specs)
+                };
+                if prepared.is_err() {
                     // A point that cannot be discretised counts as evaluated, with no likelihood.
                     self.pass.ll = T::lit(f64::NEG_INFINITY);
                     self.running = false;
-                    if let Some(done) = self.complete(p, bounds) {
+                    if let Some(done) = self.complete(base, specs, bounds) {
                         return Some(done);
                     }
                 }
@@ -434,12 +535,17 @@ impl<T: Real> WindowSearch<T> {
             budget = budget.saturating_sub(steps * cost);
             if self.pass.pos >= self.wlen {
                 self.running = false;
-                if let Some(done) = self.complete(p, bounds) {
+                if let Some(done) = self.complete(base, specs, bounds) {
                     return Some(done);
                 }
             }
         }
         None
+    }
+
+    /// Whether the running phase is the structure test's.
+    fn in_alternative(&self) -> bool {
+        self.alt_on && matches!(self.phase, Phase::AltScan(_) | Phase::AltRefine)
     }
 
     /// The point to evaluate next and whether with derivatives; `None` only when idle.
@@ -458,14 +564,18 @@ impl<T: Real> WindowSearch<T> {
                 } else {
                     T::zero()
                 };
-                for v in t.iter_mut().take(p) {
+                for (v, a) in t.iter_mut().zip(self.anchor.iter()).take(p).skip(GRID_DIMS) {
+                    *v = *a;
+                }
+                for v in t.iter_mut().take(p.min(GRID_DIMS)) {
                     let level = (q % 3) as i32 - 1;
                     q /= 3;
                     *v += T::lit(f64::from(level)) * self.cfg.spacing - shift;
                 }
                 Some((bounds.clamp(&t, p), false))
             }
-            Phase::Polish(_) | Phase::Refine(_) => Some((self.pass.theta, true)),
+            Phase::Polish(_) | Phase::Refine(_) | Phase::AltRefine => Some((self.pass.theta, true)),
+            Phase::AltScan(j) => Some((self.alt.scan_point(j, self.block_s)?, false)),
         }
     }
 
@@ -538,9 +648,15 @@ impl<T: Real> WindowSearch<T> {
     }
 
     /// Records the finished pass and moves on; the result when the search ends.
-    fn complete(&mut self, p: usize, bounds: &Bounds<T>) -> Option<Found<T>> {
+    fn complete(
+        &mut self,
+        base: &InsModel<T>,
+        specs: &Specs,
+        bounds: &Bounds<T>,
+    ) -> Option<Found<T>> {
         self.evaluations = self.evaluations.saturating_add(1);
-        let grid_len = 3usize.pow(p as u32).min(GRID);
+        let p = specs.len().min(MAXP);
+        let grid_len = 3usize.pow(p.min(GRID_DIMS) as u32).min(GRID);
         let (theta, ll) = (self.pass.theta, self.pass.ll);
         let next = match self.phase {
             Phase::Idle => Phase::Idle,
@@ -559,7 +675,33 @@ impl<T: Real> WindowSearch<T> {
                 }
             }
             Phase::Polish(k) => self.polish_step(k, false, theta, ll, p, bounds),
-            Phase::Refine(k) => self.polish_step(k, true, theta, ll, p, bounds),
+            Phase::Refine(k) => match self.polish_step(k, true, theta, ll, p, bounds) {
+                // The model's search is over: the structure test follows on the same window.
+                Phase::Idle => self.next_alternative(base, specs, bounds),
+                next => next,
+            },
+            Phase::AltScan(j) => {
+                if ll.is_finite() && ll > self.scan_ll {
+                    self.scan_ll = ll;
+                    self.scan_best = theta;
+                }
+                if j + 1 < structure::SCAN {
+                    Phase::AltScan(j + 1)
+                } else {
+                    let start = self.scan_best;
+                    self.start_alternative_polish(&start)
+                }
+            }
+            Phase::AltRefine => {
+                let (ap, ab) = (self.alt.specs.len().min(MAXP), self.alt.bounds);
+                match self.polish_step(0, true, theta, ll, ap, &ab) {
+                    Phase::Idle => {
+                        self.end_alternative(p);
+                        self.next_alternative(base, specs, bounds)
+                    }
+                    next => next,
+                }
+            }
         };
         self.phase = next;
         if next == Phase::Idle {
@@ -568,6 +710,7 @@ impl<T: Real> WindowSearch<T> {
                 gain: self.best_ll - self.anchor_ll,
                 blocks: u32::try_from(self.wlen).unwrap_or(u32::MAX),
                 evaluations: self.evaluations,
+                switch: self.switch,
             });
         }
         None
@@ -614,7 +757,9 @@ impl<T: Real> WindowSearch<T> {
         match self.scoring_step(p, bounds) {
             Some(t) => {
                 self.pass.theta = t;
-                if refine {
+                if self.phase == Phase::AltRefine {
+                    Phase::AltRefine
+                } else if refine {
                     Phase::Refine(k)
                 } else {
                     Phase::Polish(k)
@@ -627,6 +772,10 @@ impl<T: Real> WindowSearch<T> {
     /// Ends a polish: a brief one stores its result in place of its start point; a refinement
     /// competes for the answer.
     fn end_polish(&mut self, k: usize, refine: bool) -> Phase {
+        if self.phase == Phase::AltRefine {
+            // The alternative's result is kept by `end_alternative`, not as the model's best.
+            return Phase::Idle;
+        }
         if self.acc_ll > self.best_ll {
             self.best_ll = self.acc_ll;
             self.best = self.acc_theta;
@@ -645,6 +794,72 @@ impl<T: Real> WindowSearch<T> {
                 }
             }
             self.start_polish(k + 1, false)
+        }
+    }
+
+    /// The structure test's next alternative (the next switchable component of the model), or
+    /// the end of the search.
+    fn next_alternative(&mut self, base: &InsModel<T>, specs: &Specs, bounds: &Bounds<T>) -> Phase {
+        if self.cfg.structure.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
+            return Phase::Idle;
+        }
+        // Bounded: a model has at most 2 MAX_COMPONENTS sensor components.
+        for _ in 0..(2 * crate::model::ins::MAX_COMPONENTS) {
+            let k = self.alt_k;
+            self.alt_k += 1;
+            let Some(site) = structure::site(base, k) else {
+                break;
+            };
+            // A placeholder beta (a 10-block period); the scan overwrites it.
+            let beta0 = T::lit(core::f64::consts::TAU) / (self.block_s * T::lit(10.0));
+            let alt =
+                structure::alternative(base, specs, &self.best, &self.centre, bounds, site, beta0);
+            if let Some(a) = alt {
+                let (start, scan) = (a.start, a.scan.is_some());
+                self.scan_ll = T::lit(f64::NEG_INFINITY);
+                self.scan_best = start;
+                self.alt = a;
+                self.alt_on = true;
+                return if scan {
+                    Phase::AltScan(0)
+                } else {
+                    self.start_alternative_polish(&start)
+                };
+            }
+        }
+        self.alt_on = false;
+        Phase::Idle
+    }
+
+    /// Starts the polish of the current alternative from `start`.
+    fn start_alternative_polish(&mut self, start: &[T; MAXP]) -> Phase {
+        self.acc_theta = *start;
+        self.acc_ll = T::lit(f64::NEG_INFINITY);
+        self.lambda = T::lit(0.1);
+        self.iterations = 0;
+        self.pass.theta = *start;
+        Phase::AltRefine
+    }
+
+    /// Keeps the polished alternative if its penalised log-likelihood beats the best one so
+    /// far (`p`: the filter model's parameter count).
+    fn end_alternative(&mut self, p: usize) {
+        let a = &self.alt;
+        if !self.alt_on || !self.acc_ll.is_finite() {
+            return;
+        }
+        let extra = i8::try_from(a.specs.len()).unwrap_or(0) - i8::try_from(p).unwrap_or(0);
+        let cand = Switch {
+            site: a.site,
+            theta: self.acc_theta,
+            gain: self.acc_ll - self.best_ll,
+            extra,
+            valid: true,
+        };
+        let pen = self.cfg.structure;
+        let score = |s: &Switch<T>| s.gain - pen * T::lit(f64::from(s.extra));
+        if !self.switch.valid || score(&cand) > score(&self.switch) {
+            self.switch = cand;
         }
     }
 }

@@ -1,0 +1,122 @@
+//! Carrying the filter's state across a structure switch (one component's kind replaced, see
+//! [`window::structure`](super::window::structure)).
+//!
+//! The navigation errors and every component that did not change keep their estimates and
+//! their covariances (cross-covariances included), converted between the two models' state
+//! scalings. The replaced component's states start from the new component's stationary
+//! covariance, uncorrelated with the rest, and zero mean: its old estimate is of another
+//! process (an exponential-cosine's output is a combination of two states, not the first one),
+//! and the filter re-estimates it within about one correlation time.
+
+// Small fixed-size matrix code reads best with explicit indices.
+#![allow(clippy::needless_range_loop)]
+
+use crate::linalg::Arr;
+use crate::model::{idx, InsModel, ModelError, Scaling, NX};
+use crate::Real;
+
+/// For each state of `new`, the state of `old` that carries the same quantity (`None`: new).
+pub fn state_map<T: Real>(
+    old: &InsModel<T>,
+    new: &InsModel<T>,
+) -> Result<[Option<usize>; NX], ModelError> {
+    let (lo, ln) = (old.layout()?, new.layout()?);
+    let mut map = [None; NX];
+    if let Some(m) = map.get_mut(idx::DV) {
+        *m = Some(idx::DV);
+    }
+    if let Some(m) = map.get_mut(idx::DELTA) {
+        *m = Some(idx::DELTA);
+    }
+    for s in &ln {
+        let kind = new.component(s).map(|c| c.kind());
+        let twin = lo.iter().find(|o| {
+            o.sensor == s.sensor
+                && o.index == s.index
+                && o.states == s.states
+                && old.component(o).map(|c| c.kind()) == kind
+        });
+        if let Some(o) = twin {
+            for k in 0..s.states {
+                if let Some(m) = map.get_mut(s.start + k) {
+                    *m = Some(o.start + k);
+                }
+            }
+        }
+    }
+    Ok(map)
+}
+
+/// The state and covariance of `new` (scaled by `s_new`, `n` active states, initial covariance
+/// `p0_new`) that carry `x, P` of the old model (scaled by `s_old`) through `map`.
+pub fn carry<T: Real>(
+    map: &[Option<usize>; NX],
+    x: &[T; NX],
+    p: &Arr<T, NX>,
+    s_old: &Scaling<T>,
+    s_new: &Scaling<T>,
+    p0_new: &Arr<T, NX>,
+    n: usize,
+) -> ([T; NX], Arr<T, NX>) {
+    let n = n.min(NX);
+    let mut xn = [T::zero(); NX];
+    let mut pn = *p0_new;
+    // Physical value = scale x scaled value, so a carried entry is multiplied by the old scale
+    // and divided by the new one (twice for a covariance).
+    let ratio = |i: usize, j: usize| s_old[j] / s_new[i];
+    for i in 0..n {
+        let Some(oi) = map[i].filter(|&o| o < NX) else {
+            // A new state: its prior row and column (the new block's own entries stay).
+            for j in 0..n {
+                if map[j].is_some() {
+                    pn[i][j] = T::zero();
+                    pn[j][i] = T::zero();
+                }
+            }
+            continue;
+        };
+        xn[i] = x[oi] * ratio(i, oi);
+        for j in 0..n {
+            if let Some(oj) = map[j].filter(|&o| o < NX) {
+                pn[i][j] = p[oi][oj] * ratio(i, oi) * ratio(j, oj);
+            }
+        }
+    }
+    (xn, pn)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::adapt::window::structure::{site, swap};
+
+    /// Paper -> gyro exp-cosine: the navigation errors and the accelerometer's state are
+    /// carried (with the scalings' ratio), the gyro's two new states start at their prior.
+    #[test]
+    fn switching_the_gyro_keeps_the_rest_of_the_state() {
+        let old = InsModel::<f64>::paper();
+        let new = swap(&old, &site(&old, 1).unwrap(), 0.01).unwrap();
+        let map = state_map(&old, &new).unwrap();
+        assert_eq!(&map[..5], &[Some(0), Some(1), Some(2), None, None]);
+        let (so, sn) = (old.scaling().unwrap(), new.scaling().unwrap());
+        let sys = new.continuous(&sn).unwrap();
+        let p0: Arr<f64, NX> = crate::linalg::from_mat(&sys.P0);
+        let mut x = [0.0; NX];
+        let mut p = [[0.0; NX]; NX];
+        for i in 0..4 {
+            x[i] = 1.0 + i as f64;
+            for j in 0..4 {
+                p[i][j] = if i == j { 2.0 } else { 0.5 };
+            }
+        }
+        let (xn, pn) = carry(&map, &x, &p, &so, &sn, &p0, sys.n);
+        for i in 0..3 {
+            assert!((xn[i] * sn[i] - x[i] * so[i]).abs() < 1e-12);
+            assert!((pn[i][i] * sn[i] * sn[i] - 2.0 * so[i] * so[i]).abs() < 1e-9);
+        }
+        assert_eq!(xn[3], 0.0);
+        assert_eq!(pn[0][3], 0.0);
+        assert_eq!(pn[3][3], p0[3][3]);
+        assert_eq!(pn[4][3], p0[4][3]);
+    }
+}

@@ -1,0 +1,222 @@
+//! The structure test of the global stage (issue 13, item 3: the paper's structural
+//! identification, online): after a search has found the best parameters of the filter's
+//! model over the window, each switchable component (the kind table's
+//! [`alternative`](crate::model::ComponentKind::alternative): Gauss-Markov <-> exponential-cosine)
+//! is tried with its kind replaced, on the same window, and the best alternative's maximum
+//! log-likelihood is reported beside the model's. The filter switches when the alternative
+//! wins by more than a complexity penalty ([`AdaptiveFilter`](crate::adapt::AdaptiveFilter)).
+//!
+//! Exponential-cosine from Gauss-Markov: `beta` is new, and the likelihood is sharply peaked in
+//! it (its width in `beta` is about `alpha`), so a local polish from one guess finds the peak
+//! only when it starts within a few widths. The test therefore first scans [`SCAN`] periods
+//! `P_j = 3 x 1.5^j` blocks (the shortest, 3 blocks, above the block means' Nyquist period of
+//! 2 blocks), each with `tau = P_j` (quality factor `beta tau / 2 = pi`: a peak about a third
+//! of `beta` wide, so neighbouring periods, a factor 1.5 apart, overlap), and polishes the best
+//! scan point in every parameter. Gauss-Markov from exponential-cosine: dropping `beta` needs no
+//! scan; the polish starts from the same `sigma, tau`.
+//!
+//! ```
+//! use imu_ident::adapt::window::structure::{site, swap};
+//! use imu_ident::model::{ComponentKind, InsModel, Sensor};
+//! let paper = InsModel::<f64>::paper();
+//! // The paper's two Gauss-Markov components are the candidates, accelerometer first.
+//! let s = site(&paper, 1).unwrap();
+//! assert_eq!((s.sensor, s.index, s.kind), (Sensor::Gyro, 0, ComponentKind::ExpCosine));
+//! assert!(site(&paper, 2).is_none());
+//! let ec = swap(&paper, &s, 0.01).unwrap();
+//! assert_eq!(ec.gyro[0].kind(), ComponentKind::ExpCosine);
+//! ```
+
+use crate::adapt::guard::Bounds;
+use crate::adapt::params::{remap, specs, theta_of, Specs, MAXP};
+use crate::model::{Component, ComponentKind, ExpCosine, GaussMarkov, InsModel, Quantity, Sensor};
+use crate::Real;
+
+/// Periods scanned for a new `beta`.
+const PERIODS: usize = 12;
+/// Scan points: every period around two points, the model's best and the start model (measured:
+/// from the best alone, when a strong oscillation has pulled the best Gauss-Markov fit's other
+/// components far from their values, the polish of the true alternative can end below a
+/// wrong one: `examples/structure_bench.rs`, `docs/ADAPTATION.md` §7.6).
+pub const SCAN: usize = 2 * PERIODS;
+/// The shortest scanned period [blocks] and the ratio of successive ones.
+const SCAN_FIRST: f64 = 3.0;
+const SCAN_RATIO: f64 = 1.5;
+
+/// Where a switch happens and to which kind.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Site {
+    /// The sensor of the component.
+    pub sensor: Sensor,
+    /// Its index in that sensor's list.
+    pub index: u8,
+    /// The kind it becomes.
+    pub kind: ComponentKind,
+}
+
+impl Site {
+    /// A placeholder (all-zero bits: statics stay in `.bss`).
+    pub const BLANK: Self = Self {
+        sensor: Sensor::Accel,
+        index: 0,
+        kind: ComponentKind::GaussMarkov,
+    };
+}
+
+/// A model that differs from the filter's in one component's kind, ready to be searched.
+#[derive(Debug, Clone)]
+pub struct Alternative<T: Real> {
+    /// The model with the component replaced (its parameter values are those of `start`).
+    pub base: InsModel<T>,
+    /// Its identified parameters.
+    pub specs: Specs,
+    /// Their bounds (the filter's, and for a new `beta` the physical range of the component's
+    /// `tau` bounds: `[2 pi / tau_max, pi / dt]`).
+    pub bounds: Bounds<T>,
+    /// The starting point: the filter model's best point, mapped.
+    pub start: [T; MAXP],
+    /// The start model's point (the grid's centre), mapped (the scan's second origin).
+    pub origin: [T; MAXP],
+    /// The switch.
+    pub site: Site,
+    /// Indices of the new `beta` and of its component's `tau` in `theta`, when `beta` is scanned.
+    pub scan: Option<(usize, usize)>,
+}
+
+fn components<T: Real>(
+    model: &InsModel<T>,
+) -> impl Iterator<Item = (Sensor, usize, &Component<T>)> {
+    let a = model
+        .accel
+        .iter()
+        .enumerate()
+        .map(|(i, c)| (Sensor::Accel, i, c));
+    let g = model
+        .gyro
+        .iter()
+        .enumerate()
+        .map(|(i, c)| (Sensor::Gyro, i, c));
+    a.chain(g)
+}
+
+/// The `k`-th switchable component of `model` (accelerometer first, in component order), with
+/// the kind it would become.
+pub fn site<T: Real>(model: &InsModel<T>, k: usize) -> Option<Site> {
+    components(model)
+        .filter_map(|(sensor, i, c)| {
+            let kind = c.kind().alternative()?;
+            let index = u8::try_from(i).ok()?;
+            Some(Site {
+                sensor,
+                index,
+                kind,
+            })
+        })
+        .nth(k)
+}
+
+/// `model` with the component at `site` replaced by a component of `site.kind` with the same
+/// `sigma, tau` (and `beta` when the new kind has one). `None` if the site does not exist or its
+/// kind cannot become `site.kind`.
+pub fn swap<T: Real>(model: &InsModel<T>, site: &Site, beta: T) -> Option<InsModel<T>> {
+    let mut m = model.clone();
+    let list = match site.sensor {
+        Sensor::Accel => &mut m.accel,
+        Sensor::Gyro => &mut m.gyro,
+        Sensor::Observation => return None,
+    };
+    let c = list.get_mut(usize::from(site.index))?;
+    if c.kind().alternative() != Some(site.kind) {
+        return None;
+    }
+    let sigma = c.get(Quantity::Sigma)?;
+    let tau = c.get(Quantity::Tau)?;
+    *c = match site.kind {
+        ComponentKind::GaussMarkov => Component::GaussMarkov(GaussMarkov { sigma, tau }),
+        ComponentKind::ExpCosine => Component::ExpCosine(ExpCosine { sigma, tau, beta }),
+        _ => return None,
+    };
+    Some(m)
+}
+
+/// The alternative at `site` of the filter's model (`base`, `specs`, best point `theta`,
+/// `bounds`), `beta0` the new `beta`'s value before the scan. `None` if the site does not
+/// exist or the alternative's parameters do not all fit in [`MAXP`].
+pub fn alternative<T: Real>(
+    base: &InsModel<T>,
+    specs_now: &Specs,
+    theta: &[T; MAXP],
+    centre: &[T; MAXP],
+    bounds: &Bounds<T>,
+    site: Site,
+    beta0: T,
+) -> Option<Alternative<T>> {
+    let alt = swap(base, &site, beta0)?;
+    let specs_alt = specs(&alt);
+    let same = |s: &crate::adapt::params::ParamSpec, q| {
+        s.sensor == site.sensor && s.index == site.index && s.kind == q
+    };
+    // Every quantity of the new component must be identified: a truncated list would fix it.
+    for &q in site.kind.identified() {
+        if !specs_alt.iter().any(|s| same(s, q)) {
+            return None;
+        }
+    }
+    let fill = theta_of(&alt, &specs_alt);
+    let start = remap(specs_now, theta, &specs_alt, &fill);
+    let origin = remap(specs_now, centre, &specs_alt, &fill);
+    let mut lo = remap(specs_now, &bounds.lo, &specs_alt, &fill);
+    let mut hi = remap(specs_now, &bounds.hi, &specs_alt, &fill);
+    let tau_at = specs_alt.iter().position(|s| same(s, Quantity::Tau))?;
+    let beta_at = specs_alt.iter().position(|s| same(s, Quantity::Beta));
+    let scan = match beta_at {
+        Some(b) if !specs_now.iter().any(|s| same(s, Quantity::Beta)) => {
+            // `Bounds::new`'s tau range is `[ln dt + h, ln tau_max - h]`; its beta range is
+            // `[ln(2 pi / tau_max) + h, ln(pi / dt) - h]`: the same numbers, mirrored.
+            let (tl, th) = (*lo.get(tau_at)?, *hi.get(tau_at)?);
+            *lo.get_mut(b)? = T::lit(core::f64::consts::TAU).ln() - th;
+            *hi.get_mut(b)? = T::lit(core::f64::consts::PI).ln() - tl;
+            Some((b, tau_at))
+        }
+        _ => None,
+    };
+    Some(Alternative {
+        base: alt,
+        specs: specs_alt,
+        bounds: Bounds { lo, hi },
+        start,
+        origin,
+        site,
+        scan,
+    })
+}
+
+impl<T: Real> Alternative<T> {
+    /// A placeholder (a compile-time value).
+    pub const BLANK: Self = Self {
+        base: InsModel::BLANK,
+        specs: Specs::new(),
+        bounds: Bounds::BLANK,
+        start: [T::ZERO; MAXP],
+        origin: [T::ZERO; MAXP],
+        site: Site::BLANK,
+        scan: None,
+    };
+
+    /// The `j`-th scan point: the start (`j < PERIODS`, else the origin) with period
+    /// `P_j = 3 x 1.5^(j mod PERIODS)` blocks of `block_s` seconds, `beta = 2 pi / P_j`,
+    /// `tau = P_j`; `None` past the last or without a scan.
+    pub fn scan_point(&self, j: usize, block_s: T) -> Option<[T; MAXP]> {
+        let (b, t) = self.scan?;
+        if j >= SCAN {
+            return None;
+        }
+        let k = j % PERIODS;
+        let period = block_s * T::lit(SCAN_FIRST * libm::pow(SCAN_RATIO, k as f64));
+        let mut th = if j < PERIODS { self.start } else { self.origin };
+        *th.get_mut(t)? = period.ln();
+        *th.get_mut(b)? = (T::lit(core::f64::consts::TAU) / period).ln();
+        Some(self.bounds.clamp(&th, self.specs.len()))
+    }
+}
