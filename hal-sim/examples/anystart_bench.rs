@@ -8,7 +8,7 @@
 //! ```
 //! `design=global` is `AdaptConfig::global()`; the environment overrides its window settings
 //! for experiments (`BLOCK`, `WIN`, `FIRST`, `EVERY`, `BUDGET`, `PM` probe factor, `GN` set:
-//! recursion not held). `design=probes` is `AdaptConfig::default()`, today's design.
+//! recursion not held, `PEN` the structure test's penalty). `design=probes` is `AdaptConfig::default()`, today's design.
 #![allow(clippy::needless_range_loop)]
 
 use argmin::core::{CostFunction, Error, Executor, State};
@@ -154,6 +154,9 @@ fn main() -> anyhow::Result<()> {
         cfg.global.first = envu("FIRST", cfg.global.first);
         cfg.global.every = envu("EVERY", cfg.global.every);
         cfg.global.budget = envu("BUDGET", cfg.global.budget);
+        if let Some(p) = std::env::var("PEN").ok().and_then(|v| v.parse().ok()) {
+            cfg.global.structure = p;
+        }
         println!("{:?}", cfg.global);
     }
     let truth = scenario::load("paper")?.to_core()?;

@@ -299,7 +299,7 @@ pub fn demo(effect: Option<&str>, seed: Option<u64>, hours: f64, out: &Path) -> 
     let d = crate::diagnose::diagnose(&nominal, &rows)?;
     write_diagnosis(out, &d)?;
     match (d.sensor, d.effect) {
-        (Some(s), Some(e)) => println!("verdict: missing {s}/{e}: {}", d.explanation),
+        (Some(s), Some(e)) => println!("verdict: {} {s}/{e}: {}", d.verdict, d.explanation),
         _ => println!("verdict: adequate"),
     }
     if !d.indistinguishable_from.is_empty() {

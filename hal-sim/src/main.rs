@@ -502,7 +502,7 @@ fn main() -> Result<()> {
         Command::Diagnose { log, model, out } => {
             let d = commands::diagnose(&log, &model, &out)?;
             match (d.sensor, d.effect) {
-                (Some(s), Some(e)) => println!("missing-effect: {s}/{e}: {}", d.explanation),
+                (Some(s), Some(e)) => println!("{}: {s}/{e}: {}", d.verdict, d.explanation),
                 _ => println!("adequate: {}", d.explanation),
             }
             println!(

@@ -92,9 +92,10 @@ def replay(t, z, model: Model, adapt: bool = False, truth: Optional[Mapping[str,
 def diagnose(t, z, model: Model, truth: Optional[Mapping[str, Any]] = None) -> Dict[str, Any]:
     """Compares ``model`` with the log ``t``, ``z`` and names the missing effect, if any.
 
-    Returns the fields of diagnosis.json (``verdict``: ``"adequate"`` or ``"missing-effect"``,
-    ``sensor``, ``effect``, ``params``, ``explanation``, ``evidence``, ``limits``...) and
-    ``suggested_model_toml``, the model plus the named effect.
+    Returns the fields of diagnosis.json (``verdict``: ``"adequate"``, ``"missing-effect"`` (a
+    component to add) or ``"wrong-kind"`` (a component whose kind to replace, named in
+    ``replaces``), ``sensor``, ``effect``, ``params``, ``explanation``, ``evidence``,
+    ``limits``...) and ``suggested_model_toml``, the model with the named change.
     """
     text, is_path = _model(model)
     return _native.diagnose(_array("t", t), _array("z", z), text, is_path, _truth(truth))

@@ -128,7 +128,7 @@ def test_diagnose_equals_cli(tmp_path, hal_sim, root, sim_log):
     cli = json.loads((out / "diagnosis.json").read_text())
     t, z, _ = read_log(sim_log)
     py = imu_ident.diagnose(t, z, str(model))
-    assert py["verdict"] in ("adequate", "missing-effect")
+    assert py["verdict"] in ("adequate", "missing-effect", "wrong-kind")
     suggested = py.pop("suggested_model_toml")
     assert suggested == (out / "suggested-model.toml").read_text()
     assert py == cli
@@ -159,4 +159,4 @@ def test_readme_example_runs_verbatim(root, monkeypatch, capsys):
     monkeypatch.chdir(root)
     exec(compile(code, "README.md", "exec"), {})
     out = capsys.readouterr().out.splitlines()
-    assert len(out) == 2 and out[1] in ("adequate", "missing-effect"), out
+    assert len(out) == 2 and out[1] in ("adequate", "missing-effect", "wrong-kind"), out

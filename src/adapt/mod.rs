@@ -546,7 +546,7 @@ impl<T: Real> AdaptiveFilter<T> {
     /// that carries the centre's state ([`restructure`]), new specs and bounds, and fresh
     /// information (its layout changed). On error nothing is changed.
     fn switch_structure(&mut self, sw: &Switch<T>) -> Result<(), AdaptError> {
-        let beta0 = T::one();
+        let block_s = T::lit(f64::from(self.cfg.global.block)) * self.base.dt;
         let alt = window::structure::alternative(
             &self.base,
             &self.specs,
@@ -554,7 +554,8 @@ impl<T: Real> AdaptiveFilter<T> {
             &self.theta,
             &self.bounds,
             sw.site,
-            beta0,
+            block_s,
+            sw.window_s,
         )
         .ok_or(AdaptError::BadParameter)?;
         let model = apply(&alt.base, &alt.specs, &sw.theta).ok_or(AdaptError::BadParameter)?;

@@ -8,12 +8,18 @@
 //!
 //! Exponential-cosine from Gauss-Markov: `beta` is new, and the likelihood is sharply peaked in
 //! it (its width in `beta` is about `alpha`), so a local polish from one guess finds the peak
-//! only when it starts within a few widths. The test therefore first scans [`SCAN`] periods
+//! only when it starts within a few widths. The test therefore first scans up to [`SCAN`] / 2 periods
 //! `P_j = 3 x 1.5^j` blocks (the shortest, 3 blocks, above the block means' Nyquist period of
 //! 2 blocks), each with `tau = P_j` (quality factor `beta tau / 2 = pi`: a peak about a third
 //! of `beta` wide, so neighbouring periods, a factor 1.5 apart, overlap), and polishes the best
 //! scan point in every parameter. Gauss-Markov from exponential-cosine: dropping `beta` needs no
 //! scan; the polish starts from the same `sigma, tau`.
+//!
+//! Only oscillations the window holds at least [`MIN_CYCLES`] periods of are offered (the scan
+//! and `beta`'s lower bound): measured, a `paper` log (fresh seed 9104) switched its gyro to a
+//! 3-h period with a 37-h correlation time, a slow quasi-sinusoid that a 4-h window cannot tell
+//! from the Schuler dynamics and the accelerometer's low frequencies, and the tilt over the
+//! next hours went to 3-4x the oracle's.
 //!
 //! ```
 //! use imu_ident::adapt::window::structure::{site, swap};
@@ -39,6 +45,8 @@ const PERIODS: usize = 12;
 /// components far from their values, the polish of the true alternative can end below a
 /// wrong one: `examples/structure_bench.rs`, `docs/ADAPTATION.md` §7.6).
 pub const SCAN: usize = 2 * PERIODS;
+/// Periods of an offered oscillation the window must hold at least.
+pub const MIN_CYCLES: f64 = 4.0;
 /// The shortest scanned period [blocks] and the ratio of successive ones.
 const SCAN_FIRST: f64 = 3.0;
 const SCAN_RATIO: f64 = 1.5;
@@ -82,6 +90,10 @@ pub struct Alternative<T: Real> {
     pub site: Site,
     /// Indices of the new `beta` and of its component's `tau` in `theta`, when `beta` is scanned.
     pub scan: Option<(usize, usize)>,
+    /// Scanned periods (those within the longest offered period), and the block length [s].
+    pub periods: usize,
+    /// Seconds per block.
+    pub block_s: T,
 }
 
 fn components<T: Real>(
@@ -140,9 +152,11 @@ pub fn swap<T: Real>(model: &InsModel<T>, site: &Site, beta: T) -> Option<InsMod
     Some(m)
 }
 
-/// The alternative at `site` of the filter's model (`base`, `specs`, best point `theta`,
-/// `bounds`), `beta0` the new `beta`'s value before the scan. `None` if the site does not
-/// exist or the alternative's parameters do not all fit in [`MAXP`].
+/// The alternative at `site` of the filter's model (`base`, `specs`, best point `theta`, the
+/// start model's point `centre`, `bounds`), for a window of `window_s` seconds in blocks of
+/// `block_s` seconds. `None` if the site does not exist, the alternative's parameters do not
+/// all fit in [`MAXP`], or the window is too short for any scanned period.
+#[allow(clippy::too_many_arguments)]
 pub fn alternative<T: Real>(
     base: &InsModel<T>,
     specs_now: &Specs,
@@ -150,8 +164,14 @@ pub fn alternative<T: Real>(
     centre: &[T; MAXP],
     bounds: &Bounds<T>,
     site: Site,
-    beta0: T,
+    block_s: T,
+    window_s: T,
 ) -> Option<Alternative<T>> {
+    let longest = window_s / T::lit(MIN_CYCLES);
+    let periods = (0..PERIODS)
+        .take_while(|&k| block_s * T::lit(scan_blocks(k)) <= longest)
+        .count();
+    let beta0 = T::lit(core::f64::consts::TAU) / (block_s * T::lit(scan_blocks(0)));
     let alt = swap(base, &site, beta0)?;
     let specs_alt = specs(&alt);
     let same = |s: &crate::adapt::params::ParamSpec, q| {
@@ -174,9 +194,16 @@ pub fn alternative<T: Real>(
         Some(b) if !specs_now.iter().any(|s| same(s, Quantity::Beta)) => {
             // `Bounds::new`'s tau range is `[ln dt + h, ln tau_max - h]`; its beta range is
             // `[ln(2 pi / tau_max) + h, ln(pi / dt) - h]`: the same numbers, mirrored.
+            // Raised to the longest offered period.
             let (tl, th) = (*lo.get(tau_at)?, *hi.get(tau_at)?);
-            *lo.get_mut(b)? = T::lit(core::f64::consts::TAU).ln() - th;
-            *hi.get_mut(b)? = T::lit(core::f64::consts::PI).ln() - tl;
+            let tau_ln = T::lit(core::f64::consts::TAU).ln();
+            let l = (tau_ln - th).max(tau_ln - longest.ln());
+            let u = T::lit(core::f64::consts::PI).ln() - tl;
+            if periods == 0 || l.partial_cmp(&u) != Some(core::cmp::Ordering::Less) {
+                return None;
+            }
+            *lo.get_mut(b)? = l;
+            *hi.get_mut(b)? = u;
             Some((b, tau_at))
         }
         _ => None,
@@ -189,7 +216,14 @@ pub fn alternative<T: Real>(
         origin,
         site,
         scan,
+        periods,
+        block_s,
     })
+}
+
+/// The `k`-th scanned period [blocks].
+fn scan_blocks(k: usize) -> f64 {
+    SCAN_FIRST * libm::pow(SCAN_RATIO, k as f64)
 }
 
 impl<T: Real> Alternative<T> {
@@ -202,19 +236,30 @@ impl<T: Real> Alternative<T> {
         origin: [T::ZERO; MAXP],
         site: Site::BLANK,
         scan: None,
+        periods: 0,
+        block_s: T::ZERO,
     };
 
-    /// The `j`-th scan point: the start (`j < PERIODS`, else the origin) with period
-    /// `P_j = 3 x 1.5^(j mod PERIODS)` blocks of `block_s` seconds, `beta = 2 pi / P_j`,
-    /// `tau = P_j`; `None` past the last or without a scan.
-    pub fn scan_point(&self, j: usize, block_s: T) -> Option<[T; MAXP]> {
+    /// Scan points (`0` without a scan).
+    pub fn scan_len(&self) -> usize {
+        if self.scan.is_some() {
+            2 * self.periods.min(PERIODS)
+        } else {
+            0
+        }
+    }
+
+    /// The `j`-th of the [`scan_len`](Self::scan_len) scan points: the start (first half,
+    /// else the origin) with period `P = 3 x 1.5^k` blocks, `k = j mod periods`,
+    /// `beta = 2 pi / P`, `tau = P`; `None` past the last or without a scan.
+    pub fn scan_point(&self, j: usize) -> Option<[T; MAXP]> {
         let (b, t) = self.scan?;
-        if j >= SCAN {
+        if j >= self.scan_len() {
             return None;
         }
-        let k = j % PERIODS;
-        let period = block_s * T::lit(SCAN_FIRST * libm::pow(SCAN_RATIO, k as f64));
-        let mut th = if j < PERIODS { self.start } else { self.origin };
+        let n = self.periods.max(1);
+        let period = self.block_s * T::lit(scan_blocks(j % n));
+        let mut th = if j < n { self.start } else { self.origin };
         *th.get_mut(t)? = period.ln();
         *th.get_mut(b)? = (T::lit(core::f64::consts::TAU) / period).ln();
         Some(self.bounds.clamp(&th, self.specs.len()))
