@@ -11,8 +11,11 @@
 // Small fixed-size matrix code reads best with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
+use crate::adapt::bank::Information;
+use crate::adapt::params::{apply, MAXP};
+use crate::adapt::{AdaptError, Switch};
 use crate::linalg::Arr;
-use crate::model::{idx, InsModel, ModelError, Scaling, NX};
+use crate::model::{idx, InsModel, ModelError, Scaling, Sensor, NX};
 use crate::Real;
 
 /// For each state of `new`, the state of `old` that carries the same quantity (`None`: new).
@@ -83,6 +86,89 @@ pub fn carry<T: Real>(
         }
     }
     (xn, pn)
+}
+
+/// The switch itself (this module is a child of [`super`], so it reads the filter's fields).
+impl<T: Real> super::AdaptiveFilter<T> {
+    /// Whether a search's best alternative structure replaces the model: its log-likelihood
+    /// gain less the penalty of its extra parameters must exceed half a parameter's penalty
+    /// (hysteresis: with `c` nats per parameter, Gauss-Markov -> exponential-cosine needs
+    /// `1.5 c`, and the way back is taken once the exponential-cosine's advantage falls below
+    /// `0.5 c`, so that a borderline component does not switch at every search).
+    pub(super) fn switch_wins(&self, s: &Switch<T>) -> bool {
+        let pen = self.cfg.global.structure;
+        pen > T::zero()
+            && s.gain.is_finite()
+            && s.gain - pen * T::lit(f64::from(s.extra)) > pen * T::lit(0.5)
+    }
+
+    /// Replaces the model's structure by the search's alternative `sw`: a new bank at `sw.theta`
+    /// that carries the centre's state ([`restructure`]), new specs and bounds, and fresh
+    /// information (its layout changed). On error nothing is changed.
+    pub(super) fn switch_structure(&mut self, sw: &Switch<T>) -> Result<(), AdaptError> {
+        let block_s = T::lit(f64::from(self.cfg.global.block)) * self.base.dt;
+        let alt = super::window::structure::alternative(
+            &self.base,
+            &self.specs,
+            &self.theta,
+            &self.theta,
+            &self.bounds,
+            sw.site,
+            block_s,
+            sw.window_s,
+        )
+        .ok_or(AdaptError::BadParameter)?;
+        let model = apply(&alt.base, &alt.specs, &sw.theta).ok_or(AdaptError::BadParameter)?;
+        let map = state_map(&self.base, &model).map_err(AdaptError::Model)?;
+        let scale = model.scaling().map_err(AdaptError::Model)?;
+        let accel_row = model
+            .output_row(Sensor::Accel, &scale)
+            .map_err(AdaptError::Model)?;
+        let gyro_row = model
+            .output_row(Sensor::Gyro, &scale)
+            .map_err(AdaptError::Model)?;
+        let old_scale = *self.bank.scale();
+        let (x, p) = (self.bank.centre().kf.x, self.bank.centre().kf.P);
+        // In place (a second bank would not fit on the firmware's stack); `init` changes nothing
+        // on error, and a failed `set_theta` is rolled back to the bank `init` built (from
+        // `base`, whose scaling it keeps) at the old point and state.
+        self.bank.init(&model, &alt.specs, self.cfg.h)?;
+        if let Err(e) = self.bank.set_theta(&sw.theta) {
+            let _ = self.bank.init(&self.base, &self.specs, self.cfg.h);
+            let _ = self.bank.set_theta(&self.theta);
+            self.bank.reset_states(&x, &p);
+            return Err(e);
+        }
+        let (xn, pn) = carry(
+            &map,
+            &x,
+            &p,
+            &old_scale,
+            self.bank.scale(),
+            self.bank.p0(),
+            self.bank.active(),
+        );
+        self.bank.reset_states(&xn, &pn);
+        self.global.restructure(&self.specs, &alt.specs, &sw.theta);
+        // The bank's scaling comes from this model: it is the new base.
+        self.base = model;
+        self.specs = alt.specs;
+        self.theta = sw.theta;
+        self.bounds = alt.bounds;
+        self.accel_row = accel_row;
+        self.gyro_row = gyro_row;
+        self.acc = Information::default();
+        self.acc_sq = [[T::zero(); MAXP]; MAXP];
+        self.block = Information::default();
+        self.total = Information::default();
+        if self.cfg.probe_factor > T::one() {
+            self.probes
+                .init(&self.specs, self.cfg.probe_factor, self.bank.p0());
+            self.probes
+                .anchor(&self.theta, &self.bounds, self.specs.len());
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]

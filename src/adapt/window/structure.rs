@@ -33,6 +33,7 @@
 //! assert_eq!(ec.gyro[0].kind(), ComponentKind::ExpCosine);
 //! ```
 
+use super::{Phase, Switch};
 use crate::adapt::guard::Bounds;
 use crate::adapt::params::{remap, specs, theta_of, Specs, MAXP};
 use crate::model::{Component, ComponentKind, ExpCosine, GaussMarkov, InsModel, Quantity, Sensor};
@@ -263,5 +264,91 @@ impl<T: Real> Alternative<T> {
         *th.get_mut(t)? = period.ln();
         *th.get_mut(b)? = (T::lit(core::f64::consts::TAU) / period).ln();
         Some(self.bounds.clamp(&th, self.specs.len()))
+    }
+}
+
+/// The structure test's phases of the window search (its state is the search's: this module is
+/// a child of [`super`], so it reads the private fields).
+impl<T: Real> super::WindowSearch<T> {
+    /// The structure test's next alternative (the next switchable component of the model), or
+    /// the end of the search.
+    pub(super) fn next_alternative(
+        &mut self,
+        base: &InsModel<T>,
+        specs: &Specs,
+        bounds: &Bounds<T>,
+    ) -> Phase {
+        if self.cfg.structure.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
+            return Phase::Idle;
+        }
+        // Bounded: a model has at most 2 MAX_COMPONENTS sensor components.
+        for _ in 0..(2 * crate::model::ins::MAX_COMPONENTS) {
+            let k = self.alt_k;
+            self.alt_k += 1;
+            let Some(site) = site(base, k) else {
+                break;
+            };
+            let window_s = T::lit(self.wlen as f64) * self.block_s;
+            let alt = alternative(
+                base,
+                specs,
+                &self.best,
+                &self.centre,
+                bounds,
+                site,
+                self.block_s,
+                window_s,
+            );
+            if let Some(a) = alt {
+                let (start, scan) = (a.start, a.scan_len() > 0);
+                self.scan_ll = T::lit(f64::NEG_INFINITY);
+                self.scan_best = start;
+                self.alt = a;
+                self.alt_on = true;
+                return if scan {
+                    Phase::AltScan(0)
+                } else {
+                    self.start_alternative_polish(&start)
+                };
+            }
+        }
+        self.alt_on = false;
+        Phase::Idle
+    }
+
+    /// Starts the polish of the current alternative from `start`.
+    pub(super) fn start_alternative_polish(&mut self, start: &[T; MAXP]) -> Phase {
+        self.acc_theta = *start;
+        self.acc_ll = T::lit(f64::NEG_INFINITY);
+        self.lambda = T::lit(0.1);
+        self.iterations = 0;
+        self.pass.theta = *start;
+        Phase::AltRefine
+    }
+
+    /// Keeps the polished alternative if its penalised log-likelihood beats the best one so
+    /// far (`p`: the filter model's parameter count).
+    pub(super) fn end_alternative(&mut self, p: usize) {
+        let a = &self.alt;
+        if !self.alt_on || !self.acc_ll.is_finite() {
+            return;
+        }
+        let extra = i8::try_from(a.specs.len()).unwrap_or(0) - i8::try_from(p).unwrap_or(0);
+        let cand = Switch {
+            site: a.site,
+            theta: self.acc_theta,
+            gain: self.acc_ll - self.best_ll,
+            extra,
+            window_s: T::lit(self.wlen as f64) * self.block_s,
+            valid: true,
+        };
+        let pen = self.cfg.structure;
+        let penalised = |ll: T, s: &Switch<T>| ll - pen * T::lit(f64::from(s.extra));
+        if !self.switch.valid
+            || penalised(self.acc_ll, &cand) > penalised(self.switch_ll, &self.switch)
+        {
+            self.switch = cand;
+            self.switch_ll = self.acc_ll;
+        }
     }
 }

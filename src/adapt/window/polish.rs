@@ -1,0 +1,172 @@
+//! The window search's multi-start polish: the best `TOP` points of the anchor and the grid,
+//! each polished briefly by Levenberg-Marquardt Fisher scoring, then the best `FINAL` to
+//! convergence (module documentation of [`super`]). A child of [`super`]: it works on the
+//! search's own state.
+
+// Small fixed-size code reads best with explicit indices.
+#![allow(clippy::needless_range_loop)]
+
+use super::{Phase, WindowSearch, FINAL, MAX_ITERATIONS, SHORT_ITERATIONS, TOP};
+use crate::adapt::guard::Bounds;
+use crate::adapt::params::MAXP;
+use crate::linalg::{chol_solve, cholesky};
+use crate::Real;
+
+impl<T: Real> WindowSearch<T> {
+    /// Keeps `theta` among the `TOP` best points of the anchor and the grid.
+    pub(super) fn offer(&mut self, ll: T, theta: &[T; MAXP]) {
+        // Insertion into a sorted array of TOP entries (best first).
+        let mut cand = (ll, *theta);
+        for (l, t) in self.top_ll.iter_mut().zip(self.top.iter_mut()) {
+            if cand.0 > *l {
+                core::mem::swap(l, &mut cand.0);
+                core::mem::swap(t, &mut cand.1);
+            }
+        }
+    }
+
+    /// Starts polishing the `k`-th best point (`refine`: to convergence), or ends the stage.
+    pub(super) fn start_polish(&mut self, k: usize, refine: bool) -> Phase {
+        match (self.top.get(k), self.top_ll.get(k)) {
+            (Some(t), Some(&l)) if l.is_finite() => {
+                self.acc_theta = *t;
+                self.acc_ll = T::lit(f64::NEG_INFINITY);
+                self.lambda = T::lit(0.1);
+                self.iterations = 0;
+                // The first pass of the polish runs at the point itself.
+                self.pass.theta = *t;
+                if refine {
+                    Phase::Refine(k)
+                } else {
+                    Phase::Polish(k)
+                }
+            }
+            _ if !refine => {
+                // End of the brief polishes: rank their results, refine the best FINAL.
+                let (mut tl, mut tt) = (self.top_ll, self.top);
+                self.top_ll = [T::lit(f64::NEG_INFINITY); TOP];
+                for (l, t) in tl.iter_mut().zip(tt.iter_mut()) {
+                    let (l, t) = (*l, *t);
+                    self.offer(l, &t);
+                }
+                self.start_polish(0, true)
+            }
+            _ => Phase::Idle,
+        }
+    }
+
+    /// The damped scoring step from the last accepted point, limited to half the grid spacing
+    /// per parameter (direction kept).
+    pub(super) fn scoring_step(&self, p: usize, bounds: &Bounds<T>) -> Option<[T; MAXP]> {
+        let mut a = self.acc_fisher;
+        for (i, row) in a.iter_mut().enumerate().take(p) {
+            row[i] = row[i] * (T::one() + self.lambda) + T::lit(1e-9);
+        }
+        let l = cholesky(&a, p)?;
+        let mut d = chol_solve(&l, &self.acc_score, p);
+        let big = d.iter().take(p).fold(T::zero(), |m, v| m.max(v.abs()));
+        let limit = self.cfg.spacing * T::lit(0.5);
+        if !big.is_finite() {
+            return None;
+        }
+        if big > limit {
+            for v in d.iter_mut() {
+                *v *= limit / big;
+            }
+        }
+        let mut t = self.acc_theta;
+        for i in 0..p {
+            t[i] += d[i];
+        }
+        Some(bounds.clamp(&t, p))
+    }
+
+    /// One Levenberg-Marquardt decision after a polish pass at `theta` with likelihood `ll`.
+    pub(super) fn polish_step(
+        &mut self,
+        k: usize,
+        refine: bool,
+        theta: [T; MAXP],
+        ll: T,
+        p: usize,
+        bounds: &Bounds<T>,
+    ) -> Phase {
+        self.iterations += 1;
+        let most = if refine {
+            MAX_ITERATIONS
+        } else {
+            SHORT_ITERATIONS
+        };
+        if ll.is_finite() && ll >= self.acc_ll {
+            // Accepted: the new point, its score and information.
+            let moved = theta
+                .iter()
+                .zip(self.acc_theta.iter())
+                .take(p)
+                .fold(T::zero(), |m, (a, b)| m.max((*a - *b).abs()));
+            self.acc_theta = theta;
+            self.acc_ll = ll;
+            self.acc_score = self.pass.info.score;
+            self.acc_fisher = self.pass.info.fisher;
+            self.lambda = (self.lambda / T::lit(3.0)).max(T::lit(1e-3));
+            let converged = self.iterations > 1 && moved < self.cfg.min_step;
+            if converged || self.iterations >= most {
+                return self.end_polish(k, refine);
+            }
+        } else {
+            self.lambda *= T::lit(10.0);
+            if self.lambda > T::lit(1e4) || self.iterations >= most {
+                return self.end_polish(k, refine);
+            }
+        }
+        match self.scoring_step(p, bounds) {
+            Some(t) => {
+                self.pass.theta = t;
+                if matches!(self.phase, Phase::AltRefine | Phase::NestRefine) {
+                    self.phase
+                } else if refine {
+                    Phase::Refine(k)
+                } else {
+                    Phase::Polish(k)
+                }
+            }
+            None => self.end_polish(k, refine),
+        }
+    }
+
+    /// Ends a polish: a brief one stores its result in place of its start point; a refinement
+    /// competes for the answer.
+    pub(super) fn end_polish(&mut self, k: usize, refine: bool) -> Phase {
+        if self.phase == Phase::AltRefine {
+            // The alternative's result is kept by `end_alternative`, not as the model's best.
+            return Phase::Idle;
+        }
+        if self.phase == Phase::NestRefine {
+            // A better point of the filter's model: it becomes the answer.
+            if self.acc_ll > self.best_ll {
+                self.best_ll = self.acc_ll;
+                self.best = self.acc_theta;
+            }
+            return Phase::Idle;
+        }
+        if self.acc_ll > self.best_ll {
+            self.best_ll = self.acc_ll;
+            self.best = self.acc_theta;
+        }
+        if refine {
+            if k + 1 < FINAL {
+                self.start_polish(k + 1, true)
+            } else {
+                Phase::Idle
+            }
+        } else {
+            if let (Some(t), Some(l)) = (self.top.get_mut(k), self.top_ll.get_mut(k)) {
+                if self.acc_ll.is_finite() && self.acc_ll >= *l {
+                    *t = self.acc_theta;
+                    *l = self.acc_ll;
+                }
+            }
+            self.start_polish(k + 1, false)
+        }
+    }
+}
