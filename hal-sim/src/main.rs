@@ -159,6 +159,10 @@ enum Command {
         /// from a grid around --model; implies --adapt; docs/ADAPTATION.md §7).
         #[arg(long)]
         global: bool,
+        /// With the global stage's structure test: a Gauss-Markov component may become an
+        /// exponential-cosine and back (implies --global; docs/ADAPTATION.md §7.6).
+        #[arg(long)]
+        structure: bool,
         /// True model TOML (simulated logs): drawn in report.html beside the identified
         /// parameters (with --adapt).
         #[arg(long)]
@@ -259,6 +263,9 @@ enum Command {
         /// Identify with the global stage (implies --adapt; as `run --global`).
         #[arg(long)]
         global: bool,
+        /// With the structure test (implies --global; as `run --structure`).
+        #[arg(long)]
+        structure: bool,
         /// Output folder.
         #[arg(long)]
         out: PathBuf,
@@ -474,9 +481,10 @@ fn main() -> Result<()> {
             out,
             adapt,
             global,
+            structure,
             truth,
         } => {
-            let ident = hal_sim::qemu::Ident::from_flags(adapt, global);
+            let ident = hal_sim::qemu::Ident::from_flags(adapt, global, structure);
             let s = commands::run(&log, &model, &out, ident, truth.as_deref())?;
             println!("{}", serde_json::to_string_pretty(&s)?);
         }
@@ -485,10 +493,11 @@ fn main() -> Result<()> {
             model,
             adapt,
             global,
+            structure,
             out,
             elf,
         } => {
-            let ident = hal_sim::qemu::Ident::from_flags(adapt, global);
+            let ident = hal_sim::qemu::Ident::from_flags(adapt, global, structure);
             let s = commands::qemu(&log, &model, ident, &out, elf)?;
             println!("{}", serde_json::to_string_pretty(&s)?);
         }

@@ -140,6 +140,7 @@ pub fn encode_model(model: &InsModel<f64>, ident: Ident) -> Result<Vec<u8>> {
         Ident::Off => 0,
         Ident::Recursive => wire::OPT_ADAPT,
         Ident::Global => wire::OPT_ADAPT | wire::OPT_GLOBAL,
+        Ident::Structure => wire::OPT_ADAPT | wire::OPT_GLOBAL | wire::OPT_STRUCTURE,
     };
     let n = wire::encode_options(model, opts, &mut buf)
         .map_err(|e| anyhow!("encoding the model: {e:?}"))?;
@@ -156,12 +157,16 @@ pub enum Ident {
     Recursive,
     /// `AdaptConfig::global()`: the global stage over a buffered window.
     Global,
+    /// The global stage with its structure test on (Gauss-Markov <-> exp-cosine switching).
+    Structure,
 }
 
 impl Ident {
-    /// From the command-line flags `--adapt` and `--global` (`--global` implies `--adapt`).
-    pub fn from_flags(adapt: bool, global: bool) -> Self {
+    /// From the command-line flags `--adapt`, `--global` and `--structure` (each implies the
+    /// ones before).
+    pub fn from_flags(adapt: bool, global: bool, structure: bool) -> Self {
         match (adapt, global) {
+            _ if structure => Self::Structure,
             (_, true) => Self::Global,
             (true, false) => Self::Recursive,
             (false, false) => Self::Off,
@@ -174,6 +179,11 @@ impl Ident {
             Self::Off => None,
             Self::Recursive => Some(imu_ident::adapt::AdaptConfig::default()),
             Self::Global => Some(imu_ident::adapt::AdaptConfig::global()),
+            Self::Structure => {
+                let mut c = imu_ident::adapt::AdaptConfig::global();
+                c.global.structure = imu_ident::adapt::window::STRUCTURE_PENALTY;
+                Some(c)
+            }
         }
     }
 }

@@ -21,18 +21,18 @@ fn config() -> AdaptConfig<f64> {
 }
 
 /// On six `paper`-like logs whose gyro drift is an exponential-cosine (period 600 s, tau
-/// 1200 s, 0.1 deg/h), at least four runs end with the gyro switched, `beta` within 10 %, and
-/// the median tilt RMS over hours 8-12 within 1.10x the oracle's; on six `paper` logs, none
-/// switches.
+/// 1200 s, 0.1 deg/h), at least three runs end with the gyro switched, every switched run has
+/// `beta` within 10 %, and the median tilt RMS over hours 8-12 is within 1.10x the oracle's.
+/// On six `paper` logs, none switches.
 ///
-/// Why these bounds: the evidence is weak at this amplitude (`docs/ADAPTATION.md` §7.6). The
-/// structure statistic (the best alternative's log-likelihood gain over the best Gauss-Markov
-/// fit, no switching) reached at most 4.3 nats over 12 h on 80 `paper` logs, and the switch
-/// needs 4.5 (1.5 times the penalty of 3 nats per parameter), so a `paper` log that switches
-/// fails the test. On exp-cosine logs the statistic's median is 4-9 nats by hour 12, and 13-19
-/// of 20 fresh runs per seed set ended switched. So four of six is a floor that a working test
-/// passes on most seed sets; a switch that never happens, or a beta off by the scan's spacing
-/// (a factor 1.5), fails it. The seeds are fixed (development seeds).
+/// Why these bounds: the evidence is weak at this amplitude (`docs/ADAPTATION.md` §7.6).
+/// - The structure statistic is the best alternative's log-likelihood gain over the best
+///   Gauss-Markov fit, with no switching.
+/// - On 80 `paper` logs over 12 h it reached at most 4.3 nats. The switch needs 4.5 (1.5 times
+///   the penalty of 3 nats per parameter), so a `paper` log that switches fails the test.
+/// - On exp-cosine logs at this pace, 14-17 of 20 runs per seed set ended switched (70-85 %),
+///   and these six development seeds give four. Three of six is the floor: a test that never
+///   switches fails it, and so does a beta off by the scan's spacing (a factor 1.5).
 #[test]
 fn exp_cosine_gyro_drift_is_found_and_paper_does_not_switch() {
     let paper = InsModel::<f64>::paper();
@@ -65,7 +65,7 @@ fn exp_cosine_gyro_drift_is_found_and_paper_does_not_switch() {
             found += 1;
         }
     }
-    assert!(found >= 4, "only {found} of 6 runs switched the gyro");
+    assert!(found >= 3, "only {found} of 6 runs switched the gyro");
     ratios.sort_by(f64::total_cmp);
     let median = 0.5 * (ratios[2] + ratios[3]);
     assert!(median <= 1.10, "median tilt/oracle {median:.3}");

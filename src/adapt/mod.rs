@@ -309,14 +309,7 @@ impl<T: Real> AdaptiveFilter<T> {
         let theta0 = theta_of(&model, &specs);
         let bounds = Bounds::new(&specs, &theta0, model.dt, cfg.tau_max, cfg.spread, cfg.h);
         let theta = bounds.clamp(&theta0, specs.len());
-        // The bank chooses the same scaling from the same model.
-        let scale = model.scaling().map_err(AdaptError::Model)?;
-        let accel_row = model
-            .output_row(Sensor::Accel, &scale)
-            .map_err(AdaptError::Model)?;
-        let gyro_row = model
-            .output_row(Sensor::Gyro, &scale)
-            .map_err(AdaptError::Model)?;
+        let (accel_row, gyro_row) = output_rows(&model)?;
         self.bank.init(&model, &specs, cfg.h)?;
         self.bank.set_theta(&theta)?;
         let forget = (-T::lit(f64::from(cfg.block)) * model.dt / cfg.window).exp();
@@ -727,6 +720,19 @@ impl<T: Real> AdaptiveFilter<T> {
         let c = self.bank.centre();
         Estimates::from_kalman(&c.kf, self.bank.scale(), &self.accel_row, &self.gyro_row)
     }
+}
+
+/// The rows that sum each sensor's component states (for [`Estimates`]), in the scaling the bank
+/// chooses from the same model.
+fn output_rows<T: Real>(model: &InsModel<T>) -> Result<(StateRow<T>, StateRow<T>), AdaptError> {
+    let scale = model.scaling().map_err(AdaptError::Model)?;
+    let accel = model
+        .output_row(Sensor::Accel, &scale)
+        .map_err(AdaptError::Model)?;
+    let gyro = model
+        .output_row(Sensor::Gyro, &scale)
+        .map_err(AdaptError::Model)?;
+    Ok((accel, gyro))
 }
 
 #[cfg(test)]

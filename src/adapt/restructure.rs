@@ -15,7 +15,7 @@ use crate::adapt::bank::Information;
 use crate::adapt::params::{apply, MAXP};
 use crate::adapt::{AdaptError, Switch};
 use crate::linalg::Arr;
-use crate::model::{idx, InsModel, ModelError, Scaling, Sensor, NX};
+use crate::model::{idx, InsModel, ModelError, Scaling, NX};
 use crate::Real;
 
 /// For each state of `new`, the state of `old` that carries the same quantity (`None`: new).
@@ -120,13 +120,7 @@ impl<T: Real> super::AdaptiveFilter<T> {
         .ok_or(AdaptError::BadParameter)?;
         let model = apply(&alt.base, &alt.specs, &sw.theta).ok_or(AdaptError::BadParameter)?;
         let map = state_map(&self.base, &model).map_err(AdaptError::Model)?;
-        let scale = model.scaling().map_err(AdaptError::Model)?;
-        let accel_row = model
-            .output_row(Sensor::Accel, &scale)
-            .map_err(AdaptError::Model)?;
-        let gyro_row = model
-            .output_row(Sensor::Gyro, &scale)
-            .map_err(AdaptError::Model)?;
+        let (accel_row, gyro_row) = super::output_rows(&model)?;
         let old_scale = *self.bank.scale();
         let (x, p) = (self.bank.centre().kf.x, self.bank.centre().kf.P);
         // In place (a second bank would not fit on the firmware's stack); `init` changes nothing

@@ -148,7 +148,9 @@ mod firmware {
         let n = read_all(model_path, &mut model_bytes)?;
         let bytes = model_bytes.get(..n).ok_or(FirmwareError::Read)?;
         let (model, opts) = wire::decode_options::<f32>(bytes).map_err(FirmwareError::Model)?;
-        let cfg = if opts & wire::OPT_GLOBAL != 0 {
+        let cfg = if opts & wire::OPT_STRUCTURE != 0 {
+            StepConfig::adaptive_structure()
+        } else if opts & wire::OPT_GLOBAL != 0 {
             StepConfig::adaptive_global()
         } else if opts & wire::OPT_ADAPT != 0 {
             StepConfig::adaptive()

@@ -40,6 +40,9 @@ pub const OPT_ADAPT: u16 = 1;
 /// Option bit (with [`OPT_ADAPT`]): the global stage on, as in
 /// [`AdaptConfig::global`](crate::adapt::AdaptConfig::global).
 pub const OPT_GLOBAL: u16 = 2;
+/// Option bit (with [`OPT_GLOBAL`]): the global stage's structure test on
+/// (`structure = STRUCTURE_PENALTY`, `docs/ADAPTATION.md` §7.6).
+pub const OPT_STRUCTURE: u16 = 4;
 const HEAD: usize = 8 + 32 + 4;
 const COMP: usize = 25;
 const COLORED: usize = 16;
@@ -179,7 +182,7 @@ pub fn decode_options<T: Real>(bytes: &[u8]) -> Result<(InsModel<T>, u16), WireE
         return Err(WireError::BadVersion);
     }
     let opts = u16::from_le_bytes(i.take::<2>()?);
-    if opts & !(OPT_ADAPT | OPT_GLOBAL) != 0 {
+    if opts & !(OPT_ADAPT | OPT_GLOBAL | OPT_STRUCTURE) != 0 {
         return Err(WireError::BadField);
     }
     let mut m = InsModel::empty(i.f()?, i.f()?);
@@ -250,5 +253,16 @@ mod tests {
             encode(&InsModel::paper(), false, &mut buf[..10]),
             Err(WireError::BufferTooSmall)
         );
+    }
+
+    /// Every known option bit survives the round trip; an unknown one is refused.
+    #[test]
+    fn option_bits_round_trip_and_unknown_bits_are_refused() {
+        let mut buf = [0u8; MAX_LEN];
+        let all = OPT_ADAPT | OPT_GLOBAL | OPT_STRUCTURE;
+        let n = encode_options(&InsModel::<f64>::paper(), all, &mut buf).unwrap();
+        assert_eq!(decode_options::<f64>(&buf[..n]).map(|(_, o)| o), Ok(all));
+        let n = encode_options(&InsModel::<f64>::paper(), 8, &mut buf).unwrap_or(0);
+        assert!(n == 0 || decode_options::<f64>(&buf[..n]).is_err());
     }
 }

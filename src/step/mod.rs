@@ -136,6 +136,17 @@ impl<T: Real> StepConfig<T> {
             ..Self::default()
         }
     }
+
+    /// [`adaptive_global`](Self::adaptive_global) with the structure test on
+    /// (Gauss-Markov <-> exp-cosine switching; off by default, `docs/ADAPTATION.md` §7.6).
+    pub fn adaptive_structure() -> Self {
+        let mut a = AdaptConfig::global();
+        a.global.structure = T::lit(crate::adapt::window::STRUCTURE_PENALTY);
+        Self {
+            adapt: Some(a),
+            ..Self::default()
+        }
+    }
 }
 
 /// What one tick did.

@@ -619,8 +619,12 @@ impl<T: Real> WindowSearch<T> {
             }
             Phase::Polish(k) => self.polish_step(k, false, theta, ll, p, bounds),
             Phase::Refine(k) => match self.polish_step(k, true, theta, ll, p, bounds) {
-                // The model's search is over: the structure test follows on the same window.
-                Phase::Idle => self.next_alternative(base, specs, bounds),
+                // The model's search is over: the structure test follows on the same window,
+                // once the model has settled (`structure::SETTLED`).
+                Phase::Idle if self.best_ll - self.anchor_ll <= T::lit(structure::SETTLED) => {
+                    self.next_alternative(base, specs, bounds)
+                }
+                Phase::Idle => Phase::Idle,
                 next => next,
             },
             Phase::AltScan(j) => {

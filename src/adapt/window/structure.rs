@@ -46,6 +46,13 @@ const PERIODS: usize = 12;
 /// components far from their values, the polish of the true alternative can end below a
 /// wrong one: `examples/structure_bench.rs`, `docs/ADAPTATION.md` §7.6).
 pub const SCAN: usize = 2 * PERIODS;
+/// The test runs only after a search whose answer beats the previous answer (the anchor) by at
+/// most this many nats on the same window, i.e. once the model has settled. A search that moved
+/// the model far has just left a poor fit, and an alternative absorbs that fit's misfit.
+/// Measured (any-start bench, `docs/ADAPTATION.md` §7.6): from wrong starts, exp-cosines near
+/// the block means' Nyquist period or near the Schuler period won on `paper` data at the first
+/// search.
+pub const SETTLED: f64 = 5.0;
 /// Periods of an offered oscillation the window must hold at least.
 pub const MIN_CYCLES: f64 = 4.0;
 /// The shortest scanned period [blocks] and the ratio of successive ones.
