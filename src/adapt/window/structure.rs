@@ -340,7 +340,9 @@ impl<T: Real> super::WindowSearch<T> {
         if !self.alt_on || !self.acc_ll.is_finite() {
             return;
         }
-        let extra = i8::try_from(a.specs.len()).unwrap_or(0) - i8::try_from(p).unwrap_or(0);
+        let extra = i8::try_from(a.specs.len())
+            .unwrap_or(0)
+            .saturating_sub(i8::try_from(p).unwrap_or(0));
         let cand = Switch {
             site: a.site,
             theta: self.acc_theta,
