@@ -117,23 +117,16 @@ fn nm_fit(base: &InsModel<f64>, log: &[LogRow], x0: Vec<f64>) -> Vec<f64> {
     x
 }
 
-fn pct(v: &mut [f64], q: f64) -> f64 {
-    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
-    let i = ((v.len() - 1) as f64 * q).round() as usize;
-    v[i]
-}
+#[path = "bench_args/mod.rs"]
+mod bench_args;
+use bench_args::{arg_or, env_or, flag, pct};
 
 fn main() -> anyhow::Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let get = |k: &str| {
-        args.iter()
-            .find_map(|a| a.strip_prefix(&format!("{k}=")).map(str::to_string))
-    };
-    let first: u64 = get("first").and_then(|s| s.parse().ok()).unwrap_or(9100);
-    let seeds: u64 = get("seeds").and_then(|s| s.parse().ok()).unwrap_or(20);
-    let nstarts: usize = get("starts").and_then(|s| s.parse().ok()).unwrap_or(32);
-    let design = get("design").unwrap_or_else(|| "global".into());
-    let f32_mode = args.iter().any(|a| a == "f32");
+    let first: u64 = arg_or("first", 9100);
+    let seeds: u64 = arg_or("seeds", 20);
+    let nstarts: usize = arg_or("starts", 32);
+    let design: String = arg_or("design", "global".into());
+    let f32_mode = flag("f32");
     let mut cfg = AdaptConfig::<f64>::default();
     if design == "global" {
         cfg = AdaptConfig::global();
@@ -143,20 +136,12 @@ fn main() -> anyhow::Result<()> {
         if std::env::var("GN").is_ok() {
             cfg.global.hold_recursion = false;
         }
-        let envu = |k: &str, d: u32| {
-            std::env::var(k)
-                .ok()
-                .and_then(|v| v.parse().ok())
-                .unwrap_or(d)
-        };
-        cfg.global.block = envu("BLOCK", cfg.global.block);
-        cfg.global.window = envu("WIN", cfg.global.window);
-        cfg.global.first = envu("FIRST", cfg.global.first);
-        cfg.global.every = envu("EVERY", cfg.global.every);
-        cfg.global.budget = envu("BUDGET", cfg.global.budget);
-        if let Some(p) = std::env::var("PEN").ok().and_then(|v| v.parse().ok()) {
-            cfg.global.structure = p;
-        }
+        cfg.global.block = env_or("BLOCK", cfg.global.block);
+        cfg.global.window = env_or("WIN", cfg.global.window);
+        cfg.global.first = env_or("FIRST", cfg.global.first);
+        cfg.global.every = env_or("EVERY", cfg.global.every);
+        cfg.global.budget = env_or("BUDGET", cfg.global.budget);
+        cfg.global.structure = env_or("PEN", cfg.global.structure);
         println!("{:?}", cfg.global);
     }
     let truth = scenario::load("paper")?.to_core()?;

@@ -17,14 +17,9 @@ use hal_sim::{replay, sim};
 use imu_ident::adapt::AdaptConfig;
 use imu_ident::model::{Component, ExpCosine, InsModel};
 
-fn pct(v: &mut [f64], q: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
-    let i = ((v.len() - 1) as f64 * q).round() as usize;
-    v[i]
-}
+#[path = "bench_args/mod.rs"]
+mod bench_args;
+use bench_args::{arg_or, env_or, flag, pct};
 
 /// Prints every finished search (its best alternative structure included): for diagnosis.
 fn trace(
@@ -99,28 +94,14 @@ fn trace(
 }
 
 fn main() -> anyhow::Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let get = |k: &str| {
-        args.iter()
-            .find_map(|a| a.strip_prefix(&format!("{k}=")).map(str::to_string))
-    };
-    let first: u64 = get("first").and_then(|s| s.parse().ok()).unwrap_or(9300);
-    let seeds: u64 = get("seeds").and_then(|s| s.parse().ok()).unwrap_or(20);
-    let truth_name = get("truth").unwrap_or_else(|| "ec".into());
-    let f32_mode = args.iter().any(|a| a == "f32");
+    let first: u64 = arg_or("first", 9300);
+    let seeds: u64 = arg_or("seeds", 20);
+    let truth_name: String = arg_or("truth", "ec".into());
+    let f32_mode = flag("f32");
     let mut cfg = AdaptConfig::<f64>::global();
-    cfg.global.structure = imu_ident::adapt::window::STRUCTURE_PENALTY;
-    let envu = |k: &str, d: u32| {
-        std::env::var(k)
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(d)
-    };
-    cfg.global.every = envu("EVERY", cfg.global.every);
-    cfg.global.budget = envu("BUDGET", cfg.global.budget);
-    if let Some(p) = std::env::var("PEN").ok().and_then(|v| v.parse().ok()) {
-        cfg.global.structure = p;
-    }
+    cfg.global.every = env_or("EVERY", cfg.global.every);
+    cfg.global.budget = env_or("BUDGET", cfg.global.budget);
+    cfg.global.structure = env_or("PEN", imu_ident::adapt::window::STRUCTURE_PENALTY);
     println!("{:?}", cfg.global);
     let start = InsModel::<f64>::paper();
     let beta_true = 2.0 * std::f64::consts::PI / 600.0;

@@ -23,6 +23,26 @@ fn normal_vec(rng: &mut ChaCha8Rng) -> StateVec<f64> {
     StateVec::from_fn(|_, _| StandardNormal.sample(rng))
 }
 
+/// A change in service (BENCHMARKS.md §6): `before` steps of `a` (seed `2000 + seed`), then
+/// `after` steps of `b` (seed `3000 + seed`) from a fresh stationary state, its times continuing
+/// the first part's.
+pub fn simulate_change(
+    a: &InsModel<f64>,
+    b: &InsModel<f64>,
+    before: usize,
+    after: usize,
+    seed: u64,
+) -> Result<Vec<LogRow>> {
+    let mut log = simulate(a, before, 2000 + seed)?;
+    let mut second = simulate(b, after, 3000 + seed)?;
+    let shift = before as f64 * a.dt;
+    for r in second.iter_mut() {
+        r.t += shift;
+    }
+    log.extend(second);
+    Ok(log)
+}
+
 /// Simulates `steps` observations of `model` with `seed`.
 pub fn simulate(model: &InsModel<f64>, steps: usize, seed: u64) -> Result<Vec<LogRow>> {
     let scale = model.scaling().map_err(|e| anyhow!("truth model: {e}"))?;
