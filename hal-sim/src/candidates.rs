@@ -5,7 +5,7 @@
 //! starting points scaled to the model at hand, and a one-line physical explanation.
 //!
 //! `diagnose` also proposes *replacing* a component of the model by another kind
-//! ([`Replacement`], over the kind pairs of [`SWAPS`]): a gyro drift that is an
+//! ([`Replacement`], over the core kind table's `ComponentKind::alternative`): a gyro drift that is an
 //! exponential-cosine, modelled as a Gauss-Markov, can otherwise only be named as an addition
 //! on top of the wrong component. [`Proposal`] is either change, with one interface for the fit.
 
@@ -222,17 +222,6 @@ impl Candidate {
     }
 }
 
-/// The kind swaps the diagnosis proposes, `(from, to)`: a component of kind `from` in the model
-/// may be replaced by one of kind `to`. Gauss-Markov and exponential-cosine are the pair a
-/// model gets wrong most easily: both stationary with a sigma and a tau, the Gauss-Markov being
-/// the exp-cosine's infinite-period limit. Any pair of library kinds may be added here: the
-/// starts, the fit and the penalty follow from the kinds (`Replacement::starts` maps shared
-/// quantities through the core's kind table).
-pub const SWAPS: [(ComponentKind, ComponentKind); 2] = [
-    (ComponentKind::GaussMarkov, ComponentKind::ExpCosine),
-    (ComponentKind::ExpCosine, ComponentKind::GaussMarkov),
-];
-
 /// The log-parameter of quantity `q` at value `v`, as [`Candidate::component`] takes it (the
 /// exp-cosine's `beta` is carried as `ln period`).
 fn log_param(q: Quantity, v: f64) -> f64 {
@@ -264,22 +253,24 @@ impl Replacement {
         }
     }
 
-    /// Every replacement [`SWAPS`] allows on `model`'s accelerometer and gyro components.
+    /// Every replacement the core kind table allows (`ComponentKind::alternative`, the same
+    /// table the online structure test reads: Gauss-Markov <-> exponential-cosine, the pair a
+    /// model gets wrong most easily, the Gauss-Markov being the exp-cosine's infinite-period
+    /// limit) on `model`'s accelerometer and gyro components. A new pair is added there: the
+    /// starts, the fit and the penalty follow from the kinds.
     /// (Observation noise is Gauss-Markov by construction and is not swapped.)
     pub fn all(model: &InsModel<f64>) -> Vec<Replacement> {
         let sensors = [(Sensor::Accel, &model.accel), (Sensor::Gyro, &model.gyro)];
         let mut out = Vec::new();
         for (sensor, comps) in sensors {
             for (index, old) in comps.iter().enumerate() {
-                for &(from, to) in &SWAPS {
-                    if old.kind() == from {
-                        out.push(Replacement {
-                            sensor,
-                            index,
-                            old: *old,
-                            kind: to,
-                        });
-                    }
+                if let Some(to) = old.kind().alternative() {
+                    out.push(Replacement {
+                        sensor,
+                        index,
+                        old: *old,
+                        kind: to,
+                    });
                 }
             }
         }
@@ -396,7 +387,7 @@ impl Replacement {
 pub enum Proposal {
     /// Add a component ([`LIBRARY`]).
     Add(Candidate),
-    /// Replace one of the model's components by another kind ([`SWAPS`]).
+    /// Replace one of the model's components by another kind (`ComponentKind::alternative`).
     Replace(Replacement),
 }
 

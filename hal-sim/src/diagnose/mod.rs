@@ -6,8 +6,8 @@
 //! 2. For every candidate of the library ([`crate::candidates::LIBRARY`]), add it to the model,
 //!    fit its parameters by maximum innovation likelihood, and score the gain in log-likelihood
 //!    against the BIC penalty `k/2 ln n` (k free parameters, n innovations). Next to the
-//!    additions, every component of the model whose kind has a swap in
-//!    [`crate::candidates::SWAPS`] is replaced by the other kind and fitted the same way, with
+//!    additions, every component of the model whose kind has an alternative in the core kind
+//!    table (`ComponentKind::alternative`) is replaced by it and fitted the same way, with
 //!    `k` the new component's parameters, as for an addition (why not the +1 of Gauss-Markov ->
 //!    exp-cosine: [`crate::candidates::Proposal::free_params`]).
 //! 3. The verdict is "adequate" when no candidate's gain exceeds its penalty, else the best
