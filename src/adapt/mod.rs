@@ -485,7 +485,7 @@ impl<T: Real> AdaptiveFilter<T> {
         // then climbs from the basin the window chose).
         self.searching = false;
         if let Some(sw) = found.switch.get().filter(|s| self.switch_wins(s)) {
-            if self.switch_structure(sw).is_ok() {
+            if self.switch_structure(sw, found.blocks).is_ok() {
                 self.jumps = self.jumps.saturating_add(1);
                 self.switches = self.switches.saturating_add(1);
                 return true;

@@ -102,11 +102,18 @@ impl<T: Real> super::AdaptiveFilter<T> {
             && s.gain - pen * T::lit(f64::from(s.extra)) > pen * T::lit(0.5)
     }
 
-    /// Replaces the model's structure by the search's alternative `sw`: a new bank at `sw.theta`
+    /// Replaces the model's structure by the search's alternative `sw` (found on a window of
+    /// `blocks` block means): a new bank at `sw.theta`
     /// that carries the centre's state ([`restructure`]), new specs and bounds, and fresh
     /// information (its layout changed). On error nothing is changed.
-    pub(super) fn switch_structure(&mut self, sw: &Switch<T>) -> Result<(), AdaptError> {
-        let block_s = T::lit(f64::from(self.cfg.global.block)) * self.base.dt;
+    pub(super) fn switch_structure(
+        &mut self,
+        sw: &Switch<T>,
+        blocks: u32,
+    ) -> Result<(), AdaptError> {
+        // The same alternative the search built: its block length and window.
+        let block_s = self.global.block_seconds();
+        let window_s = T::lit(f64::from(blocks)) * block_s;
         let alt = super::window::structure::alternative(
             &self.base,
             &self.specs,
@@ -115,7 +122,7 @@ impl<T: Real> super::AdaptiveFilter<T> {
             &self.bounds,
             sw.site,
             block_s,
-            sw.window_s,
+            window_s,
         )
         .ok_or(AdaptError::BadParameter)?;
         let model = apply(&alt.base, &alt.specs, &sw.theta).ok_or(AdaptError::BadParameter)?;

@@ -25,21 +25,27 @@ impl<T: Real> WindowSearch<T> {
         }
     }
 
+    /// Starts a Levenberg-Marquardt polish from `start` in `phase` (every polish: the model's,
+    /// an alternative's, the nested one); the first pass runs at the point itself.
+    pub(super) fn begin_polish(&mut self, start: &[T; MAXP], phase: Phase) -> Phase {
+        self.acc_theta = *start;
+        self.acc_ll = T::lit(f64::NEG_INFINITY);
+        self.lambda = T::lit(0.1);
+        self.iterations = 0;
+        self.pass.theta = *start;
+        phase
+    }
+
     /// Starts polishing the `k`-th best point (`refine`: to convergence), or ends the stage.
     pub(super) fn start_polish(&mut self, k: usize, refine: bool) -> Phase {
         match (self.top.get(k), self.top_ll.get(k)) {
-            (Some(t), Some(&l)) if l.is_finite() => {
-                self.acc_theta = *t;
-                self.acc_ll = T::lit(f64::NEG_INFINITY);
-                self.lambda = T::lit(0.1);
-                self.iterations = 0;
-                // The first pass of the polish runs at the point itself.
-                self.pass.theta = *t;
-                if refine {
+            (Some(&t), Some(&l)) if l.is_finite() => {
+                let phase = if refine {
                     Phase::Refine(k)
                 } else {
                     Phase::Polish(k)
-                }
+                };
+                self.begin_polish(&t, phase)
             }
             _ if !refine => {
                 // End of the brief polishes: rank their results, refine the best FINAL.

@@ -311,33 +311,21 @@ impl<T: Real> super::WindowSearch<T> {
                 self.scan_ll = T::lit(f64::NEG_INFINITY);
                 self.scan_best = start;
                 self.alt = a;
-                self.alt_on = true;
                 return if scan {
                     Phase::AltScan(0)
                 } else {
-                    self.start_alternative_polish(&start)
+                    self.begin_polish(&start, Phase::AltRefine)
                 };
             }
         }
-        self.alt_on = false;
         Phase::Idle
-    }
-
-    /// Starts the polish of the current alternative from `start`.
-    pub(super) fn start_alternative_polish(&mut self, start: &[T; MAXP]) -> Phase {
-        self.acc_theta = *start;
-        self.acc_ll = T::lit(f64::NEG_INFINITY);
-        self.lambda = T::lit(0.1);
-        self.iterations = 0;
-        self.pass.theta = *start;
-        Phase::AltRefine
     }
 
     /// Keeps the polished alternative if its penalised log-likelihood beats the best one so
     /// far (`p`: the filter model's parameter count).
     pub(super) fn end_alternative(&mut self, p: usize) {
         let a = &self.alt;
-        if !self.alt_on || !self.acc_ll.is_finite() {
+        if !self.acc_ll.is_finite() {
             return;
         }
         let extra = i8::try_from(a.specs.len())
@@ -348,7 +336,6 @@ impl<T: Real> super::WindowSearch<T> {
             theta: self.acc_theta,
             gain: self.acc_ll - self.best_ll,
             extra,
-            window_s: T::lit(self.wlen as f64) * self.block_s,
             valid: true,
         };
         let pen = self.cfg.structure;
