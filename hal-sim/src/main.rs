@@ -12,6 +12,9 @@ struct Cli {
     command: Command,
 }
 
+// One command is parsed once per process: the size of its largest variant (`nav`'s options)
+// costs nothing, and boxing it would only obscure the clap definitions.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// Simulate a log from a scenario's truth model.
@@ -122,6 +125,25 @@ enum Command {
         /// fractions, NEES) into summary.json and the report.
         #[arg(long)]
         truth: Option<PathBuf>,
+        /// Identify the sensor noise online while navigating (causal: each search sees the
+        /// data up to its time): every --adapt-every seconds, the window's innovation
+        /// likelihood is maximised over factors on the model's intensities and correlation
+        /// times; writes adapt.json and adapt.csv.
+        #[arg(long, conflicts_with_all = ["identify", "qemu_elf"])]
+        adapt: bool,
+        /// First online search and interval between searches FIRST,EVERY [s].
+        #[arg(long, value_delimiter = ',', default_values_t = [600.0, 1200.0])]
+        adapt_every: Vec<f64>,
+        /// Window of the online searches [s].
+        #[arg(long, default_value_t = 1800.0)]
+        adapt_window: f64,
+        /// One factor per axis instead of one per sensor and component.
+        #[arg(long)]
+        adapt_per_axis: bool,
+        /// Identify the correlation times too (default: the intensities only; a 30-min window
+        /// cannot separate a 1-h Gauss-Markov's sigma from its tau, BENCHMARKS.md).
+        #[arg(long)]
+        adapt_taus: bool,
     },
     /// Simulate a strapdown drive (figure-eights, climbs): imu.csv, truth.csv, gnss.csv.
     SimulateDrive {
@@ -366,6 +388,11 @@ fn main() -> Result<()> {
             scale_factors,
             imu_time_shift,
             truth,
+            adapt,
+            adapt_every,
+            adapt_window,
+            adapt_per_axis,
+            adapt_taus,
             qemu_elf,
         } => {
             // Read first: a bad truth file should stop the command before the run.
@@ -419,6 +446,23 @@ fn main() -> Result<()> {
                 imu_time_shift,
                 nhc,
                 nhc_lever,
+                adapt: if adapt {
+                    let [first, every] = <[f64; 2]>::try_from(adapt_every)
+                        .map_err(|_| anyhow::anyhow!("--adapt-every: expected FIRST,EVERY"))?;
+                    if !(first > 0.0 && every > 0.0 && adapt_window > 0.0) {
+                        anyhow::bail!("--adapt-every, --adapt-window: expected positive seconds");
+                    }
+                    Some(hal_sim::nav::adapt::AdaptConfig {
+                        first,
+                        every,
+                        window: adapt_window,
+                        per_axis: adapt_per_axis,
+                        taus: adapt_taus,
+                        conservative: true,
+                    })
+                } else {
+                    None
+                },
             };
             let (mut run, id) = if identify {
                 let (run, id) = hal_sim::nav::run_identified(&args, &out)?;

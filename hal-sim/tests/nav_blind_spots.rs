@@ -127,12 +127,7 @@ fn drive(sim: &SimModel, hours: f64, still: bool, seed: u64) -> Drive {
         .take_while(|s| *s + 60.0 < hours * 3600.0 - 120.0)
         .next();
     let args = NavArgs {
-        outages: first.map(|s| OutageSpec {
-            start: s - fixes.first().map_or(0.0, |f| f.t),
-            len: 60.0,
-            period: 1200.0,
-            margin: 180.0,
-        }),
+        outages: first.map(|_| OutageSpec::every_20_min(0.0, fixes.first().map_or(0.0, |f| f.t))),
         ..NavArgs::simulated(
             dir.path().join("imu.csv"),
             dir.path().join("gnss.csv"),

@@ -13,49 +13,7 @@ use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
 use hal_sim::trajectory::gnss::GnssConfig;
 use hal_sim::trajectory::profile::Profile;
 use hal_sim::trajectory::write::{simulate_drive, write_drive};
-use imu_ident::model::{Component, GaussMarkov, WhiteNoise};
-use imu_ident::nav::ImuErrorModel;
 use imu_ident::strapdown::Geodetic;
-
-fn tactical() -> SimModel {
-    let deg = std::f64::consts::PI / 180.0;
-    SimModel::same_on_all_axes(
-        &[
-            Component::White(WhiteNoise {
-                density: 0.005 * deg / 60.0,
-            }),
-            Component::GaussMarkov(GaussMarkov {
-                sigma: 0.5 * deg / 3600.0,
-                tau: 3600.0,
-            }),
-        ],
-        &[
-            Component::White(WhiteNoise {
-                density: 0.02 / 60.0,
-            }),
-            Component::GaussMarkov(GaussMarkov {
-                sigma: 50e-6 * 9.80665,
-                tau: 3600.0,
-            }),
-        ],
-    )
-}
-
-fn scaled(m: &SimModel, k: f64) -> ImuErrorModel<f64> {
-    let mut out = m.to_core().unwrap_or_else(|e| panic!("{e:#}"));
-    for axis in out.gyro.iter_mut().chain(out.accel.iter_mut()) {
-        for c in axis.iter_mut() {
-            match c {
-                Component::White(w) => w.density *= k,
-                Component::GaussMarkov(g) => g.sigma *= k,
-                Component::RandomWalk(r) => r.q *= k * k,
-                Component::RandomConstant(r) => r.sigma *= k,
-                Component::ExpCosine(e) => e.sigma *= k,
-            }
-        }
-    }
-    out
-}
 
 fn quantile(v: &mut [f64], q: f64) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
@@ -82,7 +40,10 @@ fn nav_over_seeds() {
         .take_while(|s| *s + 60.0 < hours * 3600.0 - 120.0)
         .map(|s| (s, s + 60.0))
         .collect();
-    for (grade, sim) in [("MEMS", SimModel::mems()), ("tactical", tactical())] {
+    for (grade, sim) in [
+        ("MEMS", SimModel::mems()),
+        ("tactical", SimModel::tactical()),
+    ] {
         // Per seed: mean NEES, inside its effective-n band, that band, worst 9-axis 3-sigma
         // fraction.
         type Nees = (f64, bool, [f64; 2], f64);
@@ -114,16 +75,18 @@ fn nav_over_seeds() {
                 read_truth_csv(&dir.path().join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
             for (k, frac, outage_err, nees) in cases.iter_mut() {
                 let args = NavArgs {
-                    outages: Some(OutageSpec {
-                        start: outages[0].0 - fixes.first().map_or(0.0, |f| f.t),
-                        len: 60.0,
-                        period: 1200.0,
-                        margin: 180.0,
-                    }),
+                    // `outages` is the same schedule (600 s, then every 1200 s).
+                    outages: Some(OutageSpec::every_20_min(
+                        0.0,
+                        fixes.first().map_or(0.0, |f| f.t),
+                    )),
                     ..NavArgs::simulated(
                         dir.path().join("imu.csv"),
                         dir.path().join("gnss.csv"),
-                        scaled(&sim, *k),
+                        hal_sim::nav::model::scaled_sd(
+                            &sim.to_core().unwrap_or_else(|e| panic!("{e:#}")),
+                            *k,
+                        ),
                         &format!("{grade} x{k}"),
                         truth[0].rpy_deg[2],
                     )
@@ -151,13 +114,7 @@ fn nav_over_seeds() {
                 let cmp = hal_sim::nav::truth::compare(&run.epochs, &truth, "truth.csv")
                     .unwrap_or_else(|e| panic!("{e:#}"))
                     .summary;
-                let worst9 = cmp
-                    .outside_3sigma_pos
-                    .iter()
-                    .chain(&cmp.outside_3sigma_vel)
-                    .chain(&cmp.outside_3sigma_att)
-                    .cloned()
-                    .fold(0.0, f64::max);
+                let worst9 = cmp.worst_outside_3sigma();
                 nees.push((
                     cmp.nees_mean,
                     cmp.nees_consistent,

@@ -12,24 +12,6 @@
 
 use hal_sim::nav::{run_with, NavArgs};
 use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, read_truth_csv, TruthRow};
-use imu_ident::model::Component;
-use imu_ident::nav::ImuErrorModel;
-
-fn scaled(m: &ImuErrorModel<f64>, k: f64) -> ImuErrorModel<f64> {
-    let mut m = m.clone();
-    for axis in m.gyro.iter_mut().chain(m.accel.iter_mut()) {
-        for c in axis.iter_mut() {
-            match c {
-                Component::White(w) => w.density *= k,
-                Component::GaussMarkov(g) => g.sigma *= k,
-                Component::RandomWalk(r) => r.q *= k * k,
-                Component::RandomConstant(r) => r.sigma *= k,
-                Component::ExpCosine(e) => e.sigma *= k,
-            }
-        }
-    }
-    m
-}
 
 struct Errors {
     /// Fraction of epochs outside 3 sd, per axis N, E, D.
@@ -120,7 +102,7 @@ fn navigator_is_consistent_on_a_simulated_drive() {
     }
 
     let small = NavArgs {
-        model: scaled(&model, 0.1),
+        model: hal_sim::nav::model::scaled_sd(&model, 0.1),
         ..args.clone()
     };
     let run_s = run_with::<f64>(&small, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));

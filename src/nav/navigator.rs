@@ -234,6 +234,14 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         out
     }
 
+    /// Replaces the gate multiplier on [`CHI2_9999`] (`None`: no gate). The online
+    /// identification's window replays run ungated: a gate makes the innovation likelihood
+    /// discontinuous in the noise parameters, and a model that rejects more fixes would be
+    /// scored on fewer.
+    pub fn set_gate(&mut self, gate: Option<T>) {
+        self.cfg.gate = gate;
+    }
+
     /// Replaces the sensor noise model (same layout: same kinds on the same axes), keeping
     /// `x` and `P`.
     pub fn set_imu_model(&mut self, imu: super::ImuErrorModel<T>) -> Result<(), NavError> {
@@ -244,6 +252,45 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         }
         <StrapdownErrorModel<T> as ErrorModel<T, N, NAV_Z>>::system(&m, &self.scale)?;
         self.model = m;
+        Ok(())
+    }
+
+    /// [`set_imu_model`](Self::set_imu_model) for a model identified online: the states are
+    /// kept, and where a component's magnitude ([`Component::magnitude`]: its stationary
+    /// sigma, a random walk's one-hour growth) grows by `r`, the covariance of its states
+    /// grows by `r^2` (rows and columns by `r`). A prior that was too tight left a posterior
+    /// too tight; with a correlation time of hours the new `Q` alone would take hours to
+    /// loosen it, and the filter would stay overconfident meanwhile. A magnitude that shrinks
+    /// leaves the covariance as it is: the estimates made under the looser model are no better
+    /// than it said.
+    ///
+    /// [`Component::magnitude`]: crate::model::Component::magnitude
+    pub fn retune_imu_model(&mut self, imu: super::ImuErrorModel<T>) -> Result<(), NavError> {
+        let mut old = [T::zero(); N];
+        self.model.for_each_component(&mut |_, _, k, c| {
+            for i in k..k + c.states() {
+                if let Some(v) = old.get_mut(i) {
+                    *v = c.magnitude();
+                }
+            }
+        });
+        self.set_imu_model(imu)?;
+        let mut r = [T::one(); N];
+        self.model.for_each_component(&mut |_, _, k, c| {
+            for i in k..k + c.states() {
+                if let (Some(v), Some(o)) = (r.get_mut(i), old.get(i)) {
+                    let ratio = c.magnitude() / *o;
+                    if ratio.is_finite() && ratio > T::one() {
+                        *v = ratio;
+                    }
+                }
+            }
+        });
+        for (row, ri) in self.kf.P.iter_mut().zip(r.iter()) {
+            for (p, rj) in row.iter_mut().zip(r.iter()) {
+                *p = *p * *ri * *rj;
+            }
+        }
         Ok(())
     }
 

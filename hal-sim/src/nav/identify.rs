@@ -13,10 +13,9 @@
 //! Gaussian). The factor's bounds let the search all but switch the constraint off (x1e3).
 //!
 //! The run sees the same data as the scored run: fixes withheld by the outage schedule are not
-//! used. The search is a pattern search on the base-10 logarithms of the six factors (steps of
-//! 1, 0.5, 0.25, 0.125 decades, every coordinate tried up and down, a move kept when the
-//! likelihood rises), bounded to [1e-2, 1e3]. A hand-written 40-line search rather than a
-//! crate (argmin): six deterministic coordinates, no gradients, and no new dependency in CI.
+//! used. The search is a pattern search ([`super::pattern`]) on the base-10 logarithms of the
+//! six factors (steps of 1, 0.5, 0.25, 0.125 decades, every coordinate tried up and down, a
+//! move kept when the likelihood rises), bounded to [1e-2, 1e3].
 //!
 //! [`EpochRecord`]: super::EpochRecord
 
@@ -121,39 +120,20 @@ pub fn identify(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
     let mut x = [0.0f64; 8];
     let start = eval(&x)?;
     let mut best = start;
-    for step in [1.0, 0.5, 0.25, 0.125] {
-        let mut improved = true;
-        let mut passes = 0;
-        while improved && passes < 6 {
-            improved = false;
-            passes += 1;
-            for i in 0..8 {
-                if i == NHC && args.nhc.is_none() {
-                    continue;
-                }
-                for dir in [1.0, -1.0] {
-                    let mut y = x;
-                    let (lo, hi) = if i == SHIFT {
-                        let b = MAX_SHIFT / SHIFT_PER_DECADE;
-                        (-b, b)
-                    } else {
-                        (-2.0, 3.0)
-                    };
-                    y[i] = (y[i] + dir * step).clamp(lo, hi);
-                    if y[i] == x[i] {
-                        continue;
-                    }
-                    let ll = eval(&y)?;
-                    if ll > best {
-                        best = ll;
-                        x = y;
-                        improved = true;
-                        break;
-                    }
-                }
-            }
-        }
-    }
+    let b = MAX_SHIFT / SHIFT_PER_DECADE;
+    let bounds = |i: usize| match i {
+        NHC if args.nhc.is_none() => None,
+        SHIFT => Some((-b, b)),
+        _ => Some((-2.0, 3.0)),
+    };
+    super::pattern::maximise(
+        &mut x,
+        &mut best,
+        &[1.0, 0.5, 0.25, 0.125],
+        6,
+        &bounds,
+        &mut |y| eval(y.try_into().map_err(|_| anyhow::anyhow!("8 coordinates"))?),
+    )?;
     let factors: [f64; 6] = std::array::from_fn(|i| 10f64.powf(x[i]));
     let nhc_sd_factor = args.nhc.map(|_| 10f64.powf(x[NHC]));
     Ok(Identified {

@@ -13,8 +13,11 @@
 //! 4. records the solution at every GNSS epoch (withheld ones too), the per-axis NIS and the
 //!    estimated sensor errors.
 
+pub mod adapt;
+pub mod drive;
 pub mod identify;
 pub mod model;
+pub mod pattern;
 pub mod plot;
 pub mod records;
 pub mod report;
@@ -23,9 +26,8 @@ pub mod truth;
 
 use crate::nav_io::{self, score_outages, GnssFix, ImuSample, OutageSpec, OutageSummary};
 use anyhow::{bail, Result};
-use imu_ident::filter::AxisStatus;
-use imu_ident::nav::{GnssFix as CoreFix, NavInit, NAV_N};
-use imu_ident::strapdown::{Geodetic, Increment};
+use imu_ident::nav::{GnssFix as CoreFix, NavInit};
+use imu_ident::strapdown::Geodetic;
 use imu_ident::Real;
 use nalgebra::Vector3;
 use std::path::PathBuf;
@@ -80,6 +82,8 @@ pub struct NavArgs {
     pub nhc: Option<f64>,
     /// The point the constraint holds at, from the IMU, body FRD [m] (the body origin).
     pub nhc_lever: [f64; 3],
+    /// Online identification of the sensor noise ([`adapt`]), or none.
+    pub adapt: Option<adapt::AdaptConfig>,
 }
 
 /// Speed [m/s] of the solution from which the non-holonomic constraint is applied (the core's,
@@ -123,6 +127,7 @@ impl NavArgs {
             imu_time_shift: 0.0,
             nhc: None,
             nhc_lever: [0.0; 3],
+            adapt: None,
         }
     }
 
@@ -161,6 +166,8 @@ pub struct NavRun {
     pub fixes: Vec<GnssFix>,
     /// Summary.
     pub summary: NavSummary,
+    /// The online identification's searches (with `--adapt`).
+    pub adapt: Option<adapt::AdaptLog>,
 }
 
 /// Reads the inputs and runs (f64 or f32 core).
@@ -249,99 +256,26 @@ pub fn run_observed<T: Real>(
     let shifted = setup::shifted_imu(args, imu);
     let imu = &shifted[..];
     // 1-2. The start (levelling, static gyro bias, first position) and the navigator: shared
-    // with the firmware replay (`setup`, `hal_sim::nav_qemu`).
-    let setup::Start { setup, k, outages } = setup::start(args, imu, fixes)?;
-    let t_start = setup.t0;
-    let mut nav = setup
-        .navigator::<T, NAV_N>()
-        .map_err(|e| anyhow::anyhow!("nav: {e:?} (the model needs more than {NAV_N} states?)"))?;
-    let mut planner = setup::FixPlanner::new(args, outages.clone());
-
-    // 3. The loop.
-    let mut fix_k = fixes.partition_point(|f| f.t < t_start);
-    // The constraint from the setup, applied by the core's `Nhc::after_step`: the same code
-    // and the same values as the firmware's replay loop (`NavReplay::imu`).
-    let nhc_core = setup
-        .nhc::<T>()
-        .map_err(|e| anyhow::anyhow!("nav: constraint (--nhc, --nhc-lever): {e:?}"))?;
-    let mut nhc = args.nhc.map(|sd| records::NhcSummary {
-        sd,
-        lever: args.nhc_lever,
-        ..Default::default()
-    });
+    // with the firmware replay (`setup`, `hal_sim::nav_qemu`). 3. The loop (`drive`).
+    let (mut lp, outages) = drive::NavLoop::<T>::start(args, imu, fixes)?;
     let mut epochs = Vec::with_capacity(fixes.len());
-    bar.set_length((imu.len() - k).saturating_sub(1) as u64);
+    bar.set_length((imu.len() - lp.i).saturating_sub(1) as u64);
     bar.reset();
-    for w in imu[k..].windows(2) {
-        bar.inc(1);
-        let (a, b) = (&w[0], &w[1]);
-        let dt = b.t - a.t;
-        if dt.is_nan() || dt <= 0.0 {
-            bail!(
-                "{}: IMU time does not increase at t = {}",
-                args.imu.display(),
-                b.t
-            );
-        }
-        let inc = Increment::from_rates(
-            &Vector3::from(b.gyro).map(T::lit),
-            &Vector3::from(b.accel).map(T::lit),
-            T::lit(dt),
-        );
-        let stepped = nav
-            .imu(b.t, &inc)
-            .map_err(|e| anyhow::anyhow!("nav: IMU sample at t = {}: {e:?}", b.t))?;
-        // The non-holonomic constraint once per filter step, with or without GNSS, once the
-        // heading is known and above NHC_MIN_SPEED (the core decides: `Nhc::after_step`).
-        if let (true, Some(c)) = (stepped, nhc_core.as_ref()) {
-            let fused = c
-                .after_step(&mut nav, planner.heading_known())
-                .map_err(|e| anyhow::anyhow!("nav: constraint at t = {}: {e:?}", b.t))?;
-            if let (Some(f), Some(sum)) = (fused, nhc.as_mut()) {
-                let nu = f.innovation.map(|v| v.as_f64());
-                let s = f.variance.map(|v| v.as_f64());
-                sum.add(nu, s, f.gated, planner.withheld_at(b.t));
-            }
-        }
-        while fix_k < fixes.len() && fixes[fix_k].t <= b.t {
-            let f = fixes[fix_k];
-            fix_k += 1;
-            let plan = planner.plan(&f)?;
-            if let (Some(yaw), Some(v)) = (plan.heading, f.vel_ned) {
-                nav.set_heading(
-                    T::lit(yaw),
-                    T::lit(setup.heading_sd),
-                    Some(Vector3::from(v).map(T::lit)),
-                )
-                .map_err(|e| anyhow::anyhow!("nav: {e:?}"))?;
-            }
-            let mut rec = EpochRecord::blank(f.t, plan.withheld);
-            if plan.fuse {
-                let mut core = to_core_fix::<T>(&f, args.use_velocity);
-                core.sd_pos *= T::lit(args.gnss_sd_factor[0]);
-                core.sd_vel *= T::lit(args.gnss_sd_factor[1]);
-                let fused = nav
-                    .gnss(&core)
-                    .map_err(|e| anyhow::anyhow!("nav: GNSS fix at t = {}: {e:?}", f.t))?;
-                rec.fused = true;
-                rec.gated = fused.gated;
-                for i in 0..6 {
-                    rec.innovation[i] = fused.innovation[i].as_f64();
-                    rec.nis_axis[i] =
-                        fused.innovation[i].as_f64().powi(2) / fused.variance[i].as_f64();
-                    rec.used[i] = fused.axes[i] == AxisStatus::Used;
-                }
-                rec.nis = fused.nis.as_f64();
-                rec.loglik = fused.loglik.as_f64();
-                rec.dof = fused.dof;
-            }
-            rec.heading_known = planner.heading_known();
-            rec.fill_solution(&nav, f.t, b.t);
-            epochs.push(rec);
+    let name = args.imu.display().to_string();
+    let t_start = lp.time(imu);
+    let mut adapter = args
+        .adapt
+        .map(|c| adapt::Adapter::new(args, c, &lp, t_start));
+    loop {
+        let t_end = adapter.as_ref().map_or(f64::INFINITY, |a| a.next_time());
+        lp.advance(imu, fixes, t_end, &mut epochs, &name, &|| bar.inc(1))?;
+        match adapter.as_mut() {
+            Some(a) if lp.i + 1 < imu.len() => a.search(&mut lp, imu, fixes, &name)?,
+            _ => break,
         }
     }
     bar.finish_and_clear();
-    let heading_known = planner.heading_known();
+    let heading_known = lp.planner.heading_known();
     let scores = args.outages.map(|_| {
         let track: Vec<(f64, f64, f64)> =
             epochs.iter().map(|e| (e.t, e.lat_deg, e.lon_deg)).collect();
@@ -352,16 +286,17 @@ pub fn run_observed<T: Real>(
         args,
         &epochs,
         scores.as_ref(),
-        nav.gaps(),
+        lp.nav.gaps(),
         started.elapsed().as_secs_f64(),
         heading_known,
     );
-    summary.nhc = nhc.map(records::NhcSummary::finish);
+    summary.nhc = lp.nhc.map(records::NhcSummary::finish);
     Ok(NavRun {
         epochs,
         outages: scores,
         fixes: fixes.to_vec(),
         summary,
+        adapt: adapter.map(adapt::Adapter::finish),
     })
 }
 
@@ -388,7 +323,7 @@ pub fn nhc_lever_from_meta(imu: &std::path::Path) -> Result<Option<[f64; 3]>> {
 }
 
 /// The core's fix from a host fix (velocity optional).
-fn to_core_fix<T: Real>(f: &GnssFix, use_velocity: bool) -> CoreFix<T> {
+pub(crate) fn to_core_fix<T: Real>(f: &GnssFix, use_velocity: bool) -> CoreFix<T> {
     let nan3 = Vector3::repeat(T::lit(f64::NAN));
     let v3 = |a: Option<[f64; 3]>| a.map(|a| Vector3::from(a).map(T::lit)).unwrap_or(nan3);
     CoreFix {

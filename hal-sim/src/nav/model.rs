@@ -82,3 +82,22 @@ pub fn to_toml(m: &ImuErrorModel<f64>) -> Result<crate::imu_model::ImuModelToml>
         accel: axes(&m.accel),
     })
 }
+
+/// `m` with every standard deviation scaled by `k` (white density, Gauss-Markov, exp-cosine
+/// and random-constant sigma; a random walk's `q` by `k^2`): the paper's "noise 10x too
+/// small / too large" starts of the issue-16 benches.
+pub fn scaled_sd(m: &ImuErrorModel<f64>, k: f64) -> ImuErrorModel<f64> {
+    let mut out = m.clone();
+    for axis in out.gyro.iter_mut().chain(out.accel.iter_mut()) {
+        for c in axis.iter_mut() {
+            match c {
+                Component::White(w) => w.density *= k,
+                Component::GaussMarkov(g) => g.sigma *= k,
+                Component::RandomWalk(r) => r.q *= k * k,
+                Component::RandomConstant(r) => r.sigma *= k,
+                Component::ExpCosine(e) => e.sigma *= k,
+            }
+        }
+    }
+    out
+}

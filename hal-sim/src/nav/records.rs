@@ -509,5 +509,14 @@ pub fn write_all(out: &Path, run: &super::NavRun) -> Result<()> {
     if let Some(o) = &run.outages {
         write_string(&out.join("outages.json"), &serde_json::to_string_pretty(o)?)?;
     }
+    if let Some(a) = &run.adapt {
+        write_string(&out.join("adapt.json"), &serde_json::to_string_pretty(a)?)?;
+        a.write_csv(&out.join("adapt.csv"))?;
+        let toml = super::model::to_toml(&a.model)?;
+        write_string(
+            &out.join("adapt-model.toml"),
+            &toml.to_text("# The model in use at the end of hal-sim nav --adapt\n")?,
+        )?;
+    }
     Ok(())
 }

@@ -186,6 +186,18 @@ pub struct TruthSummary {
     pub nees_consistent: bool,
 }
 
+impl TruthSummary {
+    /// The largest 3-sigma fraction of the 9 navigation errors (position, velocity, attitude).
+    pub fn worst_outside_3sigma(&self) -> f64 {
+        self.outside_3sigma_pos
+            .iter()
+            .chain(&self.outside_3sigma_vel)
+            .chain(&self.outside_3sigma_att)
+            .cloned()
+            .fold(0.0, f64::max)
+    }
+}
+
 /// `errors.csv` rows and their statistics.
 #[derive(Debug, Clone)]
 pub struct TruthComparison {

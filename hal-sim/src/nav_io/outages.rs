@@ -22,6 +22,20 @@ pub struct OutageSpec {
     pub margin: f64,
 }
 
+impl OutageSpec {
+    /// The simulation benches' schedule (issue 16): 60-s outages every 20 min from 10 min
+    /// after `t_sim0`, the simulation's time zero, for a log whose first GNSS epoch is at
+    /// `t_first_fix`; none starts in the last 3 min.
+    pub fn every_20_min(t_sim0: f64, t_first_fix: f64) -> Self {
+        Self {
+            start: t_sim0 + 600.0 - t_first_fix,
+            len: 60.0,
+            period: 1200.0,
+            margin: 180.0,
+        }
+    }
+}
+
 impl FromStr for OutageSpec {
     type Err = anyhow::Error;
     fn from_str(s: &str) -> Result<Self> {

@@ -55,6 +55,33 @@ impl ImuErrorModel {
         Self::same_on_all_axes(&gyro, &accel)
     }
 
+    /// A tactical-grade preset on every axis (the issue-16 simulation benches): gyro white
+    /// 0.005 deg/sqrt(h) plus Gauss-Markov 0.5 deg/h over 1 h; accelerometer white
+    /// 0.02 m/s/sqrt(h) plus Gauss-Markov 50 ug over 1 h.
+    pub fn tactical() -> Self {
+        let deg = std::f64::consts::PI / 180.0;
+        Self::same_on_all_axes(
+            &[
+                Component::White(WhiteNoise {
+                    density: 0.005 * deg / 60.0,
+                }),
+                Component::GaussMarkov(GaussMarkov {
+                    sigma: 0.5 * deg / 3600.0,
+                    tau: 3600.0,
+                }),
+            ],
+            &[
+                Component::White(WhiteNoise {
+                    density: 0.02 / 60.0,
+                }),
+                Component::GaussMarkov(GaussMarkov {
+                    sigma: 50e-6 * 9.80665,
+                    tau: 3600.0,
+                }),
+            ],
+        )
+    }
+
     /// The core navigator's model of the same components (at most
     /// [`imu_ident::nav::MAX_AXIS_COMPONENTS`] per axis).
     pub fn to_core(&self) -> Result<imu_ident::nav::ImuErrorModel<f64>> {

@@ -1,0 +1,215 @@
+//! Online identification in the strapdown INS/GNSS navigator (issue 16's bar "with online
+//! identification from starts 10x too small, 10x too large and wrong in random directions per
+//! axis: after 1 h, position and attitude RMS within 1.10x the true-model filter's, and <= 2 %
+//! outside 3 sigma"), BENCHMARKS.md "Online identification in the navigator".
+//!
+//!   cargo run --release -p hal-sim --example nav_adapt_bench -- \
+//!       grade=mems seeds=8 first=8001 starts=0.1,10,rand
+//!
+//! Other keys: `grade=tactical`, `hours=` (2), `rate=` (IMU Hz, 100), `score_from=` (3600 s),
+//! `adapt_first=`, `every=`, `window=` (600, 1200, 1800 s), `per_axis=1`, `taus=1`,
+//! `conservative=0`; environment `AXES=1` prints every run's 9 per-axis 3-sigma fractions.
+//!
+//! Per seed: a figure-eight drive (`Profile::figure_eight_course`, 100 Hz, GNSS 1 Hz with 60-s
+//! outages every 20 min from 10 min, withheld by the run); the true-model filter; then one
+//! `nav --adapt` run per start. A start `k` scales every standard deviation (white density,
+//! Gauss-Markov sigma; random-walk q by k^2) by `k`; `rand` draws a factor log-uniformly in
+//! [0.1, 10] independently for every standard deviation and correlation time on every axis
+//! (seeded by the seed and the start's index). Scored over t >= `score_from` [s] (3600):
+//! horizontal position RMS, attitude RMS (root of the mean of the three angles' squares),
+//! each over the true-model filter's, and the worst of the 9 navigation errors' 3-sigma
+//! fractions. Prints one line per run and the medians, 95th percentiles and worst cases.
+
+#[path = "bench_args/mod.rs"]
+mod bench_args;
+
+use bench_args::{arg, arg_or, pct};
+use hal_sim::nav::adapt::AdaptConfig;
+use hal_sim::nav::{run_with, NavArgs, NavRun};
+use hal_sim::nav_io::outages::OutageSpec;
+use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, read_truth_csv, TruthRow};
+use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
+use hal_sim::trajectory::gnss::GnssConfig;
+use hal_sim::trajectory::profile::Profile;
+use hal_sim::trajectory::write::{simulate_drive, write_drive};
+use imu_ident::model::Quantity;
+use imu_ident::nav::ImuErrorModel;
+use imu_ident::strapdown::Geodetic;
+use rand::{Rng, SeedableRng};
+
+/// `m` with every identified quantity of every axis scaled by its own log-uniform factor in
+/// [0.1, 10] (standard deviations and correlation times; `q` by the factor squared).
+fn random(m: &ImuErrorModel<f64>, rng: &mut impl Rng) -> ImuErrorModel<f64> {
+    let mut out = m.clone();
+    for axis in out.gyro.iter_mut().chain(out.accel.iter_mut()) {
+        for c in axis.iter_mut() {
+            for &q in c.kind().identified() {
+                let k = 10f64.powf(rng.gen_range(-1.0..=1.0));
+                if let Some(v) = c.get(q) {
+                    c.set(q, if q == Quantity::Q { v * k * k } else { v * k });
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Horizontal RMS [m], attitude RMS [deg], worst 3-sigma fraction of the 9 errors, over
+/// epochs at or after `from`.
+fn score(run: &NavRun, truth: &[TruthRow], from: f64) -> (f64, f64, f64) {
+    let epochs: Vec<_> = run.epochs.iter().filter(|e| e.t >= from).cloned().collect();
+    let c = hal_sim::nav::truth::compare(&epochs, truth, "truth.csv")
+        .unwrap_or_else(|e| panic!("{e:#}"))
+        .summary;
+    let att = (c.rms_att_deg.iter().map(|x| x * x).sum::<f64>() / 3.0).sqrt();
+    let worst = c.worst_outside_3sigma();
+    if std::env::var("AXES").is_ok() {
+        println!(
+            "  outside 3 sigma: pos {:?} vel {:?} att {:?}; rms att {:?} deg",
+            c.outside_3sigma_pos, c.outside_3sigma_vel, c.outside_3sigma_att, c.rms_att_deg
+        );
+    }
+    (c.rms_horizontal_m, att, worst)
+}
+
+fn main() {
+    let grade = arg("grade").unwrap_or_else(|| "mems".into());
+    let seeds: u64 = arg_or("seeds", 3);
+    let first: u64 = arg_or("first", 8001);
+    let hours: f64 = arg_or("hours", 2.0);
+    let rate: f64 = arg_or("rate", 100.0);
+    let from: f64 = arg_or("score_from", 3600.0);
+    let starts: Vec<String> = arg("starts")
+        .unwrap_or_else(|| "0.1,10,rand".into())
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let cfg = AdaptConfig {
+        first: arg_or("adapt_first", 600.0),
+        every: arg_or("every", 1200.0),
+        window: arg_or("window", 1800.0),
+        per_axis: arg_or("per_axis", 0) != 0,
+        taus: arg_or("taus", 0) != 0,
+        conservative: arg_or("conservative", 1) != 0,
+    };
+    let sim = match grade.as_str() {
+        "mems" => SimModel::mems(),
+        "tactical" => SimModel::tactical(),
+        g => panic!("grade={g}: mems or tactical"),
+    };
+    let truth_model = sim.to_core().unwrap_or_else(|e| panic!("{e:#}"));
+    println!("# {grade}, {seeds} seeds from {first}, {hours} h at {rate} Hz, scored from {from} s; {cfg:?}");
+    // Per start: ratios (horizontal, attitude), worst 3-sigma fractions.
+    let mut ratios: Vec<Vec<[f64; 2]>> = vec![vec![]; starts.len()];
+    let mut out3: Vec<Vec<f64>> = vec![vec![]; starts.len()];
+    let mut true_out3 = vec![];
+    for seed in first..first + seeds {
+        let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let profile = Profile::figure_eight_course(hours, 1.0).unwrap_or_else(|e| panic!("{e:#}"));
+        let start = Geodetic {
+            lat: 45f64.to_radians(),
+            lon: 7f64.to_radians(),
+            h: 300.0,
+        };
+        let drive = simulate_drive(
+            &profile,
+            start,
+            1.0 / rate,
+            &sim,
+            GnssConfig::default(),
+            seed,
+        )
+        .unwrap_or_else(|e| panic!("{e:#}"));
+        write_drive(dir.path(), &drive).unwrap_or_else(|e| panic!("{e:#}"));
+        let imu = read_imu_csv(&dir.path().join("imu.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+        let fixes = read_gnss_csv(&dir.path().join("gnss.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+        let truth =
+            read_truth_csv(&dir.path().join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+        let base = |model: ImuErrorModel<f64>, name: &str| NavArgs {
+            outages: Some(OutageSpec::every_20_min(
+                0.0,
+                fixes.first().map_or(0.0, |f| f.t),
+            )),
+            ..NavArgs::simulated(
+                dir.path().join("imu.csv"),
+                dir.path().join("gnss.csv"),
+                model,
+                name,
+                truth[0].rpy_deg[2],
+            )
+        };
+        let t = std::time::Instant::now();
+        let oracle = run_with::<f64>(&base(truth_model.clone(), "true"), &imu, &fixes)
+            .unwrap_or_else(|e| panic!("{e:#}"));
+        let o = score(&oracle, &truth, from);
+        true_out3.push(o.2);
+        println!(
+            "seed {seed} true: horizontal {:.3} m, attitude {:.4} deg, worst outside 3 sigma {:.2} % ({:.1} s)",
+            o.0, o.1, o.2 * 100.0, t.elapsed().as_secs_f64()
+        );
+        for (si, s) in starts.iter().enumerate() {
+            let model = match s.as_str() {
+                "rand" => {
+                    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed * 1000 + si as u64);
+                    random(&truth_model, &mut rng)
+                }
+                k => hal_sim::nav::model::scaled_sd(
+                    &truth_model,
+                    k.parse().unwrap_or_else(|e| panic!("start {k}: {e}")),
+                ),
+            };
+            let t = std::time::Instant::now();
+            let args = NavArgs {
+                adapt: Some(cfg),
+                ..base(model, s)
+            };
+            let run = run_with::<f64>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+            let r = score(&run, &truth, from);
+            let ratio = [r.0 / o.0, r.1 / o.1];
+            ratios[si].push(ratio);
+            out3[si].push(r.2);
+            let log = run.adapt.as_ref().expect("adapt log");
+            let last = log.searches.last();
+            println!(
+                "seed {seed} start {s}: horizontal {:.3}x, attitude {:.3}x, worst outside 3 sigma {:.2} %; {} searches, {} replays, final log10 factors {:?} ({:.1} s)",
+                ratio[0], ratio[1], r.2 * 100.0, log.searches.len(),
+                log.searches.iter().map(|s| s.evaluations).sum::<usize>(),
+                last.map(|l| l.log10_factors.iter().map(|x| (x * 100.0).round() / 100.0).collect::<Vec<_>>()),
+                t.elapsed().as_secs_f64()
+            );
+        }
+    }
+    println!(
+        "# true model: worst outside 3 sigma median {:.2} %, worst {:.2} %",
+        pct(&mut true_out3.clone(), 0.5) * 100.0,
+        pct(&mut true_out3, 1.0) * 100.0
+    );
+    let mut all_h = vec![];
+    let mut all_a = vec![];
+    let mut all_o = vec![];
+    for (si, s) in starts.iter().enumerate() {
+        let mut h: Vec<f64> = ratios[si].iter().map(|r| r[0]).collect();
+        let mut a: Vec<f64> = ratios[si].iter().map(|r| r[1]).collect();
+        all_h.extend(&h);
+        all_a.extend(&a);
+        all_o.extend(&out3[si]);
+        println!(
+            "# start {s}: horizontal ratio median {:.3}, p95 {:.3}, worst {:.3}; attitude ratio median {:.3}, p95 {:.3}, worst {:.3}; outside 3 sigma median {:.2} %, worst {:.2} %",
+            pct(&mut h.clone(), 0.5), pct(&mut h.clone(), 0.95), pct(&mut h, 1.0),
+            pct(&mut a.clone(), 0.5), pct(&mut a.clone(), 0.95), pct(&mut a, 1.0),
+            pct(&mut out3[si].clone(), 0.5) * 100.0, pct(&mut out3[si], 1.0) * 100.0
+        );
+    }
+    let within = ratios
+        .iter()
+        .flatten()
+        .filter(|r| r[0] <= 1.10 && r[1] <= 1.10)
+        .count();
+    println!(
+        "# all {} runs: horizontal median {:.3}, p95 {:.3}, worst {:.3}; attitude median {:.3}, p95 {:.3}, worst {:.3}; both within 1.10x: {within}; outside 3 sigma median {:.2} %, p95 {:.2} %, worst {:.2} %",
+        all_h.len(),
+        pct(&mut all_h.clone(), 0.5), pct(&mut all_h.clone(), 0.95), pct(&mut all_h, 1.0),
+        pct(&mut all_a.clone(), 0.5), pct(&mut all_a.clone(), 0.95), pct(&mut all_a, 1.0),
+        pct(&mut all_o.clone(), 0.5) * 100.0, pct(&mut all_o.clone(), 0.95) * 100.0, pct(&mut all_o, 1.0) * 100.0
+    );
+}

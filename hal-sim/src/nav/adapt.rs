@@ -1,0 +1,444 @@
+//! Online identification of the navigator's sensor noise (`hal-sim nav --adapt`): issue 13's
+//! global stage (the exact innovation likelihood of a buffered window, searched from the
+//! current model) run causally inside the navigation loop.
+//!
+//! Every [`AdaptConfig::every`] seconds from [`AdaptConfig::first`], at time `t`:
+//! 1. the window is `[t - window, t]` (from the start while the run is shorter): the loop's
+//!    state kept at the window's start ([`NavLoop`] is a value) is replayed to `t` under each
+//!    candidate model, ungated, and scored by the sum of the fused fixes' innovation
+//!    log-likelihoods (the same likelihood as `nav --identify`, on data up to `t` only);
+//! 2. the candidates are the current model with every identified quantity
+//!    ([`ComponentKind::identified`], less the exp-cosine's `beta`, which is held) scaled by a
+//!    factor, searched in the base-10 logarithm by a pattern search (steps 1, 0.5, 0.25,
+//!    0.125 decades and up to 6 passes on the first search; 0.25 and 0.125 and up to 3 passes
+//!    afterwards; a move is kept when the likelihood rises), bounded to two decades either
+//!    side of the starting model;
+//! 3. the running filter takes the best model (`Navigator::retune_imu_model`: the states
+//!    kept, the covariance of a component whose magnitude grew inflated by the ratio), which
+//!    every later window starts from. Later windows replay from the state kept at their start
+//!    under each candidate, retuned the same way; a window from the run's start replays a
+//!    fresh run under the candidate (its own prior on the sensor states).
+//!
+//! The quantities are tied across the three axes of a sensor (one value per sensor and
+//! component: the starting model's values are first replaced by their geometric mean over the
+//! axes, [`tie`]) unless [`AdaptConfig::per_axis`] is set.
+//!
+//! Nothing after `t` is read at `t`: the test `nav_adapt` checks that a log cut at `t` gives
+//! the same decisions up to `t`.
+
+use super::drive::{Discard, NavLoop};
+use super::pattern;
+use super::NavArgs;
+use crate::nav_io::{GnssFix, ImuSample};
+use anyhow::Result;
+use imu_ident::model::{ComponentKind, Quantity};
+use imu_ident::nav::{ImuErrorModel, ImuSensor};
+use imu_ident::Real;
+use serde::Serialize;
+
+/// Settings of the online identification.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AdaptConfig {
+    /// First search, seconds after the start.
+    pub first: f64,
+    /// Interval between searches [s].
+    pub every: f64,
+    /// Window length [s].
+    pub window: f64,
+    /// One factor per axis instead of per sensor.
+    pub per_axis: bool,
+    /// Identify the correlation times too (else only the intensities).
+    pub taus: bool,
+    /// Move intensities along flat directions to the upper end of their one-sigma interval
+    /// ([`FLAT_NATS`]).
+    pub conservative: bool,
+}
+
+impl Default for AdaptConfig {
+    fn default() -> Self {
+        Self {
+            first: 600.0,
+            every: 1200.0,
+            window: 1800.0,
+            per_axis: false,
+            taus: false,
+            conservative: true,
+        }
+    }
+}
+
+/// Likelihood loss [nats] that bounds the conservative move along a flat direction: half the
+/// chi-square(1) 0.68 quantile (0.99/2), the end of a one-sigma likelihood interval.
+pub const FLAT_NATS: f64 = 0.5;
+
+/// Bound on every log10 factor, relative to the starting model.
+pub const MAX_DECADES: f64 = 2.0;
+
+/// One identified coordinate: a quantity of a component on a set of axes.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Coordinate {
+    /// `gyro` or `accel`.
+    pub sensor: &'static str,
+    /// Axes it applies to (0 = x, 1 = y, 2 = z).
+    pub axes: Vec<usize>,
+    /// Index of the component on each of those axes.
+    pub component: usize,
+    /// The component's kind.
+    pub kind: &'static str,
+    /// The quantity.
+    pub quantity: &'static str,
+    #[serde(skip)]
+    q: Quantity,
+    #[serde(skip)]
+    s: ImuSensor,
+}
+
+/// The coordinates of `model` under `cfg`.
+pub fn coordinates(model: &ImuErrorModel<f64>, cfg: &AdaptConfig) -> Vec<Coordinate> {
+    let mut out = Vec::new();
+    for s in [ImuSensor::Gyro, ImuSensor::Accel] {
+        let axes = model.sensor(s);
+        // Tied only when the three axes carry the same kinds in the same order.
+        let kinds = |a: usize| axes[a].iter().map(|c| c.kind()).collect::<Vec<_>>();
+        let tied = !cfg.per_axis && kinds(0) == kinds(1) && kinds(1) == kinds(2);
+        let groups: Vec<Vec<usize>> = if tied {
+            vec![vec![0, 1, 2]]
+        } else {
+            (0..3).map(|a| vec![a]).collect()
+        };
+        for g in groups {
+            for (k, c) in axes[g[0]].iter().enumerate() {
+                let kind: ComponentKind = c.kind();
+                for &q in kind.identified() {
+                    let wanted = match q {
+                        Quantity::Beta => false,
+                        Quantity::Tau => cfg.taus,
+                        _ => true,
+                    };
+                    if wanted {
+                        out.push(Coordinate {
+                            sensor: s.name(),
+                            axes: g.clone(),
+                            component: k,
+                            kind: kind.name(),
+                            quantity: q.name(),
+                            q,
+                            s,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// `model` with every tied coordinate's quantity set, on each of its axes, to the geometric
+/// mean over those axes: tying means one value per sensor, so a start that differs between
+/// the axes must not keep its differences under a common factor.
+pub fn tie(model: &ImuErrorModel<f64>, coords: &[Coordinate]) -> ImuErrorModel<f64> {
+    let mut m = model.clone();
+    for c in coords.iter().filter(|c| c.axes.len() > 1) {
+        let axes = match c.s {
+            ImuSensor::Gyro => &mut m.gyro,
+            ImuSensor::Accel => &mut m.accel,
+        };
+        let logs: Vec<f64> = c
+            .axes
+            .iter()
+            .filter_map(|&a| axes[a].get(c.component).and_then(|comp| comp.get(c.q)))
+            .map(f64::ln)
+            .collect();
+        let mean = (logs.iter().sum::<f64>() / logs.len() as f64).exp();
+        for &a in &c.axes {
+            if let Some(comp) = axes[a].get_mut(c.component) {
+                comp.set(c.q, mean);
+            }
+        }
+    }
+    m
+}
+
+/// `base` with coordinate `i`'s quantity multiplied by `10^x[i]`.
+pub fn apply(base: &ImuErrorModel<f64>, coords: &[Coordinate], x: &[f64]) -> ImuErrorModel<f64> {
+    let mut m = base.clone();
+    for (c, &lx) in coords.iter().zip(x) {
+        let axes = match c.s {
+            ImuSensor::Gyro => &mut m.gyro,
+            ImuSensor::Accel => &mut m.accel,
+        };
+        for &a in &c.axes {
+            if let Some(comp) = axes[a].get_mut(c.component) {
+                if let Some(v) = comp.get(c.q) {
+                    comp.set(c.q, v * 10f64.powf(lx));
+                }
+            }
+        }
+    }
+    m
+}
+
+/// One search.
+#[derive(Debug, Clone, Serialize)]
+pub struct Search {
+    /// Time of the decision [s] (the log's time scale).
+    pub t: f64,
+    /// Start of its window [s] (the log's time scale).
+    pub window_start: f64,
+    /// Fixes in the window.
+    pub fixes: usize,
+    /// Window log-likelihood of the model in use before the search.
+    pub loglik_before: f64,
+    /// Window log-likelihood of the model taken.
+    pub loglik: f64,
+    /// The highest window log-likelihood the search found (the model taken is below it by at
+    /// most [`FLAT_NATS`] per coordinate moved along a flat direction).
+    pub loglik_max: f64,
+    /// Window replays made.
+    pub evaluations: usize,
+    /// log10 factors on the starting model after the search (coordinate order).
+    pub log10_factors: Vec<f64>,
+}
+
+/// The online identification's record of a run.
+#[derive(Debug, Clone, Serialize)]
+pub struct AdaptLog {
+    /// The coordinates.
+    pub coordinates: Vec<Coordinate>,
+    /// Every search, in time order.
+    pub searches: Vec<Search>,
+    /// The model in use at the end.
+    #[serde(skip)]
+    pub model: ImuErrorModel<f64>,
+    /// The starting model, tied ([`tie`]): the factors' reference.
+    #[serde(skip)]
+    pub base: ImuErrorModel<f64>,
+}
+
+/// The online identification's state inside a run.
+pub struct Adapter<T: Real> {
+    cfg: AdaptConfig,
+    args: NavArgs,
+    base: ImuErrorModel<f64>,
+    coords: Vec<Coordinate>,
+    x: Vec<f64>,
+    /// Loop states kept at the decision times (and the start), oldest first.
+    checkpoints: std::collections::VecDeque<NavLoop<T>>,
+    next: f64,
+    t0: f64,
+    log: Vec<Search>,
+}
+
+impl<T: Real> Adapter<T> {
+    /// The identification of a run whose loop `lp` starts at `t0`, from `args.model`.
+    pub fn new(args: &NavArgs, cfg: AdaptConfig, lp: &NavLoop<T>, t0: f64) -> Self {
+        let coords = coordinates(&args.model, &cfg);
+        Self {
+            cfg,
+            args: args.clone(),
+            base: tie(&args.model, &coords),
+            x: vec![0.0; coords.len()],
+            coords,
+            checkpoints: [lp.clone()].into(),
+            next: t0 + cfg.first,
+            t0,
+            log: Vec::new(),
+        }
+    }
+
+    /// Time of the next search [s].
+    pub fn next_time(&self) -> f64 {
+        self.next
+    }
+
+    /// The search at the loop's time (`lp` has mechanised every sample up to
+    /// [`next_time`](Self::next_time)); updates the running loop's model.
+    pub fn search(
+        &mut self,
+        lp: &mut NavLoop<T>,
+        imu: &[ImuSample],
+        fixes: &[GnssFix],
+        imu_name: &str,
+    ) -> Result<()> {
+        let t = self.next;
+        self.next += self.cfg.every;
+        // The window's start: the oldest checkpoint not before t - window.
+        while self.checkpoints.len() > 1
+            && self.checkpoints.front().map_or(f64::NAN, |c| c.time(imu))
+                < t - self.cfg.window - 1e-6
+        {
+            self.checkpoints.pop_front();
+        }
+        let Some(start) = self.checkpoints.front().cloned() else {
+            return Ok(());
+        };
+        let window_start = start.time(imu);
+        // A window from the run's start replays a fresh run under the candidate (its own
+        // prior on the sensor states); a later one starts from the state kept there, whose
+        // covariance the models in use so far built.
+        let from_start = window_start <= self.t0;
+        let mut evaluations = 0usize;
+        let mut fixes_in = 0usize;
+        let args = &self.args;
+        let mut eval = |x: &[f64]| -> Result<f64> {
+            evaluations += 1;
+            let model = apply(&self.base, &self.coords, x);
+            let mut w = if from_start {
+                let mut a = args.clone();
+                a.model = model;
+                match NavLoop::<T>::start(&a, imu, fixes) {
+                    Ok((w, _)) => w,
+                    Err(_) => return Ok(f64::NEG_INFINITY),
+                }
+            } else {
+                let mut w = start.clone();
+                if w.nav.retune_imu_model(model.cast()).is_err() {
+                    return Ok(f64::NEG_INFINITY);
+                }
+                w
+            };
+            w.nav.set_gate(None);
+            w.loglik = 0.0;
+            w.fused = 0;
+            w.advance(imu, fixes, t, &mut Discard, imu_name, &|| {})?;
+            fixes_in = w.fused;
+            Ok(if w.loglik.is_finite() {
+                w.loglik
+            } else {
+                f64::NEG_INFINITY
+            })
+        };
+        let before = eval(&self.x)?;
+        let mut best = before;
+        let mut x = self.x.clone();
+        // The first search is global over the bounds (steps from a decade); later ones track
+        // from the current point (steps from a quarter decade, fewer passes).
+        let (steps, max_passes): (&[f64], usize) = if self.log.is_empty() {
+            (&[1.0, 0.5, 0.25, 0.125], 6)
+        } else {
+            (&[0.25, 0.125], 3)
+        };
+        pattern::maximise(
+            &mut x,
+            &mut best,
+            steps,
+            max_passes,
+            &|_| Some((-MAX_DECADES, MAX_DECADES)),
+            &mut eval,
+        )?;
+        // Flat directions: an intensity the window cannot pin down is moved up to the upper
+        // end of its one-sigma likelihood interval (the largest value, in steps of 0.125
+        // decade, that costs less than FLAT_NATS against the best point), not left wherever
+        // the search stopped. An intensity too small makes the filter overconfident in the
+        // states it drives (a tactical IMU's accelerometer bias over a 30-min window: tilt
+        // outside 3 sigma in 5 % of epochs); one too large only costs accuracy. Correlation
+        // times are left at the maximum.
+        let loglik_max = best;
+        if self.cfg.conservative {
+            let mut ll_x = best;
+            for i in 0..x.len() {
+                if self.coords[i].q == Quantity::Tau {
+                    continue;
+                }
+                loop {
+                    let mut y = x.clone();
+                    y[i] = (y[i] + 0.125).min(MAX_DECADES);
+                    if y[i] == x[i] {
+                        break;
+                    }
+                    let ll = eval(&y)?;
+                    if ll >= best - FLAT_NATS {
+                        x = y;
+                        ll_x = ll;
+                    } else {
+                        break;
+                    }
+                }
+            }
+            best = ll_x;
+        }
+        self.x = x;
+        let model = apply(&self.base, &self.coords, &self.x);
+        lp.nav
+            .retune_imu_model(model.cast())
+            .map_err(|e| anyhow::anyhow!("nav --adapt: model at t = {t}: {e:?}"))?;
+        self.checkpoints.push_back(lp.clone());
+        self.log.push(Search {
+            t,
+            window_start,
+            fixes: fixes_in,
+            loglik_before: before,
+            loglik: best,
+            loglik_max,
+            evaluations,
+            log10_factors: self.x.clone(),
+        });
+        Ok(())
+    }
+
+    /// The record of the run.
+    pub fn finish(self) -> AdaptLog {
+        AdaptLog {
+            model: apply(&self.base, &self.coords, &self.x),
+            base: self.base,
+            coordinates: self.coords,
+            searches: self.log,
+        }
+    }
+}
+
+impl AdaptLog {
+    /// `adapt.csv`: one row per search (time and window start [s], fixes, window
+    /// log-likelihoods of the model before, of the best found and of the model taken, replays), then the value of every coordinate's
+    /// quantity after the search, in SI units (column `sensor_axes_component_quantity`, axes
+    /// as `xyz`, `x`, ...).
+    pub fn write_csv(&self, path: &std::path::Path) -> Result<()> {
+        let mut w =
+            csv::Writer::from_path(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        let mut head: Vec<String> = [
+            "t",
+            "window_start",
+            "fixes",
+            "loglik_before",
+            "loglik_max",
+            "loglik",
+            "evaluations",
+        ]
+        .map(String::from)
+        .to_vec();
+        for c in &self.coordinates {
+            let axes: String = c.axes.iter().map(|&a| ['x', 'y', 'z'][a]).collect();
+            head.push(format!(
+                "{}_{}_{}_{}",
+                c.sensor, axes, c.component, c.quantity
+            ));
+        }
+        w.write_record(&head)?;
+        for s in &self.searches {
+            let mut row = vec![
+                s.t.to_string(),
+                s.window_start.to_string(),
+                s.fixes.to_string(),
+                s.loglik_before.to_string(),
+                s.loglik_max.to_string(),
+                s.loglik.to_string(),
+                s.evaluations.to_string(),
+            ];
+            let m = apply(&self.base, &self.coordinates, &s.log10_factors);
+            for c in &self.coordinates {
+                row.push(value(&m, c).to_string());
+            }
+            w.write_record(&row)?;
+        }
+        w.flush()?;
+        Ok(())
+    }
+}
+
+/// The value of coordinate `c`'s quantity in `m` (on its first axis).
+pub fn value(m: &ImuErrorModel<f64>, c: &Coordinate) -> f64 {
+    m.sensor(c.s)[c.axes[0]]
+        .get(c.component)
+        .and_then(|comp| comp.get(c.q))
+        .unwrap_or(f64::NAN)
+}

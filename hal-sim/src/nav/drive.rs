@@ -1,0 +1,195 @@
+//! The replay loop of `hal-sim nav` ([`NavLoop`]): IMU samples through the core's navigator,
+//! the non-holonomic constraint once per filter step, and the GNSS fixes at their times with
+//! the planner's decisions (outages, heading from the course, one fix per step). The whole
+//! run ([`super::run_observed`]) and the online identification's window replays
+//! ([`super::adapt`]) both advance this loop, so the two apply the same rules; a loop is a
+//! value, so a copy taken at a window's start replays that window under another noise model.
+
+use super::records::{self, EpochRecord};
+use super::setup::{self, FixPlanner};
+use super::{to_core_fix, NavArgs};
+use crate::nav_io::{GnssFix, ImuSample};
+use anyhow::{bail, Result};
+use imu_ident::filter::AxisStatus;
+use imu_ident::nav::run::Nhc;
+use imu_ident::nav::{Navigator, NAV_N};
+use imu_ident::strapdown::Increment;
+use imu_ident::Real;
+use nalgebra::Vector3;
+
+/// The state of a replay between two IMU samples.
+#[derive(Debug, Clone)]
+pub struct NavLoop<T: Real> {
+    /// The navigator.
+    pub nav: Navigator<T, NAV_N>,
+    /// The per-fix decisions.
+    pub planner: FixPlanner,
+    nhc_core: Option<Nhc<T>>,
+    /// The constraint's statistics (with `--nhc`).
+    pub nhc: Option<records::NhcSummary>,
+    /// Index of the last IMU sample mechanised (the next interval is `imu[i]..imu[i + 1]`).
+    pub i: usize,
+    /// Index of the next fix.
+    pub fix_k: usize,
+    heading_sd: f64,
+    gnss_sd_factor: [f64; 2],
+    use_velocity: bool,
+    /// Sum of the fused fixes' innovation log-likelihoods so far.
+    pub loglik: f64,
+    /// Fixes fused so far.
+    pub fused: usize,
+}
+
+/// What one advance produced for each fix it met.
+pub trait EpochSink<T: Real> {
+    /// A fix at `f.t`, met after the IMU sample at `t_imu`; `rec` has the fusion filled in.
+    fn epoch(&mut self, rec: EpochRecord, nav: &Navigator<T, NAV_N>, t_imu: f64);
+}
+
+/// Keeps nothing (window replays).
+pub struct Discard;
+
+impl<T: Real> EpochSink<T> for Discard {
+    fn epoch(&mut self, _: EpochRecord, _: &Navigator<T, NAV_N>, _: f64) {}
+}
+
+impl<T: Real> EpochSink<T> for Vec<EpochRecord> {
+    fn epoch(&mut self, mut rec: EpochRecord, nav: &Navigator<T, NAV_N>, t_imu: f64) {
+        rec.fill_solution(nav, rec.t, t_imu);
+        self.push(rec);
+    }
+}
+
+impl<T: Real> NavLoop<T> {
+    /// The loop at the run's start (levelling, first position: [`setup::start`]) on the
+    /// shifted samples `imu`. Also returns the outage schedule.
+    pub fn start(
+        args: &NavArgs,
+        imu: &[ImuSample],
+        fixes: &[GnssFix],
+    ) -> Result<(Self, Vec<crate::nav_io::outages::Outage>)> {
+        let setup::Start { setup, k, outages } = setup::start(args, imu, fixes)?;
+        let nav = setup.navigator::<T, NAV_N>().map_err(|e| {
+            anyhow::anyhow!("nav: {e:?} (the model needs more than {NAV_N} states?)")
+        })?;
+        // The constraint from the setup, applied by the core's `Nhc::after_step`: the same code
+        // and the same values as the firmware's replay loop (`NavReplay::imu`).
+        let nhc_core = setup
+            .nhc::<T>()
+            .map_err(|e| anyhow::anyhow!("nav: constraint (--nhc, --nhc-lever): {e:?}"))?;
+        let nhc = args.nhc.map(|sd| records::NhcSummary {
+            sd,
+            lever: args.nhc_lever,
+            ..Default::default()
+        });
+        let lp = Self {
+            nav,
+            planner: FixPlanner::new(args, outages.clone()),
+            nhc_core,
+            nhc,
+            i: k,
+            fix_k: fixes.partition_point(|f| f.t < setup.t0),
+            heading_sd: setup.heading_sd,
+            gnss_sd_factor: args.gnss_sd_factor,
+            use_velocity: args.use_velocity,
+            loglik: 0.0,
+            fused: 0,
+        };
+        Ok((lp, outages))
+    }
+
+    /// The time of the last sample mechanised [s].
+    pub fn time(&self, imu: &[ImuSample]) -> f64 {
+        imu.get(self.i).map_or(f64::NAN, |s| s.t)
+    }
+
+    /// Mechanises the samples of `imu` up to and including time `t_end` (all of them with
+    /// `f64::INFINITY`), fusing the fixes met on the way; `progress` is called once per sample.
+    /// `imu_name` names the file in errors.
+    pub fn advance(
+        &mut self,
+        imu: &[ImuSample],
+        fixes: &[GnssFix],
+        t_end: f64,
+        sink: &mut impl EpochSink<T>,
+        imu_name: &str,
+        progress: &dyn Fn(),
+    ) -> Result<()> {
+        while self.i + 1 < imu.len() && imu[self.i + 1].t <= t_end {
+            progress();
+            let (a, b) = (&imu[self.i], &imu[self.i + 1]);
+            self.i += 1;
+            let dt = b.t - a.t;
+            if dt.is_nan() || dt <= 0.0 {
+                bail!("{imu_name}: IMU time does not increase at t = {}", b.t);
+            }
+            let inc = Increment::from_rates(
+                &Vector3::from(b.gyro).map(T::lit),
+                &Vector3::from(b.accel).map(T::lit),
+                T::lit(dt),
+            );
+            let stepped = self
+                .nav
+                .imu(b.t, &inc)
+                .map_err(|e| anyhow::anyhow!("nav: IMU sample at t = {}: {e:?}", b.t))?;
+            // The non-holonomic constraint once per filter step, with or without GNSS, once
+            // the heading is known and above NHC_MIN_SPEED (the core decides:
+            // `Nhc::after_step`).
+            if let (true, Some(c)) = (stepped, self.nhc_core.as_ref()) {
+                let fused = c
+                    .after_step(&mut self.nav, self.planner.heading_known())
+                    .map_err(|e| anyhow::anyhow!("nav: constraint at t = {}: {e:?}", b.t))?;
+                if let (Some(f), Some(sum)) = (fused, self.nhc.as_mut()) {
+                    let nu = f.innovation.map(|v| v.as_f64());
+                    let s = f.variance.map(|v| v.as_f64());
+                    sum.add(nu, s, f.gated, self.planner.withheld_at(b.t));
+                }
+            }
+            while self.fix_k < fixes.len() && fixes[self.fix_k].t <= b.t {
+                let f = fixes[self.fix_k];
+                self.fix_k += 1;
+                let rec = self.fix(&f)?;
+                sink.epoch(rec, &self.nav, b.t);
+            }
+        }
+        Ok(())
+    }
+
+    /// One fix: the planner's decisions, the heading, the fusion.
+    fn fix(&mut self, f: &GnssFix) -> Result<EpochRecord> {
+        let plan = self.planner.plan(f)?;
+        if let (Some(yaw), Some(v)) = (plan.heading, f.vel_ned) {
+            self.nav
+                .set_heading(
+                    T::lit(yaw),
+                    T::lit(self.heading_sd),
+                    Some(Vector3::from(v).map(T::lit)),
+                )
+                .map_err(|e| anyhow::anyhow!("nav: {e:?}"))?;
+        }
+        let mut rec = EpochRecord::blank(f.t, plan.withheld);
+        if plan.fuse {
+            let mut core = to_core_fix::<T>(f, self.use_velocity);
+            core.sd_pos *= T::lit(self.gnss_sd_factor[0]);
+            core.sd_vel *= T::lit(self.gnss_sd_factor[1]);
+            let fused = self
+                .nav
+                .gnss(&core)
+                .map_err(|e| anyhow::anyhow!("nav: GNSS fix at t = {}: {e:?}", f.t))?;
+            rec.fused = true;
+            rec.gated = fused.gated;
+            for i in 0..6 {
+                rec.innovation[i] = fused.innovation[i].as_f64();
+                rec.nis_axis[i] = fused.innovation[i].as_f64().powi(2) / fused.variance[i].as_f64();
+                rec.used[i] = fused.axes[i] == AxisStatus::Used;
+            }
+            rec.nis = fused.nis.as_f64();
+            rec.loglik = fused.loglik.as_f64();
+            rec.dof = fused.dof;
+            self.loglik += rec.loglik;
+            self.fused += 1;
+        }
+        rec.heading_known = self.planner.heading_known();
+        Ok(rec)
+    }
+}

@@ -1,0 +1,133 @@
+//! Online identification in the strapdown navigator (`hal-sim nav --adapt`, issue 16): one
+//! 25-min figure-eight drive (MEMS IMU `ImuErrorModel::mems`, 100 Hz, GNSS 1 Hz), the filter
+//! started with every noise standard deviation 10x too large; one search at 20 min over the
+//! window from the start.
+//!
+//! What is asserted, and why the bounds:
+//! - The search reaches the likelihood's maximum region: the highest window log-likelihood it
+//!   found is at least the true model's on the same data, less 1 nat (the pattern search stops
+//!   at a step of 0.125 decade; near the maximum a step that small changes the likelihood by
+//!   well under a nat on these coordinates).
+//! - The truth is inside the likelihood-ratio confidence region of that maximum:
+//!   2 (L_max - L_true) <= chi-square(4 dof, 0.999) = 18.47 (Wilks; four coordinates: the
+//!   white density and the Gauss-Markov sigma of each sensor type, tied over the axes; the
+//!   correlation times are held, the default).
+//! - The model taken is within its conservative allowance of the maximum: at most
+//!   `FLAT_NATS` per coordinate below it.
+//! - The wrong start is rejected: 2 (L_taken - L_start) > 18.47.
+//! - Causality: the same run on the log cut 100 s after the search gives the same search,
+//!   bit for bit (the search reads nothing after its time).
+
+use hal_sim::nav::adapt::{AdaptConfig, FLAT_NATS};
+use hal_sim::nav::model::scaled_sd;
+use hal_sim::nav::{run_with, NavArgs};
+use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, read_truth_csv, GnssFix, ImuSample};
+use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
+use hal_sim::trajectory::gnss::GnssConfig;
+use hal_sim::trajectory::profile::Profile;
+use hal_sim::trajectory::write::{simulate_drive, write_drive};
+use imu_ident::strapdown::Geodetic;
+
+/// chi-square quantile, 4 degrees of freedom, 0.999.
+const CHI2_4_999: f64 = 18.467;
+
+#[test]
+fn online_search_finds_the_likelihood_maximum_from_a_wrong_start_and_reads_no_future() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let sim = SimModel::mems();
+    let profile =
+        Profile::figure_eight_course(25.0 / 60.0, 1.0).unwrap_or_else(|e| panic!("{e:#}"));
+    let start = Geodetic {
+        lat: 45f64.to_radians(),
+        lon: 7f64.to_radians(),
+        h: 300.0,
+    };
+    let drive = simulate_drive(&profile, start, 0.01, &sim, GnssConfig::default(), 11)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    write_drive(dir.path(), &drive).unwrap_or_else(|e| panic!("{e:#}"));
+    let imu = read_imu_csv(&dir.path().join("imu.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+    let fixes = read_gnss_csv(&dir.path().join("gnss.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+    let truth = read_truth_csv(&dir.path().join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+    let truth_model = sim.to_core().unwrap_or_else(|e| panic!("{e:#}"));
+    let args = |model, adapt| NavArgs {
+        adapt,
+        ..NavArgs::simulated(
+            dir.path().join("imu.csv"),
+            dir.path().join("gnss.csv"),
+            model,
+            "test",
+            truth[0].rpy_deg[2],
+        )
+    };
+    let cfg = AdaptConfig {
+        first: 1200.0,
+        every: 1e6,
+        window: 1e6,
+        ..AdaptConfig::default()
+    };
+    let adapted = args(scaled_sd(&truth_model, 10.0), Some(cfg));
+    let run = run_with::<f64>(&adapted, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let log = run.adapt.as_ref().expect("an adapt log");
+    assert_eq!(log.searches.len(), 1, "{:?}", log.searches);
+    let s = &log.searches[0];
+    // The run starts at the end of the levelling window; the first window starts there.
+    let t_run = run.epochs[0].t;
+    assert!(
+        s.window_start <= t_run && s.window_start > t_run - 1.0,
+        "{} vs {t_run}",
+        s.window_start
+    );
+
+    // The likelihood of a fixed model on the search's window: a run on the log cut at the
+    // search's time, ungated (as the search's replays are).
+    let t_search = s.t;
+    let cut = |t: f64| -> (Vec<ImuSample>, Vec<GnssFix>) {
+        (
+            imu.iter().filter(|x| x.t <= t).copied().collect(),
+            fixes.iter().filter(|f| f.t <= t).copied().collect(),
+        )
+    };
+    let (imu_w, fixes_w) = cut(t_search);
+    let window_loglik = |model| {
+        let mut a = args(model, None);
+        a.gate = None;
+        run_with::<f64>(&a, &imu_w, &fixes_w)
+            .unwrap_or_else(|e| panic!("{e:#}"))
+            .summary
+            .loglik
+    };
+    let l_true = window_loglik(truth_model.clone());
+    let l_start = window_loglik(scaled_sd(&truth_model, 10.0));
+    println!(
+        "search at {} s over {} fixes, {} replays: L_start {:.2} (search's own {:.2}), L_max {:.2}, L_taken {:.2}, L_true {:.2}; log10 factors {:?}",
+        s.t, s.fixes, s.evaluations, l_start, s.loglik_before, s.loglik_max, s.loglik, l_true, s.log10_factors
+    );
+    assert!(
+        (s.loglik_before - l_start).abs() < 1e-6,
+        "the search's window is the run's"
+    );
+    assert_eq!(log.coordinates.len(), 4);
+    assert!(
+        s.loglik_max >= l_true - 1.0,
+        "L_max {} < L_true {} - 1",
+        s.loglik_max,
+        l_true
+    );
+    assert!(
+        2.0 * (s.loglik_max - l_true) <= CHI2_4_999,
+        "truth outside the LR region"
+    );
+    assert!(s.loglik >= s.loglik_max - FLAT_NATS * 4.0 - 1e-9);
+    assert!(
+        2.0 * (s.loglik - l_start) > CHI2_4_999,
+        "the 10x start was not rejected"
+    );
+
+    // Causality: the log cut 100 s after the search gives the same search.
+    let (imu_c, fixes_c) = cut(t_search + 100.0);
+    let run_c = run_with::<f64>(&adapted, &imu_c, &fixes_c).unwrap_or_else(|e| panic!("{e:#}"));
+    let c = &run_c.adapt.as_ref().expect("an adapt log").searches[0];
+    assert_eq!(c.loglik.to_bits(), s.loglik.to_bits());
+    assert_eq!(c.log10_factors, s.log10_factors);
+    assert_eq!(c.evaluations, s.evaluations);
+}
