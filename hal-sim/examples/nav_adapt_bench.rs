@@ -7,7 +7,7 @@
 //!       grade=mems seeds=8 first=8001 starts=0.1,10,rand
 //!
 //! Other keys: `grade=tactical`, `hours=` (2), `rate=` (IMU Hz, 100), `score_from=` (3600 s),
-//! `adapt_first=`, `every=`, `window=` (600, 1200, 1800 s), `per_axis=1`, `taus=1`,
+//! `adapt_first=`, `every=`, `window=` (600, 1200, 7200 s), `per_axis=1`, `taus=1`,
 //! `conservative=0`; environment `AXES=1` prints every run's 9 per-axis 3-sigma fractions.
 //!
 //! Per seed: a figure-eight drive (`Profile::figure_eight_course`, 100 Hz, GNSS 1 Hz with 60-s
@@ -87,7 +87,7 @@ fn main() {
     let cfg = AdaptConfig {
         first: arg_or("adapt_first", 600.0),
         every: arg_or("every", 1200.0),
-        window: arg_or("window", 1800.0),
+        window: arg_or("window", 7200.0),
         per_axis: arg_or("per_axis", 0) != 0,
         taus: arg_or("taus", 0) != 0,
         conservative: arg_or("conservative", 1) != 0,

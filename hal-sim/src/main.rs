@@ -134,8 +134,8 @@ enum Command {
         /// First online search and interval between searches FIRST,EVERY [s].
         #[arg(long, value_delimiter = ',', default_values_t = [600.0, 1200.0])]
         adapt_every: Vec<f64>,
-        /// Window of the online searches [s].
-        #[arg(long, default_value_t = 1800.0)]
+        /// Window of the online searches [s] (from the start while the run is shorter).
+        #[arg(long, default_value_t = 7200.0)]
         adapt_window: f64,
         /// One factor per axis instead of one per sensor and component.
         #[arg(long)]

@@ -123,6 +123,26 @@ fn online_search_finds_the_likelihood_maximum_from_a_wrong_start_and_reads_no_fu
         "the 10x start was not rejected"
     );
 
+    // The outputs: adapt.csv (one row per search, the coordinates' values), adapt.json, the
+    // model TOML (read back as the final model) and the report's section.
+    let out = dir.path().join("out");
+    hal_sim::nav::records::write_outputs(&out, &run, None, None)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    let csv = std::fs::read_to_string(out.join("adapt.csv")).unwrap_or_else(|e| panic!("{e}"));
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 2, "{csv}");
+    assert!(
+        lines[0]
+            .ends_with("gyro_xyz_0_density,gyro_xyz_1_sigma,accel_xyz_0_density,accel_xyz_1_sigma"),
+        "{}",
+        lines[0]
+    );
+    let back = hal_sim::nav::model::load(&out.join("adapt-model.toml").display().to_string())
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    assert_eq!(back, log.model);
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(html.contains("Online identification"));
+
     // Causality: the log cut 100 s after the search gives the same search.
     let (imu_c, fixes_c) = cut(t_search + 100.0);
     let run_c = run_with::<f64>(&adapted, &imu_c, &fixes_c).unwrap_or_else(|e| panic!("{e:#}"));

@@ -59,7 +59,7 @@ impl Default for AdaptConfig {
         Self {
             first: 600.0,
             every: 1200.0,
-            window: 1800.0,
+            window: 7200.0,
             per_axis: false,
             taus: false,
             conservative: true,
@@ -441,4 +441,55 @@ pub fn value(m: &ImuErrorModel<f64>, c: &Coordinate) -> f64 {
         .get(c.component)
         .and_then(|comp| comp.get(c.q))
         .unwrap_or(f64::NAN)
+}
+
+impl AdaptLog {
+    /// The report's section: the values over time (log10 of each coordinate's factor on the
+    /// starting model, tied) and one table row per search. Times from `t0` [s].
+    pub fn html_section(&self, t0: f64) -> Result<String> {
+        let lines: Vec<super::plot::Line> = self
+            .coordinates
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                let axes: String = c.axes.iter().map(|&a| ['x', 'y', 'z'][a]).collect();
+                let mut pts = vec![(0.0, 0.0)];
+                pts.extend(self.searches.iter().map(|s| {
+                    (
+                        s.t - t0,
+                        s.log10_factors.get(i).copied().unwrap_or(f64::NAN),
+                    )
+                }));
+                (
+                    format!("{} {axes} {} {}", c.sensor, c.kind, c.quantity),
+                    pts,
+                )
+            })
+            .collect();
+        let mut h = String::from(
+            "<p>Online identification (<code>adapt.json</code>, <code>adapt.csv</code>, <code>adapt-model.toml</code>): each search maximises the innovation log-likelihood of its window, using only the data up to its time; the running filter takes its answer.</p>",
+        );
+        h += &super::plot::chart(
+            "Identified factors on the starting model",
+            "time from t0 [s]",
+            "log10 factor",
+            &lines,
+            &[],
+            true,
+        )?;
+        h += "<table><tr><th>t [s]</th><th>window from [s]</th><th>fixes</th><th>log-likelihood before</th><th>best</th><th>taken</th><th>replays</th></tr>";
+        for s in &self.searches {
+            h += &format!(
+                "<tr><td>{:.0}</td><td>{:.0}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                s.t - t0,
+                s.window_start - t0,
+                s.fixes,
+                crate::report::sig4(s.loglik_before, "nats"),
+                crate::report::sig4(s.loglik_max, "nats"),
+                crate::report::sig4(s.loglik, "nats"),
+                s.evaluations
+            );
+        }
+        Ok(h + "</table>")
+    }
 }

@@ -8,7 +8,8 @@
 //! - with `--truth`, the velocity and roll/pitch/yaw errors against +-3 sigma;
 //! - the velocity and attitude sigmas;
 //! - the estimated gyro and accelerometer errors per axis with +-3 sigma (and the truth);
-//! - the outage table (`outages.json`) and the identified factors (`--identify`).
+//! - the outage table (`outages.json`), the identified factors (`--identify`) and the online
+//!   identification's factors over time (`--adapt`).
 
 use super::identify::{Identified, FACTORS};
 use super::plot::{break_gaps, chart};
@@ -562,6 +563,10 @@ pub fn html(
     if let Some(id) = id {
         h += "<h2>Identified noise model</h2>";
         h += &identified_table(id);
+    }
+    if let Some(a) = &run.adapt {
+        h += "<h2>Online identification</h2>";
+        h += &a.html_section(t0)?;
     }
     match cmp {
         Some(c) => {
