@@ -15,7 +15,8 @@
 //! `nav --adapt` run per start. A start `k` scales every standard deviation (white density,
 //! Gauss-Markov sigma; random-walk q by k^2) by `k`; `rand` draws a factor log-uniformly in
 //! [0.1, 10] independently for every standard deviation and correlation time on every axis
-//! (seeded by the seed and the start's index). Scored over t >= `score_from` [s] (3600):
+//! (seeded by the seed and the start's place in the list; `randK` is the draw of place K, to
+//! pair runs with another list). Scored over t >= `score_from` [s] (3600):
 //! horizontal position RMS, attitude RMS (root of the mean of the three angles' squares),
 //! each over the true-model filter's, and the worst of the 9 navigation errors' 3-sigma
 //! fractions. Prints one line per run and the medians, 95th percentiles and worst cases.
@@ -148,15 +149,17 @@ fn main() {
             o.0, o.1, o.2 * 100.0, t.elapsed().as_secs_f64()
         );
         for (si, s) in starts.iter().enumerate() {
-            let model = match s.as_str() {
-                "rand" => {
-                    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed * 1000 + si as u64);
+            let model = match s.strip_prefix("rand") {
+                Some(draw) => {
+                    // `randK` is draw K; a plain `rand` is the draw of its place in the list.
+                    let k: u64 = draw.parse().unwrap_or(si as u64);
+                    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed * 1000 + k);
                     random(&truth_model, &mut rng)
                 }
-                k => hal_sim::nav::model::scaled_sd(
-                    &truth_model,
-                    k.parse().unwrap_or_else(|e| panic!("start {k}: {e}")),
-                ),
+                None => {
+                    let k = s.parse().unwrap_or_else(|e| panic!("start {s}: {e}"));
+                    hal_sim::nav::model::scaled_sd(&truth_model, k)
+                }
             };
             let t = std::time::Instant::now();
             let args = NavArgs {
