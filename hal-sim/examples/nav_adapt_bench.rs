@@ -28,11 +28,11 @@ use bench_args::{arg, arg_or, pct};
 use hal_sim::nav::adapt::AdaptConfig;
 use hal_sim::nav::{run_with, NavArgs, NavRun};
 use hal_sim::nav_io::outages::OutageSpec;
-use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, read_truth_csv, TruthRow};
+use hal_sim::nav_io::TruthRow;
 use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
 use hal_sim::trajectory::gnss::GnssConfig;
 use hal_sim::trajectory::profile::Profile;
-use hal_sim::trajectory::write::{simulate_drive, write_drive};
+use hal_sim::trajectory::write::{simulate_drive, write_and_read_drive};
 use imu_ident::model::Quantity;
 use imu_ident::nav::ImuErrorModel;
 use imu_ident::strapdown::Geodetic;
@@ -121,11 +121,8 @@ fn main() {
             seed,
         )
         .unwrap_or_else(|e| panic!("{e:#}"));
-        write_drive(dir.path(), &drive).unwrap_or_else(|e| panic!("{e:#}"));
-        let imu = read_imu_csv(&dir.path().join("imu.csv")).unwrap_or_else(|e| panic!("{e:#}"));
-        let fixes = read_gnss_csv(&dir.path().join("gnss.csv")).unwrap_or_else(|e| panic!("{e:#}"));
-        let truth =
-            read_truth_csv(&dir.path().join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+        let (imu, fixes, truth) =
+            write_and_read_drive(dir.path(), &drive).unwrap_or_else(|e| panic!("{e:#}"));
         let base = |model: ImuErrorModel<f64>, name: &str| NavArgs {
             outages: Some(OutageSpec::every_20_min(
                 0.0,

@@ -21,11 +21,11 @@
 use hal_sim::nav::adapt::{AdaptConfig, FLAT_NATS};
 use hal_sim::nav::model::scaled_sd;
 use hal_sim::nav::{run_with, NavArgs};
-use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, read_truth_csv, GnssFix, ImuSample};
+use hal_sim::nav_io::{GnssFix, ImuSample};
 use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
 use hal_sim::trajectory::gnss::GnssConfig;
 use hal_sim::trajectory::profile::Profile;
-use hal_sim::trajectory::write::{simulate_drive, write_drive};
+use hal_sim::trajectory::write::{simulate_drive, write_and_read_drive};
 use imu_ident::strapdown::Geodetic;
 
 /// chi-square quantile, 4 degrees of freedom, 0.999.
@@ -44,10 +44,8 @@ fn online_search_finds_the_likelihood_maximum_from_a_wrong_start_and_reads_no_fu
     };
     let drive = simulate_drive(&profile, start, 0.01, &sim, GnssConfig::default(), 11)
         .unwrap_or_else(|e| panic!("{e:#}"));
-    write_drive(dir.path(), &drive).unwrap_or_else(|e| panic!("{e:#}"));
-    let imu = read_imu_csv(&dir.path().join("imu.csv")).unwrap_or_else(|e| panic!("{e:#}"));
-    let fixes = read_gnss_csv(&dir.path().join("gnss.csv")).unwrap_or_else(|e| panic!("{e:#}"));
-    let truth = read_truth_csv(&dir.path().join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+    let (imu, fixes, truth) =
+        write_and_read_drive(dir.path(), &drive).unwrap_or_else(|e| panic!("{e:#}"));
     let truth_model = sim.to_core().unwrap_or_else(|e| panic!("{e:#}"));
     let args = |model, adapt| NavArgs {
         adapt,

@@ -8,11 +8,10 @@
 
 use hal_sim::nav::{run_with, NavArgs};
 use hal_sim::nav_io::outages::OutageSpec;
-use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, read_truth_csv};
 use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
 use hal_sim::trajectory::gnss::GnssConfig;
 use hal_sim::trajectory::profile::Profile;
-use hal_sim::trajectory::write::{simulate_drive, write_drive};
+use hal_sim::trajectory::write::{simulate_drive, write_and_read_drive};
 use imu_ident::strapdown::Geodetic;
 
 fn quantile(v: &mut [f64], q: f64) -> f64 {
@@ -67,12 +66,8 @@ fn nav_over_seeds() {
             let gnss = GnssConfig::default();
             let drive = simulate_drive(&profile, start, 0.01, &sim, gnss, seed)
                 .unwrap_or_else(|e| panic!("{e:#}"));
-            write_drive(dir.path(), &drive).unwrap_or_else(|e| panic!("{e:#}"));
-            let imu = read_imu_csv(&dir.path().join("imu.csv")).unwrap_or_else(|e| panic!("{e:#}"));
-            let fixes =
-                read_gnss_csv(&dir.path().join("gnss.csv")).unwrap_or_else(|e| panic!("{e:#}"));
-            let truth =
-                read_truth_csv(&dir.path().join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+            let (imu, fixes, truth) =
+                write_and_read_drive(dir.path(), &drive).unwrap_or_else(|e| panic!("{e:#}"));
             for (k, frac, outage_err, nees) in cases.iter_mut() {
                 let args = NavArgs {
                     // `outages` is the same schedule (600 s, then every 1200 s).

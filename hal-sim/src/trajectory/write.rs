@@ -160,6 +160,25 @@ pub fn write_drive(dir: &Path, drive: &Drive) -> Result<()> {
     write_csv(&dir.join("gnss.csv"), &drive.gnss)
 }
 
+/// The logs of a drive as `hal-sim nav` reads them: the simulation written into `dir`
+/// ([`write_drive`]) and read back through `nav_io` (IMU samples, GNSS fixes, truth rows), so
+/// that a bench runs on exactly what the command would see.
+pub type DriveLogs = (
+    Vec<crate::nav_io::ImuSample>,
+    Vec<crate::nav_io::GnssFix>,
+    Vec<crate::nav_io::TruthRow>,
+);
+
+/// Writes `drive` into `dir` and reads it back ([`DriveLogs`]).
+pub fn write_and_read_drive(dir: &Path, drive: &Drive) -> Result<DriveLogs> {
+    write_drive(dir, drive)?;
+    Ok((
+        crate::nav_io::read_imu_csv(&dir.join("imu.csv"))?,
+        crate::nav_io::read_gnss_csv(&dir.join("gnss.csv"))?,
+        crate::nav_io::read_truth_csv(&dir.join("truth.csv"))?,
+    ))
+}
+
 /// `simulate-drive`: the figure-eight course of [`Profile::figure_eight_course`] (aircraft
 /// banking) for `hours` from 45 N 7 E, 300 m, at `rate_hz`, with the [`ImuErrorModel::mems`]
 /// errors and default 1-Hz GNSS with the given outage windows; writes the three files in `out`.
