@@ -192,7 +192,7 @@ pub struct Search {
     /// Window log-likelihood of the model taken.
     pub loglik: f64,
     /// The highest window log-likelihood the search found (the model taken is below it by at
-    /// most [`FLAT_NATS`] per coordinate moved along a flat direction).
+    /// most [`FLAT_NATS`]: every move along a flat direction is checked against it).
     pub loglik_max: f64,
     /// Window replays made.
     pub evaluations: usize,
