@@ -7,7 +7,7 @@
 //!       grade=mems seeds=8 first=8001 starts=0.1,10,rand
 //!
 //! Other keys: `grade=tactical`, `hours=` (2), `rate=` (IMU Hz, 100), `score_from=` (3600 s),
-//! `adapt_first=`, `every=`, `window=` (600, 1200, 7200 s), `per_axis=1`, `taus=1`,
+//! `adapt_first=`, `every=`, `window=` (600, 1200, 7200 s), `per_axis=1`, `taus=` (held, tested, free),
 //! `conservative=0`; environment `AXES=1` prints every run's 9 per-axis 3-sigma fractions.
 //!
 //! Per seed: a figure-eight drive (`Profile::figure_eight_course`, 100 Hz, GNSS 1 Hz with 60-s
@@ -25,7 +25,7 @@
 mod bench_args;
 
 use bench_args::{arg, arg_or, pct};
-use hal_sim::nav::adapt::AdaptConfig;
+use hal_sim::nav::adapt::{AdaptConfig, TauMode};
 use hal_sim::nav::{run_with, NavArgs, NavRun};
 use hal_sim::nav_io::outages::OutageSpec;
 use hal_sim::nav_io::TruthRow;
@@ -90,7 +90,12 @@ fn main() {
         every: arg_or("every", 1200.0),
         window: arg_or("window", 7200.0),
         per_axis: arg_or("per_axis", 0) != 0,
-        taus: arg_or("taus", 0) != 0,
+        taus: match arg("taus").as_deref() {
+            None | Some("0" | "held") => TauMode::Held,
+            Some("1" | "free") => TauMode::Free,
+            Some("tested") => TauMode::Tested,
+            Some(t) => panic!("taus={t}: held, tested or free"),
+        },
         conservative: arg_or("conservative", 1) != 0,
     };
     let sim = match grade.as_str() {
@@ -171,8 +176,9 @@ fn main() {
             let log = run.adapt.as_ref().expect("adapt log");
             let last = log.searches.last();
             println!(
-                "seed {seed} start {s}: horizontal {:.3}x, attitude {:.3}x, worst outside 3 sigma {:.2} %; {} searches, {} replays, final log10 factors {:?} ({:.1} s)",
+                "seed {seed} start {s}: horizontal {:.3}x, attitude {:.3}x, worst outside 3 sigma {:.2} %; {} searches ({} moved the correlation times under test), {} replays, final log10 factors {:?} ({:.1} s)",
                 ratio[0], ratio[1], r.2 * 100.0, log.searches.len(),
+                log.searches.iter().filter(|s| s.tau_test.is_some_and(|t| t.moved)).count(),
                 log.searches.iter().map(|s| s.evaluations).sum::<usize>(),
                 last.map(|l| l.log10_factors.iter().map(|x| (x * 100.0).round() / 100.0).collect::<Vec<_>>()),
                 t.elapsed().as_secs_f64()

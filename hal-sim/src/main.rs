@@ -58,6 +58,11 @@ enum Command {
         /// Filter step [s].
         #[arg(long, default_value_t = 1.0)]
         step: f64,
+        /// Shortest interval between fused GNSS fixes [s]; 0 (the default) fuses every fix.
+        /// A fix between filter steps is fused at its own time, the filter first propagated
+        /// over the part of the step elapsed. 1 fuses one fix per 1-s step.
+        #[arg(long, default_value_t = 0.0)]
+        fix_interval: f64,
         /// Static levelling window at the start [s].
         #[arg(long, default_value_t = 20.0)]
         align: f64,
@@ -140,10 +145,11 @@ enum Command {
         /// One factor per axis instead of one per sensor and component.
         #[arg(long)]
         adapt_per_axis: bool,
-        /// Identify the correlation times too (default: the intensities only; a 30-min window
-        /// cannot separate a 1-h Gauss-Markov's sigma from its tau, BENCHMARKS.md).
-        #[arg(long)]
-        adapt_taus: bool,
+        /// The correlation times: held at the model's values, tested (moved only when the
+        /// window's likelihood rejects the held values at 1 %), or free (BENCHMARKS.md
+        /// "Online identification in the navigator").
+        #[arg(long, value_enum, default_value_t = hal_sim::nav::adapt::TauMode::Held)]
+        adapt_taus: hal_sim::nav::adapt::TauMode,
     },
     /// Simulate a strapdown drive (figure-eights, climbs): imu.csv, truth.csv, gnss.csv.
     SimulateDrive {
@@ -370,6 +376,7 @@ fn main() -> Result<()> {
             out,
             lever_arm,
             step,
+            fix_interval,
             align,
             yaw,
             yaw_speed,
@@ -423,6 +430,7 @@ fn main() -> Result<()> {
                 outages,
                 lever_arm: three(lever_arm, "lever-arm")?,
                 step,
+                fix_interval,
                 align,
                 yaw_deg: yaw,
                 yaw_speed,

@@ -17,8 +17,15 @@
 //! - The wrong start is rejected: 2 (L_taken - L_start) > 18.47.
 //! - Causality: the same run on the log cut 100 s after the search gives the same search,
 //!   bit for bit (the search reads nothing after its time).
+//!
+//! The correlation times under test (`TauMode::Tested`), the same drive and search:
+//! - from the 10x start, whose correlation times are right, the search holds them: twice the
+//!   gain of freeing them is chi-square(2) under the held values (Wilks), so the test moves
+//!   them with probability 1 % (`TAU_TEST_LEVEL`); on this fixed seed it does not;
+//! - from the true intensities with both correlation times 10x too short (30 s for 300 s), the
+//!   test rejects them and the search lengthens both.
 
-use hal_sim::nav::adapt::{AdaptConfig, FLAT_NATS};
+use hal_sim::nav::adapt::{AdaptConfig, TauMode, FLAT_NATS};
 use hal_sim::nav::model::scaled_sd;
 use hal_sim::nav::{run_with, NavArgs};
 use hal_sim::nav_io::{GnssFix, ImuSample};
@@ -26,15 +33,21 @@ use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
 use hal_sim::trajectory::gnss::GnssConfig;
 use hal_sim::trajectory::profile::Profile;
 use hal_sim::trajectory::write::{simulate_drive, write_and_read_drive};
+use imu_ident::model::Quantity;
+use imu_ident::nav::ImuErrorModel;
 use imu_ident::strapdown::Geodetic;
 
 /// chi-square quantile, 4 degrees of freedom, 0.999.
 const CHI2_4_999: f64 = 18.467;
 
-#[test]
-fn online_search_finds_the_likelihood_maximum_from_a_wrong_start_and_reads_no_future() {
+/// The test drive (25-min figure-eight, MEMS IMU, seed 11): samples, fixes, truth, directory.
+fn drive() -> (
+    Vec<ImuSample>,
+    Vec<GnssFix>,
+    Vec<hal_sim::nav_io::TruthRow>,
+    tempfile::TempDir,
+) {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    let sim = SimModel::mems();
     let profile =
         Profile::figure_eight_course(25.0 / 60.0, 1.0).unwrap_or_else(|e| panic!("{e:#}"));
     let start = Geodetic {
@@ -42,11 +55,36 @@ fn online_search_finds_the_likelihood_maximum_from_a_wrong_start_and_reads_no_fu
         lon: 7f64.to_radians(),
         h: 300.0,
     };
-    let drive = simulate_drive(&profile, start, 0.01, &sim, GnssConfig::default(), 11)
-        .unwrap_or_else(|e| panic!("{e:#}"));
+    let drive = simulate_drive(
+        &profile,
+        start,
+        0.01,
+        &SimModel::mems(),
+        GnssConfig::default(),
+        11,
+    )
+    .unwrap_or_else(|e| panic!("{e:#}"));
     let (imu, fixes, truth) =
         write_and_read_drive(dir.path(), &drive).unwrap_or_else(|e| panic!("{e:#}"));
-    let truth_model = sim.to_core().unwrap_or_else(|e| panic!("{e:#}"));
+    (imu, fixes, truth, dir)
+}
+
+/// One search at 20 min over the window from the start.
+const ONE_SEARCH: AdaptConfig = AdaptConfig {
+    first: 1200.0,
+    every: 1e6,
+    window: 1e6,
+    per_axis: false,
+    taus: TauMode::Held,
+    conservative: true,
+};
+
+#[test]
+fn online_search_finds_the_likelihood_maximum_from_a_wrong_start_and_reads_no_future() {
+    let (imu, fixes, truth, dir) = drive();
+    let truth_model = SimModel::mems()
+        .to_core()
+        .unwrap_or_else(|e| panic!("{e:#}"));
     let args = |model, adapt| NavArgs {
         adapt,
         ..NavArgs::simulated(
@@ -57,13 +95,7 @@ fn online_search_finds_the_likelihood_maximum_from_a_wrong_start_and_reads_no_fu
             truth[0].rpy_deg[2],
         )
     };
-    let cfg = AdaptConfig {
-        first: 1200.0,
-        every: 1e6,
-        window: 1e6,
-        ..AdaptConfig::default()
-    };
-    let adapted = args(scaled_sd(&truth_model, 10.0), Some(cfg));
+    let adapted = args(scaled_sd(&truth_model, 10.0), Some(ONE_SEARCH));
     let run = run_with::<f64>(&adapted, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let log = run.adapt.as_ref().expect("an adapt log");
     assert_eq!(log.searches.len(), 1, "{:?}", log.searches);
@@ -148,4 +180,65 @@ fn online_search_finds_the_likelihood_maximum_from_a_wrong_start_and_reads_no_fu
     assert_eq!(c.loglik.to_bits(), s.loglik.to_bits());
     assert_eq!(c.log10_factors, s.log10_factors);
     assert_eq!(c.evaluations, s.evaluations);
+}
+
+/// `m` with every correlation time multiplied by `k`.
+fn scaled_taus(m: &ImuErrorModel<f64>, k: f64) -> ImuErrorModel<f64> {
+    let mut out = m.clone();
+    for c in out.gyro.iter_mut().chain(out.accel.iter_mut()).flatten() {
+        if let Some(tau) = c.get(Quantity::Tau) {
+            c.set(Quantity::Tau, tau * k);
+        }
+    }
+    out
+}
+
+#[test]
+fn tested_correlation_times_are_held_when_right_and_moved_when_rejected() {
+    let (imu, fixes, truth, dir) = drive();
+    let truth_model = SimModel::mems()
+        .to_core()
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    let search = |model: ImuErrorModel<f64>| {
+        let args = NavArgs {
+            adapt: Some(AdaptConfig {
+                taus: TauMode::Tested,
+                ..ONE_SEARCH
+            }),
+            ..NavArgs::simulated(
+                dir.path().join("imu.csv"),
+                dir.path().join("gnss.csv"),
+                model,
+                "test",
+                truth[0].rpy_deg[2],
+            )
+        };
+        let run = run_with::<f64>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+        let log = run.adapt.expect("an adapt log");
+        let names: Vec<&str> = log.coordinates.iter().map(|c| c.quantity).collect();
+        assert_eq!(
+            names,
+            ["density", "sigma", "tau", "density", "sigma", "tau"],
+            "gyro then accel: white, then Gauss-Markov"
+        );
+        let s = log.searches[0].clone();
+        println!("{:?}", s);
+        s
+    };
+    // chi-square(2) 0.99 quantile 9.2103, halved: the gain that rejects the held taus.
+    let right = search(scaled_sd(&truth_model, 10.0));
+    let t = right.tau_test.expect("tested");
+    assert!((t.threshold - 9.2103 / 2.0).abs() < 1e-3, "{t:?}");
+    assert!(t.gain >= 0.0, "the free search starts at the held optimum");
+    assert!(!t.moved, "right correlation times moved: {t:?}");
+    assert_eq!((right.log10_factors[2], right.log10_factors[5]), (0.0, 0.0));
+
+    let short = search(scaled_taus(&truth_model, 0.1));
+    let t = short.tau_test.expect("tested");
+    assert!(t.moved, "correlation times 10x short held: {t:?}");
+    assert!(
+        short.log10_factors[2] > 0.0 && short.log10_factors[5] > 0.0,
+        "{:?}",
+        short.log10_factors
+    );
 }

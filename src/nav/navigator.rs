@@ -119,7 +119,12 @@ pub struct Navigator<T: Real, const N: usize> {
     kf: Kalman<T, N>,
     cfg: NavConfig<T>,
     t: f64,
+    /// Time the filter was last propagated to (a step, or a fix between steps).
     t_kf: f64,
+    /// Time the step clock last started: the last filter step, or the first fix after it.
+    t_step: f64,
+    /// A GNSS fix has been fused since the last filter step.
+    fix_since_step: bool,
     sum_fn: Vector3<T>,
     sum_dt: T,
     sum_dtheta: Vector3<T>,
@@ -164,6 +169,8 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             cfg,
             t,
             t_kf: t,
+            t_step: t,
+            fix_since_step: false,
             sum_fn: Vector3::zeros(),
             sum_dt: T::zero(),
             sum_dtheta: Vector3::zeros(),
@@ -407,8 +414,14 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         self.sum_dtheta += comp.dtheta;
         self.sum_dv += comp.dv;
         self.w_b = comp.dtheta / dt;
-        if self.t - self.t_kf >= self.cfg.step.as_f64() - 1e-6 {
+        // The step clock runs from the last step (or the first fix after it, `gnss`), not
+        // from the last propagation: the fixes between steps propagate over the part elapsed
+        // without moving the next step, so the steps (and the constraint after each,
+        // `run::Nhc`) stay at the filter rate however often fixes arrive.
+        if self.t - self.t_step >= self.cfg.step.as_f64() - 1e-6 {
             self.propagate()?;
+            self.t_step = self.t;
+            self.fix_since_step = false;
             return Ok(true);
         }
         Ok(false)
@@ -455,6 +468,13 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             return Err(NavError::BadTime);
         }
         self.propagate()?;
+        // The first fix after a step restarts the step clock: fixes at the filter rate then
+        // land on the steps and propagate nothing (one propagation per step, not two);
+        // faster fixes propagate over the part of the step elapsed, one step in k per fix.
+        if !self.fix_since_step {
+            self.t_step = self.t;
+            self.fix_since_step = true;
+        }
         self.linearise();
         // Only H and R: A and Qc were built by the propagation just done.
         let (h, r0) = self.model.observation(&self.scale);

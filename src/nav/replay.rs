@@ -39,7 +39,7 @@
 //!
 //! GNSS flags ([`gnss_flags`]): withheld, set the heading to `yaw` (with the fix's velocity)
 //! before fusing, fuse, fuse the velocity too. The host decides them (outage schedule, heading
-//! from the course, one fix per step): they depend on the inputs only, never on the filter, so
+//! from the course, the interval between fused fixes): they depend on the inputs only, never on the filter, so
 //! the firmware replays exactly the decisions of the host run.
 //!
 //! Times and positions are `f64` (an `f32` latitude is 0.5 m coarse, an `f32` time cannot step

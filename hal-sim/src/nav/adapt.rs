@@ -35,6 +35,7 @@ use imu_ident::model::{ComponentKind, Quantity};
 use imu_ident::nav::{ImuErrorModel, ImuSensor};
 use imu_ident::Real;
 use serde::Serialize;
+use statrs::distribution::{ChiSquared, ContinuousCDF};
 
 /// Settings of the online identification.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -47,8 +48,8 @@ pub struct AdaptConfig {
     pub window: f64,
     /// One factor per axis instead of per sensor.
     pub per_axis: bool,
-    /// Identify the correlation times too (else only the intensities).
-    pub taus: bool,
+    /// What the searches do with the correlation times.
+    pub taus: TauMode,
     /// Move intensities along flat directions to the upper end of their one-sigma interval
     /// ([`FLAT_NATS`]).
     pub conservative: bool,
@@ -61,11 +62,30 @@ impl Default for AdaptConfig {
             every: 1200.0,
             window: 7200.0,
             per_axis: false,
-            taus: false,
+            taus: TauMode::Held,
             conservative: true,
         }
     }
 }
+
+/// What the online searches do with the correlation times.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum TauMode {
+    /// Held at the starting model's values (tied); only the intensities are searched.
+    Held,
+    /// Searched, but a search's moves of them are taken only when the window rejects the
+    /// held values: the intensities are searched first with the correlation times held, then
+    /// everything from there, and the second answer is taken when it gains more than half the
+    /// chi-square(k) 0.99 quantile (`TAU_TEST_LEVEL`), k the number of correlation times: a
+    /// likelihood-ratio test of the held values against the free ones.
+    Tested,
+    /// Searched like the intensities.
+    Free,
+}
+
+/// Level of [`TauMode::Tested`]'s likelihood-ratio test.
+pub const TAU_TEST_LEVEL: f64 = 0.99;
 
 /// Likelihood loss [nats] that bounds the conservative move along a flat direction: half the
 /// chi-square(1) 0.68 quantile (0.99/2), the end of a one-sigma likelihood interval.
@@ -112,7 +132,7 @@ pub fn coordinates(model: &ImuErrorModel<f64>, cfg: &AdaptConfig) -> Vec<Coordin
                 for &q in kind.identified() {
                     let wanted = match q {
                         Quantity::Beta => false,
-                        Quantity::Tau => cfg.taus,
+                        Quantity::Tau => cfg.taus != TauMode::Held,
                         _ => true,
                     };
                     if wanted {
@@ -196,8 +216,22 @@ pub struct Search {
     pub loglik_max: f64,
     /// Window replays made.
     pub evaluations: usize,
+    /// [`TauMode::Tested`]: the test of the held correlation times.
+    pub tau_test: Option<TauTest>,
     /// log10 factors on the starting model after the search (coordinate order).
     pub log10_factors: Vec<f64>,
+}
+
+/// The likelihood-ratio test of one search's correlation times ([`TauMode::Tested`]).
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct TauTest {
+    /// Window log-likelihood gained by freeing the correlation times [nats].
+    pub gain: f64,
+    /// The gain that rejects the held values: half the chi-square(k) quantile at
+    /// [`TAU_TEST_LEVEL`] [nats].
+    pub threshold: f64,
+    /// The correlation times moved (`gain > threshold`).
+    pub moved: bool,
 }
 
 /// The online identification's record of a run.
@@ -318,14 +352,43 @@ impl<T: Real> Adapter<T> {
         } else {
             (&[0.25, 0.125], 3)
         };
+        let is_tau: Vec<bool> = self.coords.iter().map(|c| c.q == Quantity::Tau).collect();
+        let n_tau = is_tau.iter().filter(|&&t| t).count();
+        let tested = self.cfg.taus == TauMode::Tested && n_tau > 0;
+        // Tested: the intensities first, the correlation times held where they are.
+        let held_taus = |i: usize| (!is_tau[i]).then_some((-MAX_DECADES, MAX_DECADES));
+        let all = |_: usize| Some((-MAX_DECADES, MAX_DECADES));
         pattern::maximise(
             &mut x,
             &mut best,
             steps,
             max_passes,
-            &|_| Some((-MAX_DECADES, MAX_DECADES)),
+            if tested { &held_taus } else { &all },
             &mut eval,
         )?;
+        let mut tau_test = None;
+        if tested {
+            // Then everything from there; the moves of the correlation times are taken only
+            // when the held values are rejected at TAU_TEST_LEVEL (Wilks: twice the gain is
+            // chi-square(n_tau) under the held values).
+            let mut y = x.clone();
+            let mut best_free = best;
+            pattern::maximise(&mut y, &mut best_free, steps, max_passes, &all, &mut eval)?;
+            let threshold = ChiSquared::new(n_tau as f64)
+                .map(|d| 0.5 * d.inverse_cdf(TAU_TEST_LEVEL))
+                .unwrap_or(f64::INFINITY);
+            let gain = best_free - best;
+            let moved = gain > threshold;
+            if moved {
+                x = y;
+                best = best_free;
+            }
+            tau_test = Some(TauTest {
+                gain,
+                threshold,
+                moved,
+            });
+        }
         // Flat directions: an intensity the window cannot pin down is moved up to the upper
         // end of its one-sigma likelihood interval (the largest value, in steps of 0.125
         // decade, that costs less than FLAT_NATS against the best point), not left wherever
@@ -371,6 +434,7 @@ impl<T: Real> Adapter<T> {
             loglik: best,
             loglik_max,
             evaluations,
+            tau_test,
             log10_factors: self.x.clone(),
         });
         Ok(())
@@ -403,6 +467,9 @@ impl AdaptLog {
             "loglik_max",
             "loglik",
             "evaluations",
+            "tau_gain",
+            "tau_threshold",
+            "taus_moved",
         ]
         .map(String::from)
         .to_vec();
@@ -424,6 +491,11 @@ impl AdaptLog {
                 s.loglik.to_string(),
                 s.evaluations.to_string(),
             ];
+            // Empty unless the correlation times were tested (TauMode::Tested).
+            let t = s.tau_test;
+            row.push(t.map_or(String::new(), |t| t.gain.to_string()));
+            row.push(t.map_or(String::new(), |t| t.threshold.to_string()));
+            row.push(t.map_or(String::new(), |t| u8::from(t.moved).to_string()));
             let m = apply(&self.base, &self.coordinates, &s.log10_factors);
             for c in &self.coordinates {
                 row.push(value(&m, c).to_string());
@@ -477,17 +549,23 @@ impl AdaptLog {
             &[],
             true,
         )?;
-        h += "<table><tr><th>t [s]</th><th>window from [s]</th><th>fixes</th><th>log-likelihood before</th><th>best</th><th>taken</th><th>replays</th></tr>";
+        h += "<table><tr><th>t [s]</th><th>window from [s]</th><th>fixes</th><th>log-likelihood before</th><th>best</th><th>taken</th><th>replays</th><th>correlation times: gain / threshold</th></tr>";
         for s in &self.searches {
             h += &format!(
-                "<tr><td>{:.0}</td><td>{:.0}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                "<tr><td>{:.0}</td><td>{:.0}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
                 s.t - t0,
                 s.window_start - t0,
                 s.fixes,
                 crate::report::sig4(s.loglik_before, "nats"),
                 crate::report::sig4(s.loglik_max, "nats"),
                 crate::report::sig4(s.loglik, "nats"),
-                s.evaluations
+                s.evaluations,
+                s.tau_test.map_or(String::from("held or free"), |t| format!(
+                    "{:.1} / {:.1} nats: {}",
+                    t.gain,
+                    t.threshold,
+                    if t.moved { "moved" } else { "held" }
+                ))
             );
         }
         Ok(h + "</table>")

@@ -7,7 +7,7 @@
 //!    rest), and estimates the gyro biases from the mean rate over the same window, less the
 //!    vertical Earth rate (`--static-gyro-bias`);
 //! 2. starts the navigator at the first GNSS position (antenna minus the lever arm) at rest;
-//! 3. fuses the GNSS fixes not withheld, each at its own time, at most one per filter step;
+//! 3. fuses the GNSS fixes not withheld, each at its own time (every fix by default, `--fix-interval` thins them);
 //!    until the heading is known (from `--yaw`, or the GNSS course once the speed exceeds
 //!    `--yaw-speed`), only static fixes are fused;
 //! 4. records the solution at every GNSS epoch (withheld ones too), the per-axis NIS and the
@@ -53,6 +53,10 @@ pub struct NavArgs {
     pub lever_arm: [f64; 3],
     /// Filter step [s].
     pub step: f64,
+    /// Shortest interval between fused GNSS fixes [s]; 0 fuses every fix. A fix between
+    /// filter steps is fused at its own time, the filter first propagated over the part of
+    /// the step elapsed (`Navigator::gnss`).
+    pub fix_interval: f64,
     /// Static levelling window at the start [s].
     pub align: f64,
     /// Initial yaw [deg] (else from the GNSS course).
@@ -92,7 +96,7 @@ pub use imu_ident::nav::NHC_MIN_SPEED;
 
 impl NavArgs {
     /// A run of `imu` and `gnss` with `model` and the command's defaults (`hal-sim nav --help`):
-    /// 1-s step, 20-s levelling, heading from the course above 2 m/s, gyro biases seeded at
+    /// 1-s step, every GNSS fix fused, 20-s levelling, heading from the course above 2 m/s, gyro biases seeded at
     /// rest, initial sd 2/2/10 deg, 0.1 m/s, 1 m, gate 1, velocity fused, f64, no outages,
     /// no lever arm, no non-holonomic constraint.
     pub fn new(
@@ -110,6 +114,7 @@ impl NavArgs {
             outages: None,
             lever_arm: [0.0; 3],
             step: 1.0,
+            fix_interval: 0.0,
             align: 20.0,
             yaw_deg: None,
             yaw_speed: 2.0,

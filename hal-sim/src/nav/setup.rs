@@ -134,14 +134,15 @@ pub struct FixPlan {
 }
 
 /// The per-fix decisions of a run: the outage schedule, the heading from the GNSS course
-/// (until it is known, only static fixes are fused) and at most one fused fix per step.
+/// (until it is known, only static fixes are fused) and the shortest interval between fused
+/// fixes ([`NavArgs::fix_interval`]).
 #[derive(Debug, Clone)]
 pub struct FixPlanner {
     outages: Vec<Outage>,
     heading_known: bool,
     last_fused: f64,
     yaw_speed: f64,
-    step: f64,
+    fix_interval: f64,
 }
 
 impl FixPlanner {
@@ -152,7 +153,7 @@ impl FixPlanner {
             heading_known: args.yaw_deg.is_some(),
             last_fused: f64::NEG_INFINITY,
             yaw_speed: args.yaw_speed,
-            step: args.step,
+            fix_interval: args.fix_interval,
         }
     }
 
@@ -182,7 +183,8 @@ impl FixPlanner {
                 }
             }
         }
-        let due = f.t - self.last_fused >= self.step - 0.02;
+        // 20 ms of slack: fixes logged at a nominal rate jitter by a few milliseconds.
+        let due = f.t - self.last_fused >= self.fix_interval - 0.02;
         let fuse = !withheld && due && (self.heading_known || speed < 0.2 * self.yaw_speed);
         if fuse {
             self.last_fused = f.t;
