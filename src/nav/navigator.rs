@@ -17,9 +17,12 @@
 //!   dropped. The sensor-error part of `x` is predicted as usual.
 //! - [`Navigator::gnss`]: a fix is fused at its own time `t_f <= t` (the solution is moved back
 //!   along its velocity by `t - t_f`, at most one IMU interval); the filter is first propagated
-//!   over the part of the step already elapsed. The six axes pass a vector chi-square gate, then
-//!   are fused one by one ([`fuse`]); the estimated navigation errors are then removed from the
-//!   mechanisation ([`Strapdown::correct`]) and zeroed in `x`.
+//!   over the part of the step already elapsed. The first fix after a step restarts the step
+//!   clock, so fixes at the filter rate land on the steps, and faster fixes (4-Hz RTK) each
+//!   propagate over part of a step while the steps keep their cadence. The six axes pass a
+//!   vector chi-square gate, then are fused one by one ([`crate::filter::fuse`]); the estimated
+//!   navigation errors are then removed from the mechanisation ([`Strapdown::correct`]) and
+//!   zeroed in `x` ([`aiding`]).
 //! - [`Navigator::zupt`] and [`Navigator::nhc`]: pseudo-observations of a vehicle at rest (zero
 //!   velocity) and of a land vehicle that neither slides sideways nor leaves the road (zero
 //!   body-frame lateral and vertical velocity), through the same gate, fusion and correction.
@@ -28,11 +31,11 @@
 //!   could be gated for ever.
 
 use super::error_model::{nav_idx, NavPoint, StrapdownErrorModel, NAV_Z};
-use crate::filter::{fuse, Fused, Kalman};
+use crate::filter::Kalman;
 use crate::linalg::Arr;
 use crate::model::discretise::discretise_block;
 use crate::model::{ErrorModel, ModelError};
-use crate::strapdown::{earth, Geodetic, Increment, Strapdown, StrapdownError};
+use crate::strapdown::{Geodetic, Increment, Strapdown, StrapdownError};
 use crate::Real;
 use nalgebra::Vector3;
 
@@ -460,205 +463,6 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         Ok(())
     }
 
-    /// Fuses a GNSS fix (its time must not be after the solution's). Returns the per-axis
-    /// fusion result (position N, E, D, velocity N, E, D).
-    pub fn gnss(&mut self, fix: &GnssFix<T>) -> Result<Fused<T, NAV_Z>, NavError> {
-        let lag = self.t - fix.t;
-        if !(lag.is_finite() && lag >= -1e-6) {
-            return Err(NavError::BadTime);
-        }
-        self.propagate()?;
-        // The first fix after a step restarts the step clock: fixes at the filter rate then
-        // land on the steps and propagate nothing (one propagation per step, not two);
-        // faster fixes propagate over the part of the step elapsed, one step in k per fix.
-        if !self.fix_since_step {
-            self.t_step = self.t;
-            self.fix_since_step = true;
-        }
-        self.linearise();
-        // Only H and R: A and Qc were built by the propagation just done.
-        let (h, r0) = self.model.observation(&self.scale);
-        let c = self.ins.dcm();
-        let v = self.ins.velocity();
-        // Antenna position at the fix time, minus the fix, in NED metres (f64: the difference
-        // of two latitudes must not be rounded to f32 first).
-        let p = self.ins.position();
-        let lever_n = c * self.model.lever_arm;
-        let (rn, re) = (
-            earth::radius_north(p.lat) + p.h,
-            earth::radius_east(p.lat) + p.h,
-        );
-        let back = |i: usize| v[i].as_f64() * lag;
-        let d = [
-            (p.lat - fix.pos.lat) * rn + lever_n.x.as_f64() - back(0),
-            (p.lon - fix.pos.lon) * re * libm::cos(p.lat) + lever_n.y.as_f64() - back(1),
-            -(p.h - fix.pos.h) + lever_n.z.as_f64() - back(2),
-        ];
-        let v_ant = v + c * self.w_b.cross(&self.model.lever_arm);
-        let mut z = [T::zero(); NAV_Z];
-        let mut r = r0;
-        for i in 0..3 {
-            z[i] = T::lit(d[i]);
-            z[3 + i] = v_ant[i] - fix.vel[i];
-            let (sp, sv) = (fix.sd_pos[i], fix.sd_vel[i]);
-            if sp.is_finite() && sp > T::zero() {
-                r[i] = sp * sp;
-            }
-            if sv.is_finite() && sv > T::zero() {
-                r[3 + i] = sv * sv;
-            }
-        }
-        let fused = self.fuse_gated(&z, &h, &r);
-        self.close_loop()?;
-        Ok(fused)
-    }
-
-    /// Zero-velocity update with standard deviation `sd` [m/s] on each axis, with its own count
-    /// of consecutive rejections (like [`nhc`](Self::nhc): updates accepted every step at rest
-    /// must not reset the count that lets GNSS back in after an outage).
-    pub fn zupt(&mut self, sd: T) -> Result<Fused<T, 3>, NavError> {
-        self.propagate()?;
-        let v = self.ins.velocity();
-        let mut h = [[T::zero(); N]; 3];
-        for (i, row) in h.iter_mut().enumerate() {
-            if let (Some(x), Some(s)) = (
-                row.get_mut(nav_idx::VEL + i),
-                self.scale.get(nav_idx::VEL + i),
-            ) {
-                *x = *s;
-            }
-        }
-        let z = [v.x, v.y, v.z];
-        let r = [sd * sd; 3];
-        let mut rejected = self.rejected_zupt;
-        let fused = self.fuse_counted(&z, &h, &r, &mut rejected);
-        self.rejected_zupt = rejected;
-        self.close_loop()?;
-        Ok(fused)
-    }
-
-    /// The non-holonomic constraint of a land vehicle: the body-frame lateral (y) and vertical
-    /// (z) velocity of the point at `lever` [m, body FRD] from the IMU are zero, each with
-    /// standard deviation `sd` [m/s] (how far the vehicle departs from it: side slip, bounce,
-    /// mounting misalignment). Fused like a GNSS fix (vector gate, sequential scalar updates,
-    /// closed-loop correction), with its own count of consecutive rejections (module docs).
-    /// Only meaningful while the vehicle moves and the heading is known; the caller decides
-    /// (the host driver and the firmware's replay loop through [`super::run::Nhc::after_step`]).
-    pub fn nhc(&mut self, sd: T, lever: &Vector3<T>) -> Result<Fused<T, NHC_Z>, NavError> {
-        if !(sd.is_finite() && sd > T::zero() && lever.iter().all(|v| v.is_finite())) {
-            return Err(NavError::Model(ModelError::BadSigma));
-        }
-        self.propagate()?;
-        let (z, h) = self.nhc_observation(lever);
-        let r = [sd * sd; NHC_Z];
-        let mut rejected = self.rejected_nhc;
-        let fused = self.fuse_counted(&z, &h, &r, &mut rejected);
-        self.rejected_nhc = rejected;
-        self.close_loop()?;
-        Ok(fused)
-    }
-
-    /// The predicted measurement `z` (body y and z velocity of the point at `lever` from the
-    /// IMU, computed minus the constraint's zero) and its rows `H` in the scaled states, at the
-    /// current solution, with the step's mean body rate [`NavPoint::mean_w_b`].
-    ///
-    /// Measurement (Groves 2013 eq. 16.60 with the lever arm): `v_b = C^T v + w x l`, `C =
-    /// C_b^n`, `v` the NED velocity of the IMU, `w` the body rate, `l = lever`.
-    ///
-    /// Derivation in this module's phi-angle convention (computed minus true, [`error_model`]
-    /// docs): `C^ = (I + [phi x]) C`, so `C^T^ = C^T (I + [phi x])^T = C^T (I - [phi x])`, and
-    /// `v^ = v + dv`. To first order
-    ///
-    /// ```text
-    /// v_b^ = C^T (I - [phi x]) (v + dv) + w x l
-    ///      = v_b + C^T dv - C^T (phi x v)
-    ///      = v_b + C^T dv + C^T [v x] phi          (-(phi x v) = v x phi)
-    /// H    = [ C^T [v x] | C^T | 0 ]  rows y, z
-    /// ```
-    ///
-    /// The rate error term `(b_g^ - b_g) x l` is neglected, as in the GNSS velocity rows
-    /// ([`error_model`] docs): below a millimetre per second for `|l| < 1 m`. The mean rate of
-    /// the step rather than the last sample's: the last sample carries the vibration of a
-    /// roof-mounted IMU (0.65 m times a few 0.01 rad/s of noise), the mean only a half-step lag.
-    ///
-    /// [`error_model`]: super::error_model
-    pub fn nhc_observation(&self, lever: &Vector3<T>) -> ([T; NHC_Z], [[T; N]; NHC_Z]) {
-        let c = self.ins.dcm();
-        let v = self.ins.velocity();
-        let ct = c.transpose();
-        let v_b = ct * v + self.model.point.mean_w_b.cross(lever);
-        let h_att = ct * crate::strapdown::skew(&v);
-        let mut h = [[T::zero(); N]; NHC_Z];
-        let mut z = [T::zero(); NHC_Z];
-        for (k, (row, zk)) in h.iter_mut().zip(z.iter_mut()).enumerate() {
-            // Body axis 1 (y, right) then 2 (z, down).
-            let b = k + 1;
-            *zk = v_b.get(b).copied().unwrap_or_else(T::zero);
-            for j in 0..3 {
-                let pairs = [
-                    (nav_idx::ATT + j, h_att.get((b, j))),
-                    (nav_idx::VEL + j, ct.get((b, j))),
-                ];
-                for (col, val) in pairs {
-                    if let (Some(x), Some(v), Some(s)) =
-                        (row.get_mut(col), val, self.scale.get(col))
-                    {
-                        *x = *v * *s;
-                    }
-                }
-            }
-        }
-        (z, h)
-    }
-
-    /// [`fuse`] with the configured gate, skipped after `max_rejections` consecutive
-    /// rejections (the GNSS count).
-    #[allow(non_snake_case)]
-    fn fuse_gated<const Z: usize>(
-        &mut self,
-        z: &[T; Z],
-        H: &[[T; N]; Z],
-        r: &[T; Z],
-    ) -> Fused<T, Z> {
-        let mut rejected = self.rejected;
-        let fused = self.fuse_counted(z, H, r, &mut rejected);
-        self.rejected = rejected;
-        fused
-    }
-
-    /// [`fuse`] with the configured gate, skipped after `max_rejections` consecutive
-    /// rejections counted in `rejected`.
-    #[allow(non_snake_case)]
-    fn fuse_counted<const Z: usize>(
-        &mut self,
-        z: &[T; Z],
-        H: &[[T; N]; Z],
-        r: &[T; Z],
-        rejected: &mut u8,
-    ) -> Fused<T, Z> {
-        let gate = if *rejected >= self.cfg.max_rejections {
-            None
-        } else {
-            self.cfg.gate
-        };
-        let fused = match gate {
-            Some(k) => fuse(
-                &mut self.kf,
-                z,
-                H,
-                r,
-                Some(&move |m: usize| T::lit(CHI2_9999[m.clamp(1, 6) - 1]) * k),
-            ),
-            None => fuse(&mut self.kf, z, H, r, None),
-        };
-        *rejected = if fused.gated {
-            rejected.saturating_add(1)
-        } else {
-            0
-        };
-        fused
-    }
-
     /// The linearisation point from the current solution (specific force kept).
     fn linearise(&mut self) {
         let (lat, h) = self.ins.lat_h();
@@ -705,148 +509,6 @@ impl<T: Real, const N: usize> Navigator<T, N> {
     }
 }
 
+mod aiding;
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::nav::{ImuErrorModel, NavInit};
-    use crate::strapdown::{Geodetic, Quat};
-
-    /// A navigator with no sensor states at `att`, `v`, with the step's mean rate `w`.
-    fn navigator(att: Quat<f64>, v: Vector3<f64>, w: Vector3<f64>) -> Navigator<f64, 9> {
-        let pos = Geodetic {
-            lat: 0.6,
-            lon: 2.0,
-            h: 100.0,
-        };
-        let ins = Strapdown::new(pos, v, att).unwrap_or_else(|e| panic!("{e:?}"));
-        let model = StrapdownErrorModel {
-            imu: ImuErrorModel::default(),
-            init: NavInit {
-                sd_att: Vector3::repeat(0.01),
-                sd_vel: 0.1,
-                sd_pos: 1.0,
-            },
-            lever_arm: Vector3::zeros(),
-            obs_sd: [1.0; NAV_Z],
-            point: NavPoint::at_rest(0.6, 100.0),
-            dt: 1.0,
-            scale_factor_sd: None,
-        };
-        let mut nav = Navigator::new(ins, 0.0, model, NavConfig::default())
-            .unwrap_or_else(|e| panic!("{e:?}"));
-        nav.model.point.mean_w_b = w;
-        nav
-    }
-
-    /// The rows of `nhc_observation` against the predicted measurement of a perturbed state:
-    /// the computed state is the true one with the errors `phi`, `dv` put in through
-    /// `Strapdown::correct` (which removes them, so `-phi`, `-dv` put them in), the filter's
-    /// own definition of the error state. `z(computed) - z(true)` must equal `H x` to first
-    /// order: with errors of 1e-4 rad and 1e-3 m/s, the second-order residual is below
-    /// `|phi| |dv| + |phi|^2 |v|` ~ 1e-6 m/s, a sign error would leave ~1e-3 m/s.
-    #[test]
-    fn nhc_rows_match_a_perturbed_state_to_first_order() {
-        let l = Vector3::new(0.3, -0.2, 0.65);
-        let w = Vector3::new(0.05, -0.03, 0.4);
-        let cases = [
-            (
-                Quat::from_euler(0.1, -0.05, 0.7),
-                Vector3::new(8.0, 5.0, -0.3),
-            ),
-            (
-                Quat::from_euler(-0.3, 0.2, -2.5),
-                Vector3::new(-12.0, 3.0, 0.5),
-            ),
-            (
-                Quat::from_euler(0.0, 0.0, 1.2),
-                Vector3::new(2.0, -9.0, 0.0),
-            ),
-        ];
-        let errs = [
-            (Vector3::new(1e-4, 0.0, 0.0), Vector3::zeros()),
-            (Vector3::new(0.0, 1e-4, 0.0), Vector3::zeros()),
-            (Vector3::new(0.0, 0.0, 1e-4), Vector3::zeros()),
-            (Vector3::zeros(), Vector3::new(1e-3, 0.0, 0.0)),
-            (Vector3::zeros(), Vector3::new(0.0, 1e-3, 0.0)),
-            (Vector3::zeros(), Vector3::new(0.0, 0.0, 1e-3)),
-            (
-                Vector3::new(-7e-5, 5e-5, 1e-4),
-                Vector3::new(4e-4, -8e-4, 6e-4),
-            ),
-        ];
-        for (att, v) in cases {
-            let truth = navigator(att, v, w);
-            let (z0, h) = truth.nhc_observation(&l);
-            for (phi, dv) in errs {
-                let mut computed = truth.clone();
-                computed
-                    .ins
-                    .correct(&-phi, &-dv, &Vector3::zeros())
-                    .unwrap_or_else(|e| panic!("{e:?}"));
-                let (z1, _) = computed.nhc_observation(&l);
-                // H in scaled states: x_scaled = x / scale.
-                let mut x = [0.0; 9];
-                for i in 0..3 {
-                    x[nav_idx::ATT + i] = phi[i] / truth.scale[nav_idx::ATT + i];
-                    x[nav_idx::VEL + i] = dv[i] / truth.scale[nav_idx::VEL + i];
-                }
-                for k in 0..NHC_Z {
-                    let hx: f64 = h[k].iter().zip(x.iter()).map(|(a, b)| a * b).sum();
-                    let dz = z1[k] - z0[k];
-                    assert!(
-                        (dz - hx).abs() < 2e-6 && (hx.abs() > 1e-5 || dz.abs() < 1e-5),
-                        "axis {k}, phi {phi:?}, dv {dv:?}: z difference {dz:e}, H x {hx:e}"
-                    );
-                }
-            }
-        }
-    }
-
-    /// With the vehicle moving along its body x axis and no lever arm the constraint holds
-    /// (`z = 0`); a vehicle moving sideways is gated, counted apart from the GNSS fixes.
-    #[test]
-    fn nhc_zero_for_forward_motion_and_gated_counter_is_separate() {
-        let yaw = 0.9f64;
-        let v = Vector3::new(yaw.cos(), yaw.sin(), 0.0) * 10.0;
-        let mut nav = navigator(Quat::from_euler(0.0, 0.0, yaw), v, Vector3::zeros());
-        let (z, _) = nav.nhc_observation(&Vector3::zeros());
-        assert!(z.iter().all(|v| v.abs() < 1e-9), "{z:?}");
-        let fused = nav
-            .nhc(0.1, &Vector3::zeros())
-            .unwrap_or_else(|e| panic!("{e:?}"));
-        assert_eq!(fused.dof, NHC_Z);
-        assert!(!fused.gated);
-        assert!(nav.nhc(-1.0, &Vector3::zeros()).is_err());
-        assert!(nav.nhc(f64::NAN, &Vector3::zeros()).is_err());
-        // A grossly violated constraint is gated and counted apart from the GNSS count.
-        nav.ins
-            .set_velocity(Vector3::new(-v.y, v.x, 0.0))
-            .unwrap_or_else(|e| panic!("{e:?}"));
-        let f = nav
-            .nhc(0.01, &Vector3::zeros())
-            .unwrap_or_else(|e| panic!("{e:?}"));
-        assert!(f.gated);
-        assert_eq!((nav.rejected_nhc, nav.rejected), (1, 0));
-    }
-
-    /// A zero-velocity update while the solution moves fast is gated and counted apart from
-    /// the GNSS and constraint counts; one at rest is accepted and resets its own count only.
-    #[test]
-    fn zupt_gated_counter_is_separate() {
-        let v = Vector3::new(10.0, 0.0, 0.0);
-        let mut nav = navigator(Quat::from_euler(0.0, 0.0, 0.0), v, Vector3::zeros());
-        nav.rejected = 2;
-        let f = nav.zupt(0.01).unwrap_or_else(|e| panic!("{e:?}"));
-        assert!(f.gated);
-        assert_eq!(
-            (nav.rejected_zupt, nav.rejected, nav.rejected_nhc),
-            (1, 2, 0)
-        );
-        nav.ins
-            .set_velocity(Vector3::new(0.001, 0.0, 0.0))
-            .unwrap_or_else(|e| panic!("{e:?}"));
-        let f = nav.zupt(0.01).unwrap_or_else(|e| panic!("{e:?}"));
-        assert!(!f.gated);
-        assert_eq!((nav.rejected_zupt, nav.rejected), (0, 2));
-    }
-}
+mod tests;
