@@ -145,10 +145,11 @@ enum Command {
         /// One factor per axis instead of one per sensor and component.
         #[arg(long)]
         adapt_per_axis: bool,
-        /// The correlation times: held at the model's values, tested (moved only when the
-        /// window's likelihood rejects the held values at 1 %), or free (BENCHMARKS.md
-        /// "Online identification in the navigator").
-        #[arg(long, value_enum, default_value_t = hal_sim::nav::adapt::TauMode::Held)]
+        /// The correlation times: searched like the intensities (free), held at the model's
+        /// values, or tested (moved only when the window's likelihood rejects the held values
+        /// at 1 %); chosen by measurement, BENCHMARKS.md "Online identification in the
+        /// navigator".
+        #[arg(long, value_enum, default_value_t = hal_sim::nav::adapt::TauMode::Free)]
         adapt_taus: hal_sim::nav::adapt::TauMode,
     },
     /// Simulate a strapdown drive (figure-eights, climbs): imu.csv, truth.csv, gnss.csv.

@@ -11,7 +11,7 @@
 //! - The truth is inside the likelihood-ratio confidence region of that maximum:
 //!   2 (L_max - L_true) <= chi-square(4 dof, 0.999) = 18.47 (Wilks; four coordinates: the
 //!   white density and the Gauss-Markov sigma of each sensor type, tied over the axes; the
-//!   correlation times are held, the default).
+//!   correlation times are held here, `TauMode::Held`).
 //! - The model taken is within its conservative allowance of the maximum: at most
 //!   `FLAT_NATS` per coordinate below it.
 //! - The wrong start is rejected: 2 (L_taken - L_start) > 18.47.

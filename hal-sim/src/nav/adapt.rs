@@ -62,7 +62,7 @@ impl Default for AdaptConfig {
             every: 1200.0,
             window: 7200.0,
             per_axis: false,
-            taus: TauMode::Held,
+            taus: TauMode::Free,
             conservative: true,
         }
     }
