@@ -7,8 +7,8 @@
 //!       grade=mems seeds=8 first=8001 starts=0.1,10,rand
 //!
 //! Other keys: `grade=tactical`, `hours=` (2), `rate=` (IMU Hz, 100), `score_from=` (3600 s),
-//! `adapt_first=`, `every=`, `window=` (600, 1200, 7200 s), `per_axis=1`, `taus=` (held, tested, free),
-//! `conservative=0`; environment `AXES=1` prints every run's 9 per-axis 3-sigma fractions.
+//! `adapt_first=`, `every=`, `window=` (600, 1200, 7200 s), `per_axis=1`, `taus=` (`held`,
+//! `tested`, `free`; default the command's), `conservative=0`; environment `AXES=1` prints every run's 9 per-axis 3-sigma fractions.
 //!
 //! Per seed: a figure-eight drive (`Profile::figure_eight_course`, 100 Hz, GNSS 1 Hz with 60-s
 //! outages every 20 min from 10 min, withheld by the run); the true-model filter; then one
@@ -91,7 +91,8 @@ fn main() {
         window: arg_or("window", 7200.0),
         per_axis: arg_or("per_axis", 0) != 0,
         taus: match arg("taus").as_deref() {
-            None | Some("0" | "held") => TauMode::Held,
+            None => AdaptConfig::default().taus,
+            Some("0" | "held") => TauMode::Held,
             Some("1" | "free") => TauMode::Free,
             Some("tested") => TauMode::Tested,
             Some(t) => panic!("taus={t}: held, tested or free"),

@@ -22,6 +22,7 @@ pub mod plot;
 pub mod records;
 pub mod report;
 pub mod setup;
+pub mod track;
 pub mod truth;
 
 use crate::nav_io::{self, score_outages, GnssFix, ImuSample, OutageSpec, OutageSummary};
