@@ -19,12 +19,23 @@
 //!    under each candidate, retuned the same way; a window from the run's start replays a
 //!    fresh run under the candidate (its own prior on the sensor states).
 //!
+//! Each search also records, at the maximum, the Cramér-Rao standard deviation of every log10
+//! factor ([`cramer_rao_sd`]) and flags the coordinates the window cannot bound
+//! ([`Search::identifiable`], sd above [`IDENTIFIABLE_SD`]): "not identifiable from these data
+//! yet", in `adapt.json`, `adapt.csv` and the report.
+//!
 //! The quantities are tied across the three axes of a sensor (one value per sensor and
 //! component: the starting model's values are first replaced by their geometric mean over the
 //! axes, [`tie`]) unless [`AdaptConfig::per_axis`] is set.
 //!
 //! Nothing after `t` is read at `t`: the test `nav_adapt` checks that a log cut at `t` gives
 //! the same decisions up to `t`.
+
+mod information;
+mod record;
+
+pub use information::cramer_rao_sd;
+pub use record::value;
 
 use super::drive::{Discard, NavLoop};
 use super::pattern;
@@ -90,6 +101,10 @@ pub const TAU_TEST_LEVEL: f64 = 0.99;
 /// Likelihood loss [nats] that bounds the conservative move along a flat direction: half the
 /// chi-square(1) 0.68 quantile (0.99/2), the end of a one-sigma likelihood interval.
 pub const FLAT_NATS: f64 = 0.5;
+
+/// Cramér-Rao sd [decades] above which a coordinate is flagged as not identifiable from the
+/// window: its one-sigma interval then spans more than a factor 10.
+pub const IDENTIFIABLE_SD: f64 = 0.5;
 
 /// Bound on every log10 factor, relative to the starting model.
 pub const MAX_DECADES: f64 = 2.0;
@@ -218,6 +233,14 @@ pub struct Search {
     pub evaluations: usize,
     /// [`TauMode::Tested`]: the test of the held correlation times.
     pub tau_test: Option<TauTest>,
+    /// log10 factors at the likelihood's maximum (before the flat-direction moves).
+    pub ml_log10_factors: Vec<f64>,
+    /// Cramér-Rao standard deviation of each log10 factor at the maximum
+    /// ([`cramer_rao_sd`]); infinite (`null` in JSON) where the window does not bound it.
+    pub cr_sd_log10: Vec<f64>,
+    /// Each coordinate is identifiable from the window: its Cramér-Rao sd is at most
+    /// [`IDENTIFIABLE_SD`]. A `false` is the flag "not identifiable from these data yet".
+    pub identifiable: Vec<bool>,
     /// log10 factors on the starting model after the search (coordinate order).
     pub log10_factors: Vec<f64>,
 }
@@ -342,6 +365,18 @@ impl<T: Real> Adapter<T> {
                 f64::NEG_INFINITY
             })
         };
+        // The search revisits points (a pattern search's neighbours, the curvature below):
+        // each distinct point is replayed once. Points are multiples of 1/8 decade.
+        let mut seen = std::collections::HashMap::<Vec<i64>, f64>::new();
+        let mut eval = |x: &[f64]| -> Result<f64> {
+            let key: Vec<i64> = x.iter().map(|v| (v * 8.0).round() as i64).collect();
+            if let Some(&ll) = seen.get(&key) {
+                return Ok(ll);
+            }
+            let ll = eval(x)?;
+            seen.insert(key, ll);
+            Ok(ll)
+        };
         let before = eval(&self.x)?;
         let mut best = before;
         let mut x = self.x.clone();
@@ -397,6 +432,8 @@ impl<T: Real> Adapter<T> {
         // outside 3 sigma in 5 % of epochs); one too large only costs accuracy. Correlation
         // times are left at the maximum.
         let loglik_max = best;
+        let ml_log10_factors = x.clone();
+        let cr_sd_log10 = cramer_rao_sd(&x, best, &mut eval)?;
         if self.cfg.conservative {
             let mut ll_x = best;
             for i in 0..x.len() {
@@ -435,6 +472,12 @@ impl<T: Real> Adapter<T> {
             loglik_max,
             evaluations,
             tau_test,
+            identifiable: cr_sd_log10
+                .iter()
+                .map(|sd| *sd <= IDENTIFIABLE_SD)
+                .collect(),
+            ml_log10_factors,
+            cr_sd_log10,
             log10_factors: self.x.clone(),
         });
         Ok(())
@@ -448,126 +491,5 @@ impl<T: Real> Adapter<T> {
             coordinates: self.coords,
             searches: self.log,
         }
-    }
-}
-
-impl AdaptLog {
-    /// `adapt.csv`: one row per search (time and window start [s], fixes, window
-    /// log-likelihoods of the model before, of the best found and of the model taken, replays), then the value of every coordinate's
-    /// quantity after the search, in SI units (column `sensor_axes_component_quantity`, axes
-    /// as `xyz`, `x`, ...).
-    pub fn write_csv(&self, path: &std::path::Path) -> Result<()> {
-        let mut w =
-            csv::Writer::from_path(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-        let mut head: Vec<String> = [
-            "t",
-            "window_start",
-            "fixes",
-            "loglik_before",
-            "loglik_max",
-            "loglik",
-            "evaluations",
-            "tau_gain",
-            "tau_threshold",
-            "taus_moved",
-        ]
-        .map(String::from)
-        .to_vec();
-        for c in &self.coordinates {
-            let axes: String = c.axes.iter().map(|&a| ['x', 'y', 'z'][a]).collect();
-            head.push(format!(
-                "{}_{}_{}_{}",
-                c.sensor, axes, c.component, c.quantity
-            ));
-        }
-        w.write_record(&head)?;
-        for s in &self.searches {
-            let mut row = vec![
-                s.t.to_string(),
-                s.window_start.to_string(),
-                s.fixes.to_string(),
-                s.loglik_before.to_string(),
-                s.loglik_max.to_string(),
-                s.loglik.to_string(),
-                s.evaluations.to_string(),
-            ];
-            // Empty unless the correlation times were tested (TauMode::Tested).
-            let t = s.tau_test;
-            row.push(t.map_or(String::new(), |t| t.gain.to_string()));
-            row.push(t.map_or(String::new(), |t| t.threshold.to_string()));
-            row.push(t.map_or(String::new(), |t| u8::from(t.moved).to_string()));
-            let m = apply(&self.base, &self.coordinates, &s.log10_factors);
-            for c in &self.coordinates {
-                row.push(value(&m, c).to_string());
-            }
-            w.write_record(&row)?;
-        }
-        w.flush()?;
-        Ok(())
-    }
-}
-
-/// The value of coordinate `c`'s quantity in `m` (on its first axis).
-pub fn value(m: &ImuErrorModel<f64>, c: &Coordinate) -> f64 {
-    m.sensor(c.s)[c.axes[0]]
-        .get(c.component)
-        .and_then(|comp| comp.get(c.q))
-        .unwrap_or(f64::NAN)
-}
-
-impl AdaptLog {
-    /// The report's section: the values over time (log10 of each coordinate's factor on the
-    /// starting model, tied) and one table row per search. Times from `t0` [s].
-    pub fn html_section(&self, t0: f64) -> Result<String> {
-        let lines: Vec<super::plot::Line> = self
-            .coordinates
-            .iter()
-            .enumerate()
-            .map(|(i, c)| {
-                let axes: String = c.axes.iter().map(|&a| ['x', 'y', 'z'][a]).collect();
-                let mut pts = vec![(0.0, 0.0)];
-                pts.extend(self.searches.iter().map(|s| {
-                    (
-                        s.t - t0,
-                        s.log10_factors.get(i).copied().unwrap_or(f64::NAN),
-                    )
-                }));
-                (
-                    format!("{} {axes} {} {}", c.sensor, c.kind, c.quantity),
-                    pts,
-                )
-            })
-            .collect();
-        let mut h = String::from(
-            "<p>Online identification (<code>adapt.json</code>, <code>adapt.csv</code>, <code>adapt-model.toml</code>): each search maximises the innovation log-likelihood of its window, using only the data up to its time; the running filter takes its answer.</p>",
-        );
-        h += &super::plot::chart(
-            "Identified factors on the starting model",
-            "time from t0 [s]",
-            "log10 factor",
-            &lines,
-            &[],
-            true,
-        )?;
-        h += "<table><tr><th>t [s]</th><th>window from [s]</th><th>fixes</th><th>log-likelihood before</th><th>best</th><th>taken</th><th>replays</th><th>correlation times: gain / threshold</th></tr>";
-        for s in &self.searches {
-            h += &format!(
-                "<tr><td>{:.0}</td><td>{:.0}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-                s.t - t0,
-                s.window_start - t0,
-                s.fixes,
-                crate::report::sig4(s.loglik_before, "nats"),
-                crate::report::sig4(s.loglik_max, "nats"),
-                crate::report::sig4(s.loglik, "nats"),
-                s.evaluations,
-                s.tau_test.map_or(String::from("held or free"), |t| format!(
-                    "{:.1} / {:.1} nats: {}",
-                    t.gain,
-                    t.threshold,
-                    if t.moved { "moved" } else { "held" }
-                ))
-            );
-        }
-        Ok(h + "</table>")
     }
 }
