@@ -8,7 +8,8 @@
 //!
 //! Other keys: `grade=tactical`, `hours=` (2), `rate=` (IMU Hz, 100), `score_from=` (3600 s),
 //! `adapt_first=`, `every=`, `window=` (600, 1200, 7200 s), `per_axis=1`, `taus=` (`held`,
-//! `tested`, `free`; default the command's), `conservative=0`; environment `AXES=1` prints every run's 9 per-axis 3-sigma fractions.
+//! `tested`, `free`; default the command's), `conservative=0`; environment `AXES=1` prints
+//! every run's 9 per-axis 3-sigma fractions.
 //!
 //! Per seed: a figure-eight drive (`Profile::figure_eight_course`, 100 Hz, GNSS 1 Hz with 60-s
 //! outages every 20 min from 10 min, withheld by the run); the true-model filter; then one

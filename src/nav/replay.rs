@@ -39,8 +39,8 @@
 //!
 //! GNSS flags ([`gnss_flags`]): withheld, set the heading to `yaw` (with the fix's velocity)
 //! before fusing, fuse, fuse the velocity too. The host decides them (outage schedule, heading
-//! from the course, the interval between fused fixes): they depend on the inputs only, never on the filter, so
-//! the firmware replays exactly the decisions of the host run.
+//! from the course, the interval between fused fixes): they depend on the inputs only, never
+//! on the filter, so the firmware replays exactly the decisions of the host run.
 //!
 //! Times and positions are `f64` (an `f32` latitude is 0.5 m coarse, an `f32` time cannot step
 //! 10 ms at 1e6 s); sensor samples and fix velocities and deviations are `f32`, the values the

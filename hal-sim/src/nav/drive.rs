@@ -1,9 +1,10 @@
 //! The replay loop of `hal-sim nav` ([`NavLoop`]): IMU samples through the core's navigator,
 //! the non-holonomic constraint once per filter step, and the GNSS fixes at their times with
-//! the planner's decisions (outages, heading from the course, the interval between fused fixes). The whole
-//! run ([`super::run_observed`]) and the online identification's window replays
-//! ([`super::adapt`]) both advance this loop, so the two apply the same rules; a loop is a
-//! value, so a copy taken at a window's start replays that window under another noise model.
+//! the planner's decisions (outages, heading from the course, the interval between fused
+//! fixes). The whole run ([`super::run_observed`]) and the online identification's window
+//! replays ([`super::adapt`]) both advance this loop, so the two apply the same rules; a loop
+//! is a value, so a copy taken at a window's start replays that window under another noise
+//! model.
 
 use super::records::{self, EpochRecord};
 use super::setup::{self, FixPlanner};

@@ -7,7 +7,8 @@
 //!    rest), and estimates the gyro biases from the mean rate over the same window, less the
 //!    vertical Earth rate (`--static-gyro-bias`);
 //! 2. starts the navigator at the first GNSS position (antenna minus the lever arm) at rest;
-//! 3. fuses the GNSS fixes not withheld, each at its own time (every fix by default, `--fix-interval` thins them);
+//! 3. fuses the GNSS fixes not withheld, each at its own time (every fix by default;
+//!    `--fix-interval` thins them);
 //!    until the heading is known (from `--yaw`, or the GNSS course once the speed exceeds
 //!    `--yaw-speed`), only static fixes are fused;
 //! 4. records the solution at every GNSS epoch (withheld ones too), the per-axis NIS and the
@@ -97,9 +98,9 @@ pub use imu_ident::nav::NHC_MIN_SPEED;
 
 impl NavArgs {
     /// A run of `imu` and `gnss` with `model` and the command's defaults (`hal-sim nav --help`):
-    /// 1-s step, every GNSS fix fused, 20-s levelling, heading from the course above 2 m/s, gyro biases seeded at
-    /// rest, initial sd 2/2/10 deg, 0.1 m/s, 1 m, gate 1, velocity fused, f64, no outages,
-    /// no lever arm, no non-holonomic constraint.
+    /// 1-s step, every GNSS fix fused, 20-s levelling, heading from the course above 2 m/s,
+    /// gyro biases seeded at rest, initial sd 2/2/10 deg, 0.1 m/s, 1 m, gate 1, velocity
+    /// fused, f64, no outages, no lever arm, no non-holonomic constraint.
     pub fn new(
         imu: PathBuf,
         gnss: PathBuf,
