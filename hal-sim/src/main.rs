@@ -5,6 +5,9 @@ use clap::{Parser, Subcommand};
 use hal_sim::commands;
 use std::path::PathBuf;
 
+/// The online identification's defaults, for `nav`'s options.
+const ADAPT: hal_sim::nav::adapt::AdaptConfig = hal_sim::nav::adapt::AdaptConfig::DEFAULT;
+
 #[derive(Parser)]
 #[command(name = "hal-sim", version, about = "Host test bed for imu-ident")]
 struct Cli {
@@ -137,10 +140,10 @@ enum Command {
         #[arg(long, conflicts_with_all = ["identify", "qemu_elf"])]
         adapt: bool,
         /// First online search and interval between searches FIRST,EVERY [s].
-        #[arg(long, value_delimiter = ',', default_values_t = [600.0, 1200.0])]
+        #[arg(long, value_delimiter = ',', default_values_t = [ADAPT.first, ADAPT.every])]
         adapt_every: Vec<f64>,
         /// Window of the online searches [s] (from the start while the run is shorter).
-        #[arg(long, default_value_t = 7200.0)]
+        #[arg(long, default_value_t = ADAPT.window)]
         adapt_window: f64,
         /// One factor per axis instead of one per sensor and component.
         #[arg(long)]
@@ -149,7 +152,7 @@ enum Command {
         /// values, or tested (moved only when the window's likelihood rejects the held values
         /// at 1 %); chosen by measurement, BENCHMARKS.md "Online identification in the
         /// navigator".
-        #[arg(long, value_enum, default_value_t = hal_sim::nav::adapt::TauMode::Free)]
+        #[arg(long, value_enum, default_value_t = ADAPT.taus)]
         adapt_taus: hal_sim::nav::adapt::TauMode,
     },
     /// Simulate a strapdown drive (figure-eights, climbs): imu.csv, truth.csv, gnss.csv.
@@ -417,6 +420,9 @@ fn main() -> Result<()> {
                 if !(sd.is_finite() && sd > 0.0) {
                     anyhow::bail!("--nhc: expected a positive standard deviation, got {sd}");
                 }
+            }
+            if !(fix_interval.is_finite() && fix_interval >= 0.0) {
+                anyhow::bail!("--fix-interval: expected seconds >= 0, got {fix_interval}");
             }
             let nhc_lever = match nhc_lever {
                 Some(v) => three(v, "nhc-lever")?,

@@ -72,6 +72,25 @@ fn drive() -> (
     (imu, fixes, truth, dir)
 }
 
+/// The run of the test drive (`dir`, `truth` from [`drive`]) with `model` and `adapt`.
+fn nav_args(
+    dir: &tempfile::TempDir,
+    truth: &[hal_sim::nav_io::TruthRow],
+    model: ImuErrorModel<f64>,
+    adapt: Option<AdaptConfig>,
+) -> NavArgs {
+    NavArgs {
+        adapt,
+        ..NavArgs::simulated(
+            dir.path().join("imu.csv"),
+            dir.path().join("gnss.csv"),
+            model,
+            "test",
+            truth[0].rpy_deg[2],
+        )
+    }
+}
+
 /// One search at 20 min over the window from the start.
 const ONE_SEARCH: AdaptConfig = AdaptConfig {
     first: 1200.0,
@@ -88,16 +107,7 @@ fn online_search_finds_the_likelihood_maximum_from_a_wrong_start_and_reads_no_fu
     let truth_model = SimModel::mems()
         .to_core()
         .unwrap_or_else(|e| panic!("{e:#}"));
-    let args = |model, adapt| NavArgs {
-        adapt,
-        ..NavArgs::simulated(
-            dir.path().join("imu.csv"),
-            dir.path().join("gnss.csv"),
-            model,
-            "test",
-            truth[0].rpy_deg[2],
-        )
-    };
+    let args = |model, adapt| nav_args(&dir, &truth, model, adapt);
     let adapted = args(scaled_sd(&truth_model, 10.0), Some(ONE_SEARCH));
     let run = run_with::<f64>(&adapted, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let log = run.adapt.as_ref().expect("an adapt log");
@@ -217,19 +227,11 @@ fn tested_correlation_times_are_held_when_right_and_moved_when_rejected() {
         .to_core()
         .unwrap_or_else(|e| panic!("{e:#}"));
     let search = |model: ImuErrorModel<f64>| {
-        let args = NavArgs {
-            adapt: Some(AdaptConfig {
-                taus: TauMode::Tested,
-                ..ONE_SEARCH
-            }),
-            ..NavArgs::simulated(
-                dir.path().join("imu.csv"),
-                dir.path().join("gnss.csv"),
-                model,
-                "test",
-                truth[0].rpy_deg[2],
-            )
+        let tested = AdaptConfig {
+            taus: TauMode::Tested,
+            ..ONE_SEARCH
         };
+        let args = nav_args(&dir, &truth, model, Some(tested));
         let run = run_with::<f64>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
         let log = run.adapt.expect("an adapt log");
         let names: Vec<&str> = log.coordinates.iter().map(|c| c.quantity).collect();

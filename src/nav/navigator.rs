@@ -126,7 +126,7 @@ pub struct Navigator<T: Real, const N: usize> {
     t_kf: f64,
     /// Time the step clock last started: the last filter step, or the first fix after it.
     t_step: f64,
-    /// A GNSS fix has been fused since the last filter step.
+    /// A GNSS fix (fused or gated) has propagated the filter since the last filter step.
     fix_since_step: bool,
     sum_fn: Vector3<T>,
     sum_dt: T,

@@ -66,16 +66,22 @@ pub struct AdaptConfig {
     pub conservative: bool,
 }
 
+impl AdaptConfig {
+    /// The defaults (also `hal-sim nav`'s): searches every 20 min from 10 min over a 2-h
+    /// window, axes tied, correlation times free, the flat-direction move on.
+    pub const DEFAULT: Self = Self {
+        first: 600.0,
+        every: 1200.0,
+        window: 7200.0,
+        per_axis: false,
+        taus: TauMode::Free,
+        conservative: true,
+    };
+}
+
 impl Default for AdaptConfig {
     fn default() -> Self {
-        Self {
-            first: 600.0,
-            every: 1200.0,
-            window: 7200.0,
-            per_axis: false,
-            taus: TauMode::Free,
-            conservative: true,
-        }
+        Self::DEFAULT
     }
 }
 
@@ -128,6 +134,38 @@ pub struct Coordinate {
     s: ImuSensor,
 }
 
+impl Coordinate {
+    /// Its axes as letters: `xyz`, `x`, ...
+    pub fn axes_name(&self) -> String {
+        self.axes
+            .iter()
+            .filter_map(|&a| crate::imu_model::AXES.get(a))
+            .collect()
+    }
+
+    /// Its `adapt.csv` column: `sensor_axes_component_quantity` (`gyro_xyz_1_sigma`).
+    pub fn column(&self) -> String {
+        format!(
+            "{}_{}_{}_{}",
+            self.sensor,
+            self.axes_name(),
+            self.component,
+            self.quantity
+        )
+    }
+
+    /// Its name in the report: `gyro xyz gauss_markov sigma`.
+    pub fn label(&self) -> String {
+        format!(
+            "{} {} {} {}",
+            self.sensor,
+            self.axes_name(),
+            self.kind,
+            self.quantity
+        )
+    }
+}
+
 /// The coordinates of `model` under `cfg`.
 pub fn coordinates(model: &ImuErrorModel<f64>, cfg: &AdaptConfig) -> Vec<Coordinate> {
     let mut out = Vec::new();
@@ -174,10 +212,7 @@ pub fn coordinates(model: &ImuErrorModel<f64>, cfg: &AdaptConfig) -> Vec<Coordin
 pub fn tie(model: &ImuErrorModel<f64>, coords: &[Coordinate]) -> ImuErrorModel<f64> {
     let mut m = model.clone();
     for c in coords.iter().filter(|c| c.axes.len() > 1) {
-        let axes = match c.s {
-            ImuSensor::Gyro => &mut m.gyro,
-            ImuSensor::Accel => &mut m.accel,
-        };
+        let axes = m.sensor_mut(c.s);
         let logs: Vec<f64> = c
             .axes
             .iter()
@@ -198,10 +233,7 @@ pub fn tie(model: &ImuErrorModel<f64>, coords: &[Coordinate]) -> ImuErrorModel<f
 pub fn apply(base: &ImuErrorModel<f64>, coords: &[Coordinate], x: &[f64]) -> ImuErrorModel<f64> {
     let mut m = base.clone();
     for (c, &lx) in coords.iter().zip(x) {
-        let axes = match c.s {
-            ImuSensor::Gyro => &mut m.gyro,
-            ImuSensor::Accel => &mut m.accel,
-        };
+        let axes = m.sensor_mut(c.s);
         for &a in &c.axes {
             if let Some(comp) = axes[a].get_mut(c.component) {
                 if let Some(v) = comp.get(c.q) {
@@ -424,6 +456,9 @@ impl<T: Real> Adapter<T> {
                 moved,
             });
         }
+        let loglik_max = best;
+        let ml_log10_factors = x.clone();
+        let cr_sd_log10 = cramer_rao_sd(&x, best, &mut eval)?;
         // Flat directions: an intensity the window cannot pin down is moved up to the upper
         // end of its one-sigma likelihood interval (the largest value, in steps of 0.125
         // decade, that costs less than FLAT_NATS against the best point), not left wherever
@@ -431,15 +466,9 @@ impl<T: Real> Adapter<T> {
         // states it drives (a tactical IMU's accelerometer bias over a 30-min window: tilt
         // outside 3 sigma in 5 % of epochs); one too large only costs accuracy. Correlation
         // times are left at the maximum.
-        let loglik_max = best;
-        let ml_log10_factors = x.clone();
-        let cr_sd_log10 = cramer_rao_sd(&x, best, &mut eval)?;
         if self.cfg.conservative {
             let mut ll_x = best;
-            for i in 0..x.len() {
-                if self.coords[i].q == Quantity::Tau {
-                    continue;
-                }
+            for i in (0..x.len()).filter(|&i| !is_tau[i]) {
                 loop {
                     let mut y = x.clone();
                     y[i] = (y[i] + 0.125).min(MAX_DECADES);

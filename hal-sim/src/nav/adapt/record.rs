@@ -7,9 +7,10 @@ use imu_ident::nav::ImuErrorModel;
 
 impl AdaptLog {
     /// `adapt.csv`: one row per search (time and window start [s], fixes, window
-    /// log-likelihoods of the model before, of the best found and of the model taken, replays), then the value of every coordinate's
-    /// quantity after the search, in SI units (column `sensor_axes_component_quantity`, axes
-    /// as `xyz`, `x`, ...).
+    /// log-likelihoods of the model before, of the best found and of the model taken,
+    /// replays, the correlation-time test), then the value of every coordinate's quantity
+    /// after the search in SI units ([`Coordinate::column`]), then every coordinate's
+    /// Cramér-Rao sd of its log10 factor (`..._sd_log10`).
     pub fn write_csv(&self, path: &std::path::Path) -> Result<()> {
         let mut w =
             csv::Writer::from_path(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
@@ -27,21 +28,13 @@ impl AdaptLog {
         ]
         .map(String::from)
         .to_vec();
-        for c in &self.coordinates {
-            let axes: String = c.axes.iter().map(|&a| ['x', 'y', 'z'][a]).collect();
-            head.push(format!(
-                "{}_{}_{}_{}",
-                c.sensor, axes, c.component, c.quantity
-            ));
-        }
+        head.extend(self.coordinates.iter().map(Coordinate::column));
         // Then the Cramér-Rao sd of each coordinate's log10 factor (`inf`: not bounded).
-        for c in &self.coordinates {
-            let axes: String = c.axes.iter().map(|&a| ['x', 'y', 'z'][a]).collect();
-            head.push(format!(
-                "{}_{}_{}_{}_sd_log10",
-                c.sensor, axes, c.component, c.quantity
-            ));
-        }
+        head.extend(
+            self.coordinates
+                .iter()
+                .map(|c| format!("{}_sd_log10", c.column())),
+        );
         w.write_record(&head)?;
         for s in &self.searches {
             let mut row = vec![
@@ -90,13 +83,12 @@ impl AdaptLog {
             .zip(s.identifiable.iter().zip(&s.cr_sd_log10))
             .filter(|(_, (ok, _))| !**ok)
             .map(|(c, (_, sd))| {
-                let axes: String = c.axes.iter().map(|&a| ['x', 'y', 'z'][a]).collect();
                 let sd = if sd.is_finite() {
                     format!("sd {sd:.2}")
                 } else {
                     String::from("unbounded")
                 };
-                format!("{} {axes} {} {} ({sd})", c.sensor, c.kind, c.quantity)
+                format!("{} ({sd})", c.label())
             })
             .collect();
         if names.is_empty() {
@@ -114,7 +106,6 @@ impl AdaptLog {
             .iter()
             .enumerate()
             .map(|(i, c)| {
-                let axes: String = c.axes.iter().map(|&a| ['x', 'y', 'z'][a]).collect();
                 let mut pts = vec![(0.0, 0.0)];
                 pts.extend(self.searches.iter().map(|s| {
                     (
@@ -122,10 +113,7 @@ impl AdaptLog {
                         s.log10_factors.get(i).copied().unwrap_or(f64::NAN),
                     )
                 }));
-                (
-                    format!("{} {axes} {} {}", c.sensor, c.kind, c.quantity),
-                    pts,
-                )
+                (c.label(), pts)
             })
             .collect();
         let mut h = String::from(
