@@ -1,4 +1,5 @@
-//! The `simulate` and `run` commands (the CLI in `main.rs` only parses arguments).
+//! The `simulate` and `run` commands (the CLI, defined in `cli.rs` and dispatched by `main.rs`,
+//! only parses arguments).
 
 use crate::model_toml;
 use crate::output::write_string;

@@ -4,6 +4,7 @@
 pub mod adaptive;
 pub mod allan;
 pub mod candidates;
+pub mod cli;
 pub mod commands;
 pub mod compare;
 pub mod datasheet;

@@ -31,20 +31,25 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod bank;
+mod config;
 pub mod guard;
+mod jump;
 pub mod params;
 pub mod probes;
+mod report;
 pub mod restructure;
 pub mod window;
 
 use crate::filter::Estimates;
-use crate::linalg::{chol_solve, cholesky, inverse_diagonal, is_positive_definite};
+use crate::linalg::{chol_solve, cholesky, inverse_diagonal};
 use crate::model::{InsModel, ModelError, Sensor, StateRow, NX};
 use crate::Real;
 use bank::{Bank, Information, MemberInnovation};
+pub use config::AdaptConfig;
 use guard::{limit_step, Bounds, Mat};
 use params::{apply, specs, theta_of, Specs, MAXP};
 use probes::Probes;
+pub use report::{StepReport, StepStatus};
 pub use window::WindowSearch;
 pub use window::{Found, Switch, WindowConfig};
 
@@ -60,153 +65,6 @@ pub enum AdaptError {
     NoParameters,
     /// A configuration value is out of range.
     BadConfig,
-}
-
-/// Tuning of the recursive Gauss-Newton identification.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct AdaptConfig<T> {
-    /// Steps between parameter updates (`K`).
-    pub block: u32,
-    /// Finite-difference step in `ln` of each parameter (`h`).
-    pub h: T,
-    /// Memory of the exponential window [s]: `f = exp(-block dt / window)`.
-    pub window: T,
-    /// Levenberg-Marquardt damping `lambda` (relative to the diagonal).
-    pub damping: T,
-    /// Hysteresis: components smaller than this many standard errors are not applied.
-    pub hysteresis: T,
-    /// Largest change of any `ln` parameter per update (`ln 2`: a factor two).
-    pub max_step: T,
-    /// Longest correlation time allowed [s] (the shortest is `dt`).
-    pub tau_max: T,
-    /// Scales (sigma, q, density) stay within this many decades of their start.
-    pub spread: T,
-    /// Fraction of the windowed information kept after a move (`1`: all of it). Information
-    /// gathered far from the new point describes the likelihood there poorly; discounting it
-    /// lets the next blocks (gathered at the new point) steer.
-    pub move_discount: T,
-    /// Multiplier of the probe grid on the correlation times (`<= 1`: no probes).
-    pub probe_factor: T,
-    /// Steps per probe epoch (re-anchor, warm up, compare).
-    pub epoch: u32,
-    /// Steps at the start of an epoch before the likelihoods are summed.
-    pub warmup: u32,
-    /// Log-likelihood advantage [nats] a probe needs over the centre in one epoch to win.
-    pub margin: T,
-    /// The margin during the search phase, when the centre is only a guess and has no more
-    /// claim than any probe to be the best point of the grid.
-    pub first_margin: T,
-    /// Hold the Gauss-Newton moves during the search phase (see `search_until_settled`).
-    pub hold_first_epoch: bool,
-    /// Keep searching (first-epoch margin, moves held) until an epoch ends without a jump,
-    /// instead of for the first epoch only.
-    pub search_until_settled: bool,
-    /// `false`: never move (the bank still accumulates the Fisher information, for the CRB).
-    pub adapt: bool,
-    /// The global stage: maximum likelihood over a buffered window, searched from a grid
-    /// ([`window`]; `WindowConfig::OFF`: not run).
-    pub global: WindowConfig<T>,
-}
-
-impl<T: Real> AdaptConfig<T> {
-    /// All zeros (rejected by [`AdaptiveFilter::new`]; a compile-time placeholder).
-    pub const BLANK: Self = Self {
-        block: 0,
-        h: T::ZERO,
-        window: T::ZERO,
-        damping: T::ZERO,
-        hysteresis: T::ZERO,
-        max_step: T::ZERO,
-        tau_max: T::ZERO,
-        spread: T::ZERO,
-        move_discount: T::ZERO,
-        probe_factor: T::ZERO,
-        epoch: 0,
-        warmup: 0,
-        margin: T::ZERO,
-        first_margin: T::ZERO,
-        hold_first_epoch: false,
-        search_until_settled: false,
-        adapt: false,
-        global: WindowConfig::OFF,
-    };
-}
-
-impl<T: Real> Default for AdaptConfig<T> {
-    fn default() -> Self {
-        Self {
-            block: 600,
-            h: T::lit(0.2),
-            window: T::lit(4.0 * 3600.0),
-            damping: T::lit(0.1),
-            hysteresis: T::lit(1.0),
-            max_step: T::lit(core::f64::consts::LN_2),
-            tau_max: T::lit(1e6),
-            spread: T::lit(3.0),
-            move_discount: T::lit(1.0),
-            probe_factor: T::lit(3.0),
-            epoch: 3600,
-            warmup: 900,
-            margin: T::lit(20.0),
-            first_margin: T::lit(5.0),
-            hold_first_epoch: true,
-            search_until_settled: true,
-            adapt: true,
-            global: WindowConfig::OFF,
-        }
-    }
-}
-
-impl<T: Real> AdaptConfig<T> {
-    /// The global stage (issue 13, [`window`]): maximum likelihood over a buffered window of
-    /// block means, searched from a grid around the start, every 2 h; it replaces the probe
-    /// grid (off) and the recursion's moves (held: the bank still accumulates the information
-    /// behind the Cramér-Rao deviations).
-    pub fn global() -> Self {
-        Self {
-            probe_factor: T::zero(),
-            global: WindowConfig::default_on(),
-            ..Self::default()
-        }
-    }
-}
-
-/// What one step did.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum StepStatus {
-    /// The observation was used by every bank member.
-    Updated,
-    /// The observation was missing (non-finite): prediction only.
-    Missing,
-    /// The centre filter had an invalid innovation variance (its state was repaired).
-    BadInnovationVariance,
-    /// The observation failed the outlier gate and no filter used it (prediction only).
-    Gated,
-}
-
-/// The result of one step.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct StepReport<T> {
-    /// Centre innovation `nu` (NaN when missing).
-    pub innovation: T,
-    /// Centre innovation variance `S` (NaN when missing).
-    pub variance: T,
-    /// What happened.
-    pub status: StepStatus,
-    /// The parameters moved at the end of this step.
-    pub moved: bool,
-    /// The move was a jump to a probe (basin change).
-    pub jumped: bool,
-    /// A parameter update was attempted and failed (the model was rejected; `theta` kept).
-    pub rejected: bool,
-    /// A parameter update hit a physical bound and was clamped.
-    pub clamped: bool,
-    /// The model's structure changed at the end of this step (one component's kind replaced
-    /// by the global stage's structure test; `jumped` and `moved` are set too).
-    pub switched: bool,
 }
 
 /// An INS filter that identifies its own sensor-noise parameters online.
@@ -429,100 +287,6 @@ impl<T: Real> AdaptiveFilter<T> {
         }
     }
 
-    /// End of a probe epoch: jump to a winning probe (fresh information, the old one describes
-    /// another basin), then re-anchor the grid at the centre. Returns whether it jumped.
-    fn epoch_end(&mut self) -> Result<bool, AdaptError> {
-        self.epochs = self.epochs.saturating_add(1);
-        let mut jumped = false;
-        if self.cfg.adapt {
-            let best = self.probes.best();
-            self.last_gain = best.as_ref().map_or(T::zero(), |w| w.gain);
-            let margin = if self.searching {
-                self.cfg.first_margin
-            } else {
-                self.cfg.margin
-            };
-            // A probe whose covariance lost positive definiteness (its health test looks at the
-            // diagonal only) is broken and cannot win: the centre would copy its `P`.
-            let n = self.bank.active();
-            let valid = |w: &probes::Winner<T>| {
-                w.gain.is_finite() && w.gain > margin && is_positive_definite(&w.p, n)
-            };
-            if let Some(w) = best.filter(valid) {
-                // At once, not staggered like the Gauss-Newton moves: measured, staggering the
-                // jump (members keeping their old model for up to 2p steps on the probe's x, P)
-                // worsened the worst seeds (10x start: max tilt ratio 1.33 vs 1.18). A jump is
-                // rare (0-2 per run) and costs 2p + 1 re-discretisations on that step.
-                self.bank.set_theta(&w.theta)?;
-                self.bank.reset_states(&w.x, &w.p);
-                self.theta = w.theta;
-                self.acc = Information::default();
-                self.acc_sq = [[T::zero(); MAXP]; MAXP];
-                self.block = Information::default();
-                self.jumps = self.jumps.saturating_add(1);
-                jumped = true;
-            }
-            // The search phase (small margin, no Gauss-Newton moves) lasts until an epoch ends
-            // without a jump: the centre is then the best point of its grid neighbourhood.
-            if !jumped || !self.cfg.search_until_settled {
-                self.searching = false;
-            }
-        }
-        self.probes
-            .anchor(&self.theta, &self.bounds, self.specs.len());
-        Ok(jumped)
-    }
-
-    /// End of a global search: jump to its best point when it beats the anchor by the margin.
-    /// Unlike a probe, the point has no 1-Hz filter state: the centre keeps its `x, P`, and the
-    /// windowed information is discarded (it was gathered at another point).
-    fn global_end(&mut self, found: &Found<T>) -> bool {
-        self.last_global = *found;
-        if !self.cfg.adapt {
-            return false;
-        }
-        // The first finished search ends the search phase (the recursion, when not held,
-        // then climbs from the basin the window chose).
-        self.searching = false;
-        if let Some(sw) = found.switch.get().filter(|s| self.switch_wins(s)) {
-            if self.switch_structure(sw, found.blocks).is_ok() {
-                self.jumps = self.jumps.saturating_add(1);
-                self.switches = self.switches.saturating_add(1);
-                return true;
-            }
-        }
-        if !(found.gain.is_finite() && found.gain > self.cfg.global.margin) {
-            return false;
-        }
-        // Staggered (one member re-discretised per tick, the centre first), unlike a probe's
-        // jump: the recursion is held, so only the information waits for the members, and the
-        // tick that ends a search does not add the 2p + 1 re-discretisations of a jump at once
-        // (about 230k instructions on the Cortex-M4, §5 of docs/ADAPTATION.md) to its share
-        // of the search.
-        self.bank.request_theta(&found.theta);
-        // A move within a factor two keeps the windowed information (it still describes the
-        // likelihood near the new point, as after a Gauss-Newton move); a longer one is a jump to
-        // another basin, where it does not.
-        let far = self
-            .theta
-            .iter()
-            .zip(found.theta.iter())
-            .take(self.specs.len())
-            .any(|(a, b)| (*a - *b).abs() > T::lit(core::f64::consts::LN_2));
-        self.theta = found.theta;
-        if far {
-            self.acc = Information::default();
-            self.acc_sq = [[T::zero(); MAXP]; MAXP];
-            self.block = Information::default();
-        }
-        self.jumps = self.jumps.saturating_add(1);
-        if !self.probes.is_empty() {
-            self.probes
-                .anchor(&self.theta, &self.bounds, self.specs.len());
-        }
-        true
-    }
-
     /// Structure switches so far.
     pub fn switches(&self) -> u32 {
         self.switches
@@ -736,58 +500,4 @@ fn output_rows<T: Real>(model: &InsModel<T>) -> Result<(StateRow<T>, StateRow<T>
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::model::{Component, RandomConstant};
-
-    #[test]
-    fn config_and_model_errors_are_values() {
-        let bad = AdaptConfig::<f32> {
-            block: 0,
-            ..AdaptConfig::default()
-        };
-        assert_eq!(
-            AdaptiveFilter::new(InsModel::paper(), bad).err(),
-            Some(AdaptError::BadConfig)
-        );
-        let nan = AdaptConfig::<f32> {
-            damping: f32::NAN,
-            ..AdaptConfig::default()
-        };
-        assert!(AdaptiveFilter::new(InsModel::paper(), nan).is_err());
-        let mut m = InsModel::<f32>::empty(1.0, 0.03);
-        let _ = m
-            .accel
-            .push(Component::RandomConstant(RandomConstant { sigma: 1e-3 }));
-        assert_eq!(
-            AdaptiveFilter::new(m, AdaptConfig::default()).err(),
-            Some(AdaptError::NoParameters)
-        );
-    }
-
-    #[test]
-    fn missing_and_absurd_observations_do_not_break_it() {
-        let cfg = AdaptConfig::<f32> {
-            block: 50,
-            epoch: 200,
-            warmup: 20,
-            ..AdaptConfig::default()
-        };
-        let mut f = AdaptiveFilter::new(InsModel::<f32>::paper(), cfg).unwrap();
-        for k in 0..1000u32 {
-            let z = match k % 97 {
-                3 => f32::NAN,
-                5 => 1e6,
-                _ => 0.01 * ((k as f32) * 0.37).sin(),
-            };
-            let r = f.step(z);
-            if z.is_nan() {
-                assert_eq!(r.status, StepStatus::Missing);
-            }
-        }
-        assert!(f.theta().iter().all(|v| v.is_finite()));
-        let e = f.estimates();
-        assert!(e.sigma_delta.is_finite() && e.sigma_delta > 0.0);
-        assert!(f.model().is_ok());
-    }
-}
+mod tests;

@@ -1,0 +1,84 @@
+//! Tuning of the global stage ([`WindowConfig`]: block, window, schedule, per-tick budget, grid
+//! spacing, margin, and the structure test's penalty [`STRUCTURE_PENALTY`]). Plain data with the
+//! measured defaults (`docs/ADAPTATION.md` §7), kept apart from the search that reads it.
+
+use crate::Real;
+
+/// The structure test's penalty [nats per parameter] when it is switched on: see
+/// `docs/ADAPTATION.md` §7.6 (the statistic on `paper` data, without oscillation, stayed at or
+/// below 4.3 nats on 80 logs; a switch to one more parameter needs 1.5 times this, 4.5 nats).
+pub const STRUCTURE_PENALTY: f64 = 3.0;
+
+/// Tuning of the global stage.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct WindowConfig<T> {
+    /// Ticks per block mean (`0`: the global stage is off).
+    pub block: u32,
+    /// Blocks in the searched window (at most `WINDOW_CAP` minus the blocks that arrive during
+    /// a search).
+    pub window: u32,
+    /// Blocks before the first search.
+    pub first: u32,
+    /// Blocks between the starts of two searches.
+    pub every: u32,
+    /// Decimated filter steps per tick.
+    pub budget: u32,
+    /// Grid spacing in `ln` (`ln 10`: factors 0.1, 1, 10).
+    pub spacing: T,
+    /// The polish stops when its step falls below this (`ln`).
+    pub min_step: T,
+    /// Advantage [nats] over the anchor the best point needs before the filter jumps to it.
+    pub margin: T,
+    /// `true`: the recursive Gauss-Newton does not move the parameters between searches (it
+    /// still accumulates the information for the Cramér-Rao deviations); the window's polish is
+    /// the local refinement.
+    pub hold_recursion: bool,
+    /// Complexity penalty [nats per identified parameter] of the structure test
+    /// ([`structure`](super::structure)); `0`: no structure test.
+    pub structure: T,
+}
+
+impl<T: Real> WindowConfig<T> {
+    /// Off.
+    pub const OFF: Self = Self {
+        block: 0,
+        window: 0,
+        first: 0,
+        every: 0,
+        budget: 0,
+        spacing: T::ZERO,
+        min_step: T::ZERO,
+        margin: T::ZERO,
+        hold_recursion: false,
+        structure: T::ZERO,
+    };
+
+    /// The measured default (`docs/ADAPTATION.md` §7): 60-s blocks, 8-h window, first search
+    /// after 4 h, then every 4 h, 64 filter steps and at most one filter construction per tick
+    /// (a search over a full window takes about 1.3 h; the Cortex-M4's mean and worst tick stay
+    /// within 50k and 500k instructions); margin 0 (the filter runs at the window's maximum: the
+    /// search replaces the recursion, which is held).
+    pub fn default_on() -> Self {
+        Self {
+            block: 60,
+            window: 480,
+            first: 240,
+            every: 240,
+            budget: 64,
+            spacing: T::lit(core::f64::consts::LN_10),
+            min_step: T::lit(0.05),
+            margin: T::lit(0.0),
+            hold_recursion: true,
+            // Off by default: it does no measured harm, but it misses its own bars (weak evidence
+            // at the amplitude, `docs/ADAPTATION.md` §7.6). Opt in with
+            // `structure: STRUCTURE_PENALTY`.
+            structure: T::ZERO,
+        }
+    }
+
+    /// Whether the global stage runs.
+    pub fn enabled(&self) -> bool {
+        self.block > 0 && self.window > 1 && self.budget > 0
+    }
+}
