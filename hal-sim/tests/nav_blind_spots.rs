@@ -27,6 +27,15 @@
 //! - Gauss-Markov: `(ln sigma, ln tau)` by a pattern search on the same likelihood, the
 //!   covariance the inverse of the 2x2 observed information (central differences, step [`H`]).
 //!
+//! The intervals above are Wald intervals: symmetric, from the curvature at the maximum. The
+//! same likelihoods also give the likelihood-ratio statistic of the truth, `2 (L_max - L)`,
+//! chi-square under the truth (Wilks): for `ln q`, and for each Gauss-Markov parameter its
+//! profile (the other parameter maximised, golden section), chi-square(1), inside the 95 %
+//! profile-likelihood interval iff <= 3.84; for both together, chi-square(2), iff <= 5.99.
+//! Asymptotically the two intervals agree; with about one independent value of a 1-h
+//! Gauss-Markov per axis and hour, the likelihood is skewed and only the profile interval has
+//! the shape of it.
+//!
 //! Benchmark (ignored): `cargo test --release -p hal-sim --test nav_blind_spots -- --ignored
 //! --nocapture`, with `BLIND_SEEDS` (default 20), `BLIND_FIRST_SEED` (7001), `BLIND_HOURS`
 //! (1), `BLIND_EFFECTS` (`bias,walk,gm,walk_h,gm_h,tie`; `walk_h`, `gm_h`: the
@@ -187,8 +196,8 @@ fn ll(d: &Drive, model: ImuErrorModel<f64>) -> f64 {
 }
 
 /// Random walk, `q` unknown on the first `axes` accelerometers (the others known):
-/// `(ln q_hat - ln q) / sd`, sd, runs.
-fn walk_case(seed: u64, hours: f64, still: bool, axes: usize) -> (f64, f64, usize) {
+/// `(ln q_hat - ln q) / sd`, sd, the likelihood-ratio statistic of the truth, runs.
+fn walk_case(seed: u64, hours: f64, still: bool, axes: usize) -> (f64, f64, f64, usize) {
     let walk = |q: f64| {
         let mut m = imu_model(Component::RandomWalk(RandomWalk {
             q: WALK_Q,
@@ -210,46 +219,59 @@ fn walk_case(seed: u64, hours: f64, still: bool, axes: usize) -> (f64, f64, usiz
     };
     // Golden section over 9 e-folds of q (1-h drift 0.05 mg to 4.5 mg), not centred on the
     // truth, to a bracket of 0.02.
-    let g = (5f64.sqrt() - 1.0) / 2.0;
-    let (mut a, mut b) = (WALK_Q.ln() - 6.0, WALK_Q.ln() + 3.0);
-    let mut c = b - g * (b - a);
-    let mut e = a + g * (b - a);
-    let (mut fc, mut fe) = (f(c), f(e));
-    while b - a > 0.02 {
-        if fc > fe {
-            b = e;
-            e = c;
-            fe = fc;
-            c = b - g * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = e;
-            fc = fe;
-            e = a + g * (b - a);
-            fe = f(e);
-        }
-    }
-    let x = 0.5 * (a + b);
-    let l0 = f(x);
+    let (x, l0, best) = golden_max(&mut f, WALK_Q.ln() - 6.0, WALK_Q.ln() + 3.0, 0.02);
     let d2 = (f(x + H) - 2.0 * l0 + f(x - H)) / (H * H);
     let sd = if d2 < 0.0 {
         (-d2).sqrt().recip()
     } else {
         f64::NAN
     };
-    ((x - WALK_Q.ln()) / sd, sd, runs)
+    // The likelihood-ratio statistic of the truth, 2 (L_max - L(truth)): chi-square(1) under
+    // the truth (Wilks), so within the 95 % likelihood interval iff <= 3.84.
+    let lr = 2.0 * (best - f(WALK_Q.ln())).max(0.0);
+    ((x - WALK_Q.ln()) / sd, sd, lr, runs)
+}
+
+/// Maximum of a unimodal `f` on `[a, b]` by golden section, to a bracket of `tol`: the
+/// bracket's midpoint, `f` there, and the largest value seen.
+fn golden_max(f: &mut dyn FnMut(f64) -> f64, mut a: f64, mut b: f64, tol: f64) -> (f64, f64, f64) {
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let mut c = b - g * (b - a);
+    let mut e = a + g * (b - a);
+    let (mut fc, mut fe) = (f(c), f(e));
+    let mut best = fc.max(fe);
+    while b - a > tol {
+        if fc > fe {
+            b = e;
+            e = c;
+            fe = fc;
+            c = b - g * (b - a);
+            fc = f(c);
+            best = best.max(fc);
+        } else {
+            a = c;
+            c = e;
+            fc = fe;
+            e = a + g * (b - a);
+            fe = f(e);
+            best = best.max(fe);
+        }
+    }
+    let x = 0.5 * (a + b);
+    let fx = f(x);
+    (x, fx, best.max(fx))
 }
 
 /// Maximum of `f` over two log-parameters: pattern search from `x`, steps of 1 down to 1/16,
 /// each coordinate within its `bounds`; then the 2x2 observed information by central
 /// differences with step [`H`]. Returns the maximiser, the sd of both coordinates and their
-/// correlation (NaN when the information is not positive definite).
+/// correlation (NaN when the information is not positive definite), and the largest value of
+/// `f` seen (the search's maximum or a finite-difference point above it).
 fn ml2(
     f: &mut dyn FnMut([f64; 2]) -> f64,
     mut x: [f64; 2],
     bounds: [[f64; 2]; 2],
-) -> ([f64; 2], [f64; 2], f64) {
+) -> ([f64; 2], [f64; 2], f64, f64) {
     let mut best = f(x);
     for step in [1.0, 0.5, 0.25, 0.125, 0.0625] {
         let mut improved = true;
@@ -275,7 +297,12 @@ fn ml2(
             }
         }
     }
-    let mut at = |a: f64, b: f64| f([x[0] + a, x[1] + b]);
+    let mut seen = best;
+    let mut at = |a: f64, b: f64| {
+        let l = f([x[0] + a, x[1] + b]);
+        seen = seen.max(l);
+        l
+    };
     let h11 = (at(H, 0.0) - 2.0 * best + at(-H, 0.0)) / (H * H);
     let h22 = (at(0.0, H) - 2.0 * best + at(0.0, -H)) / (H * H);
     let h12 = (at(H, H) - at(H, -H) - at(-H, H) + at(-H, -H)) / (4.0 * H * H);
@@ -283,15 +310,31 @@ fn ml2(
     match info.try_inverse() {
         Some(c) if info[(0, 0)] > 0.0 && info.determinant() > 0.0 => {
             let sd = [c[(0, 0)].sqrt(), c[(1, 1)].sqrt()];
-            (x, sd, c[(0, 1)] / (sd[0] * sd[1]))
+            (x, sd, c[(0, 1)] / (sd[0] * sd[1]), seen)
         }
-        _ => (x, [f64::NAN; 2], f64::NAN),
+        _ => (x, [f64::NAN; 2], f64::NAN, seen),
     }
 }
 
-/// Slow GM, unknown on the first `axes` accelerometers (the others known): z of `ln sigma`
-/// and `ln tau`, their sd, runs.
-fn gm_case(seed: u64, hours: f64, still: bool, axes: usize) -> ([f64; 2], [f64; 2], usize) {
+/// The slow GM's identification on one seed.
+struct GmCase {
+    /// Wald z of `ln sigma` and `ln tau`: `(est - true) / sd`.
+    z: [f64; 2],
+    /// Their Cramér-Rao sd (inverse observed information).
+    sd: [f64; 2],
+    /// Profile likelihood-ratio statistics of the true `ln sigma` and of the true `ln tau`:
+    /// `2 (L_max - max over the other parameter of L(true value, other))`, chi-square(1) under
+    /// the truth (Wilks), so the truth is inside the 95 % profile-likelihood interval iff
+    /// <= 3.84.
+    lr: [f64; 2],
+    /// `2 (L_max - L(true sigma, true tau))`: chi-square(2), inside the joint 95 % likelihood
+    /// region iff <= 5.99.
+    lr_joint: f64,
+    runs: usize,
+}
+
+/// Slow GM, unknown on the first `axes` accelerometers (the others known).
+fn gm_case(seed: u64, hours: f64, still: bool, axes: usize) -> GmCase {
     let gm = |s: f64, t: f64| {
         let mut m = imu_model(Component::GaussMarkov(GaussMarkov {
             sigma: GM_SIGMA,
@@ -309,16 +352,33 @@ fn gm_case(seed: u64, hours: f64, still: bool, axes: usize) -> ([f64; 2], [f64; 
         ll(&d, core(&gm(x[0].exp(), x[1].exp())))
     };
     // From a datasheet-like guess (1 mg over 10 min), ln tau within [ln 60 s, ln 1e6 s].
-    let (x, sd, _) = ml2(
+    let tau_bounds = [60f64.ln(), 1e6f64.ln()];
+    let (x, sd, _, best) = ml2(
         &mut f,
         [MG.ln(), 600f64.ln()],
-        [
-            [f64::NEG_INFINITY, f64::INFINITY],
-            [60f64.ln(), 1e6f64.ln()],
-        ],
+        [[f64::NEG_INFINITY, f64::INFINITY], tau_bounds],
     );
     let truth = [GM_SIGMA.ln(), GM_TAU.ln()];
-    (std::array::from_fn(|i| (x[i] - truth[i]) / sd[i]), sd, runs)
+    // The profiles at the true values: ln tau over its whole bound (9.7 e-folds), ln sigma
+    // over 4 e-folds either side of its estimate, each by golden section to 0.05 (an error
+    // of at most ~0.01 nat in the profile at the observed curvatures).
+    let at_true_sigma = golden_max(
+        &mut |t| f([truth[0], t]),
+        tau_bounds[0],
+        tau_bounds[1],
+        0.05,
+    )
+    .2;
+    let at_true_tau = golden_max(&mut |s| f([s, truth[1]]), x[0] - 4.0, x[0] + 4.0, 0.05).2;
+    let at_truth = f(truth);
+    let lmax = best.max(at_true_sigma).max(at_true_tau).max(at_truth);
+    GmCase {
+        z: std::array::from_fn(|i| (x[i] - truth[i]) / sd[i]),
+        sd,
+        lr: [2.0 * (lmax - at_true_sigma), 2.0 * (lmax - at_true_tau)],
+        lr_joint: 2.0 * (lmax - at_truth),
+        runs,
+    }
 }
 
 /// The random walk's one-channel tie: `ln q` of the accelerometer walk and `ln N` of the gyro
@@ -345,7 +405,7 @@ fn walk_gyro_case(seed: u64, hours: f64, still: bool, axes: usize) -> ([f64; 2],
     let d = drive(&model(WALK_Q, n0), hours, still, seed);
     let mut f = |x: [f64; 2]| ll(&d, core(&model(x[0].exp(), x[1].exp())));
     // From a start off the truth and off its grid (the search moves in steps of 1/2^k).
-    let (x, sd, rho) = ml2(
+    let (x, sd, rho, _) = ml2(
         &mut f,
         [WALK_Q.ln() - 1.7, n0.ln() + 1.3],
         [[f64::NEG_INFINITY, f64::INFINITY]; 2],
@@ -457,21 +517,24 @@ fn blind_spots_over_seeds() {
         }
         let t = Instant::now();
         let mut z = vec![];
+        let mut root = vec![];
         let mut runs = 0;
         for &s in &seeds {
-            let (zz, sd, n) = walk_case(s, hours, false, axes);
-            eprintln!("{effect} seed {s}: z {zz:.2}, sd(ln q) {sd:.3}, {n} runs");
+            let (zz, sd, lr, n) = walk_case(s, hours, false, axes);
+            eprintln!("{effect} seed {s}: z {zz:.2}, sd(ln q) {sd:.3}, LR {lr:.2}, {n} runs");
             z.push(zz);
+            root.push(lr.sqrt());
             runs += n;
         }
         print_row(&format!("random walk{label}, ln q"), &z);
+        print_row(&format!("random walk{label}, ln q, likelihood root"), &root);
         println!(
             "random walk{label}: {runs} runs, {:.0} s",
             t.elapsed().as_secs_f64()
         );
-        let (zz, sd, _) = walk_case(seeds[0], hours, true, axes);
+        let (zz, sd, lr, _) = walk_case(seeds[0], hours, true, axes);
         println!(
-            "random walk{label}, static (seed {}): z {zz:.2}, sd(ln q) {sd:.3}",
+            "random walk{label}, static (seed {}): z {zz:.2}, sd(ln q) {sd:.3}, LR {lr:.2}",
             seeds[0]
         );
     }
@@ -481,29 +544,45 @@ fn blind_spots_over_seeds() {
         }
         let t = Instant::now();
         let mut z: [Vec<f64>; 2] = Default::default();
-        let mut both = 0;
+        // Likelihood roots sqrt(LR): within the 95 % profile interval iff <= 1.96.
+        let mut root: [Vec<f64>; 2] = Default::default();
+        let (mut both, mut both_profile, mut joint) = (0, 0, 0);
         let mut runs = 0;
         for &s in &seeds {
-            let (zz, sd, n) = gm_case(s, hours, false, axes);
-            eprintln!("{effect} seed {s}: z {zz:.2?}, sd(ln sigma, ln tau) {sd:.3?}, {n} runs");
-            z[0].push(zz[0]);
-            z[1].push(zz[1]);
-            if zz.iter().all(|x| x.abs() <= 1.96) {
-                both += 1;
+            let c = gm_case(s, hours, false, axes);
+            eprintln!(
+                "{effect} seed {s}: z {:.2?}, sd(ln sigma, ln tau) {:.3?}, profile LR {:.2?}, joint LR {:.2}, {} runs",
+                c.z, c.sd, c.lr, c.lr_joint, c.runs
+            );
+            for i in 0..2 {
+                z[i].push(c.z[i]);
+                root[i].push(c.lr[i].sqrt());
             }
-            runs += n;
+            both += usize::from(c.z.iter().all(|x| x.abs() <= 1.96));
+            both_profile += usize::from(c.lr.iter().all(|x| *x <= 3.84));
+            // chi-square(2, 0.95) = -2 ln 0.05 = 5.99.
+            joint += usize::from(c.lr_joint <= -2.0 * 0.05f64.ln());
+            runs += c.runs;
         }
         print_row(&format!("Gauss-Markov{label}, ln sigma"), &z[0]);
         print_row(&format!("Gauss-Markov{label}, ln tau"), &z[1]);
-        println!(
-            "Gauss-Markov{label}: both within 1.96 sd in {both}/{}; {runs} runs, {:.0} s",
-            seeds.len(),
-            t.elapsed().as_secs_f64()
+        print_row(
+            &format!("Gauss-Markov{label}, ln sigma, profile root"),
+            &root[0],
         );
-        let (zz, sd, _) = gm_case(seeds[0], hours, true, axes);
+        print_row(
+            &format!("Gauss-Markov{label}, ln tau, profile root"),
+            &root[1],
+        );
         println!(
-            "Gauss-Markov{label}, static (seed {}): z {zz:.2?}, sd(ln sigma, ln tau) {sd:.3?}",
-            seeds[0]
+            "Gauss-Markov{label}: both within 1.96 sd in {both}/{n}; both within their 95 % profile intervals in {both_profile}/{n}; truth in the joint 95 % likelihood region in {joint}/{n}; {runs} runs, {:.0} s",
+            t.elapsed().as_secs_f64(),
+            n = seeds.len(),
+        );
+        let c = gm_case(seeds[0], hours, true, axes);
+        println!(
+            "Gauss-Markov{label}, static (seed {}): z {:.2?}, sd(ln sigma, ln tau) {:.3?}, profile LR {:.2?}",
+            seeds[0], c.z, c.sd, c.lr
         );
     }
     if effects.contains(&"tie") {
