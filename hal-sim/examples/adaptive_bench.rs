@@ -14,7 +14,7 @@
 use hal_sim::adaptive::{self, gm_params, run_acf_loop, tilt_window, AcfVariant};
 use hal_sim::{mismatch, replay, scenario, sim};
 use imu_ident::adapt::AdaptConfig;
-use imu_ident::model::{InsModel, Sensor};
+use imu_ident::model::{ErrorSource, InsModel};
 use std::time::Instant;
 
 const STEPS: usize = 12 * 3600;
@@ -94,8 +94,8 @@ fn main() -> anyhow::Result<()> {
     println!("config {cfg:?}, seeds {seeds}, f32 {f32_mode}");
     let truth = scenario::load("paper")?.to_core()?;
     let tv = [
-        gm_params(&truth, Sensor::Accel).unwrap_or_default(),
-        gm_params(&truth, Sensor::Gyro).unwrap_or_default(),
+        gm_params(&truth, ErrorSource::Accel).unwrap_or_default(),
+        gm_params(&truth, ErrorSource::Gyro).unwrap_or_default(),
     ];
     if methods == "cost" {
         return cost(&truth, cfg);
@@ -157,8 +157,8 @@ fn main() -> anyhow::Result<()> {
                             );
                             println!(
                                 "  final {:?} {:?} jumps {} updates {}",
-                                gm_params(&r.final_model, Sensor::Accel),
-                                gm_params(&r.final_model, Sensor::Gyro),
+                                gm_params(&r.final_model, ErrorSource::Accel),
+                                gm_params(&r.final_model, ErrorSource::Gyro),
                                 r.jumps,
                                 r.updates
                             );
@@ -203,8 +203,8 @@ fn main() -> anyhow::Result<()> {
                     ratio: rms / orms,
                     outside: out,
                     est: [
-                        gm_params(&model, Sensor::Accel).unwrap_or_default(),
-                        gm_params(&model, Sensor::Gyro).unwrap_or_default(),
+                        gm_params(&model, ErrorSource::Accel).unwrap_or_default(),
+                        gm_params(&model, ErrorSource::Gyro).unwrap_or_default(),
                     ],
                     crb,
                 });
@@ -401,10 +401,10 @@ fn track(truth: &InsModel<f64>, seeds: u64, cfg: AdaptConfig<f64>) -> anyhow::Re
         ra.push(arms / orms);
         rf.push(frms / orms);
         oa.push((aout * 100.0, fout * 100.0));
-        let bt = gm_params(&b, Sensor::Gyro).unwrap_or_default();
-        let at = gm_params(&r.final_model, Sensor::Gyro).unwrap_or_default();
-        let aa = gm_params(&r.final_model, Sensor::Accel).unwrap_or_default();
-        let ba = gm_params(&b, Sensor::Accel).unwrap_or_default();
+        let bt = gm_params(&b, ErrorSource::Gyro).unwrap_or_default();
+        let at = gm_params(&r.final_model, ErrorSource::Gyro).unwrap_or_default();
+        let aa = gm_params(&r.final_model, ErrorSource::Accel).unwrap_or_default();
+        let ba = gm_params(&b, ErrorSource::Accel).unwrap_or_default();
         println!(
             "  seed {seed}: accel tau {:.2}x sigma {:.2}x, gyro tau {:.2}x sigma {:.2}x, jumps {}, out {:.2} %",
             aa.0 / ba.0,

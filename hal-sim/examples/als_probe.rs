@@ -5,7 +5,7 @@
 #![allow(non_snake_case, clippy::needless_range_loop)]
 
 use hal_sim::{replay, scenario, sim};
-use imu_ident::model::{Component, InsModel, Sensor};
+use imu_ident::model::{Component, ErrorSource, InsModel};
 use nalgebra::DMatrix;
 
 fn set_gm(m: &mut InsModel<f64>, accel: bool, tau: Option<f64>, sigma: Option<f64>) {
@@ -21,7 +21,11 @@ fn set_gm(m: &mut InsModel<f64>, accel: bool, tau: Option<f64>, sigma: Option<f6
 }
 
 fn gm(m: &InsModel<f64>, accel: bool) -> (f64, f64) {
-    let sensor = if accel { Sensor::Accel } else { Sensor::Gyro };
+    let sensor = if accel {
+        ErrorSource::Accel
+    } else {
+        ErrorSource::Gyro
+    };
     hal_sim::adaptive::gm_params(m, sensor).unwrap_or((f64::NAN, f64::NAN))
 }
 

@@ -14,7 +14,7 @@ use imu_ident::autocorr::acf_batch;
 use imu_ident::filter::InsFilter;
 use imu_ident::ident::{lag1_corrected, paper_eq15, sigma2, SampleAcf};
 use imu_ident::model::Quantity;
-use imu_ident::model::{Component, InsModel, Sensor};
+use imu_ident::model::{Component, ErrorSource, InsModel};
 use imu_ident::Real;
 
 /// Everything one adaptive replay produced.
@@ -76,11 +76,11 @@ pub fn run<T: Real>(
 }
 
 /// `(tau, sigma)` of the first Gauss-Markov component of `sensor` in `m`.
-pub fn gm_params(m: &InsModel<f64>, sensor: Sensor) -> Option<(f64, f64)> {
+pub fn gm_params(m: &InsModel<f64>, sensor: ErrorSource) -> Option<(f64, f64)> {
     let comps = match sensor {
-        Sensor::Accel => &m.accel,
-        Sensor::Gyro => &m.gyro,
-        Sensor::Observation => return None,
+        ErrorSource::Accel => &m.accel,
+        ErrorSource::Gyro => &m.gyro,
+        ErrorSource::Observation => return None,
     };
     comps.iter().find_map(|c| match c {
         Component::GaussMarkov(g) => Some((g.tau, g.sigma)),

@@ -10,8 +10,8 @@
 //! on top of the wrong component. [`Proposal`] is either change, with one interface for the fit.
 
 use imu_ident::model::{
-    Component, ComponentKind, ExpCosine, GaussMarkov, InsModel, Quantity, RandomConstant,
-    RandomWalk, Sensor, WhiteNoise,
+    Component, ComponentKind, ErrorSource, ExpCosine, GaussMarkov, InsModel, Quantity,
+    RandomConstant, RandomWalk, WhiteNoise,
 };
 use std::f64::consts::PI;
 
@@ -19,7 +19,7 @@ use std::f64::consts::PI;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Candidate {
     /// Where it enters.
-    pub sensor: Sensor,
+    pub sensor: ErrorSource,
     /// What it is (the model-TOML kind; observation terms are Gauss-Markov).
     pub kind: ComponentKind,
 }
@@ -28,7 +28,7 @@ pub struct Candidate {
 /// cosine, random walk and random constant on either sensor, and coloured observation noise.
 pub const LIBRARY: [Candidate; 11] = {
     use ComponentKind as K;
-    use Sensor as S;
+    use ErrorSource as S;
     [
         Candidate {
             sensor: S::Accel,
@@ -79,12 +79,12 @@ pub const LIBRARY: [Candidate; 11] = {
 
 /// Typical magnitude of a sensor's error in `model` (sum of its components' magnitudes), with
 /// tactical-grade defaults when the model has none: 1e-3 m/s^2, 0.1 deg/h, sigma_v.
-pub fn sensor_scale(model: &InsModel<f64>, sensor: Sensor) -> f64 {
+pub fn sensor_scale(model: &InsModel<f64>, sensor: ErrorSource) -> f64 {
     let sum = |cs: &[Component<f64>]| cs.iter().map(|c| c.magnitude()).sum::<f64>();
     let (s, default) = match sensor {
-        Sensor::Accel => (sum(&model.accel), 1e-3),
-        Sensor::Gyro => (sum(&model.gyro), 0.1 * PI / 180.0 / 3600.0),
-        Sensor::Observation => (model.sigma_v, 0.03),
+        ErrorSource::Accel => (sum(&model.accel), 1e-3),
+        ErrorSource::Gyro => (sum(&model.gyro), 0.1 * PI / 180.0 / 3600.0),
+        ErrorSource::Observation => (model.sigma_v, 0.03),
     };
     if s > 0.0 && s.is_finite() {
         s
@@ -138,10 +138,10 @@ impl Candidate {
         let comp = self.component(p)?;
         let mut m = model.clone();
         match (self.sensor, comp) {
-            (Sensor::Accel, c) => m.accel.push(c).ok()?,
-            (Sensor::Gyro, c) => m.gyro.push(c).ok()?,
-            (Sensor::Observation, Component::GaussMarkov(g)) => m.colored.push(g).ok()?,
-            (Sensor::Observation, _) => return None,
+            (ErrorSource::Accel, c) => m.accel.push(c).ok()?,
+            (ErrorSource::Gyro, c) => m.gyro.push(c).ok()?,
+            (ErrorSource::Observation, Component::GaussMarkov(g)) => m.colored.push(g).ok()?,
+            (ErrorSource::Observation, _) => return None,
         }
         m.layout().ok()?;
         Some(m)
@@ -175,12 +175,12 @@ impl Candidate {
     pub fn explain(&self, c: &Component<f64>) -> String {
         let deg_h = 180.0 / PI * 3600.0;
         let sensor = match self.sensor {
-            Sensor::Accel => "accelerometer error",
-            Sensor::Gyro => "gyro drift",
-            Sensor::Observation => "reference-velocity error",
+            ErrorSource::Accel => "accelerometer error",
+            ErrorSource::Gyro => "gyro drift",
+            ErrorSource::Observation => "reference-velocity error",
         };
         match (*c, self.sensor) {
-            (Component::White(w), Sensor::Gyro) => format!(
+            (Component::White(w), ErrorSource::Gyro) => format!(
                 "gyro white noise (angle random walk) of {:.3e} deg/sqrt(h): rate noise the drift model lacks",
                 w.density * 180.0 / PI * 60.0
             ),
@@ -188,7 +188,7 @@ impl Candidate {
                 "accelerometer white noise (velocity random walk) of {:.3e} m/s/sqrt(s): vibration or electronic noise",
                 w.density
             ),
-            (Component::GaussMarkov(g), Sensor::Observation) => format!(
+            (Component::GaussMarkov(g), ErrorSource::Observation) => format!(
                 "reference velocity error correlated over {:.0} s (sigma {:.3e} m/s): GNSS multipath or reference filter lag",
                 g.tau, g.sigma
             ),
@@ -196,14 +196,14 @@ impl Candidate {
                 "a second correlated {sensor} with tau {:.3e} s (sigma {:.3e} {}): e.g. a thermal transient on another time scale",
                 g.tau,
                 g.sigma,
-                if s == Sensor::Gyro { "rad/s" } else { "m/s^2" }
+                if s == ErrorSource::Gyro { "rad/s" } else { "m/s^2" }
             ),
             (Component::ExpCosine(e), _) => format!(
                 "{sensor} oscillates with period {:.3e} s, envelope {:.3e} s (thermal cycling, DTG nutation, platform sway)",
                 2.0 * PI / e.beta.max(1e-300),
                 e.tau
             ),
-            (Component::RandomWalk(r), Sensor::Gyro) => format!(
+            (Component::RandomWalk(r), ErrorSource::Gyro) => format!(
                 "gyro rate random walk, {:.3e} deg/h/sqrt(h): drift instability that grows with time",
                 r.q.sqrt() * deg_h * 60.0
             ),
@@ -211,7 +211,7 @@ impl Candidate {
                 "{sensor} random walk, {:.3e} m/s^2/sqrt(s): bias instability that grows with time",
                 r.q.sqrt()
             ),
-            (Component::RandomConstant(r), Sensor::Gyro) => format!(
+            (Component::RandomConstant(r), ErrorSource::Gyro) => format!(
                 "gyro turn-on bias of about {:.3e} deg/h, constant over the run",
                 r.sigma * deg_h
             ),
@@ -235,7 +235,7 @@ fn log_param(q: Quantity, v: f64) -> f64 {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Replacement {
     /// The sensor whose component is replaced (accelerometer or gyro).
-    pub sensor: Sensor,
+    pub sensor: ErrorSource,
     /// Position of the replaced component in the model's list for that sensor.
     pub index: usize,
     /// The replaced component as the model has it.
@@ -260,7 +260,10 @@ impl Replacement {
     /// starts, the fit and the penalty follow from the kinds.
     /// (Observation noise is Gauss-Markov by construction and is not swapped.)
     pub fn all(model: &InsModel<f64>) -> Vec<Replacement> {
-        let sensors = [(Sensor::Accel, &model.accel), (Sensor::Gyro, &model.gyro)];
+        let sensors = [
+            (ErrorSource::Accel, &model.accel),
+            (ErrorSource::Gyro, &model.gyro),
+        ];
         let mut out = Vec::new();
         for (sensor, comps) in sensors {
             for (index, old) in comps.iter().enumerate() {
@@ -299,9 +302,9 @@ impl Replacement {
         let comp = self.target().component(p)?;
         let mut m = model.clone();
         let slot = match self.sensor {
-            Sensor::Accel => m.accel.get_mut(self.index)?,
-            Sensor::Gyro => m.gyro.get_mut(self.index)?,
-            Sensor::Observation => return None,
+            ErrorSource::Accel => m.accel.get_mut(self.index)?,
+            ErrorSource::Gyro => m.gyro.get_mut(self.index)?,
+            ErrorSource::Observation => return None,
         };
         if *slot != self.old {
             return None;
@@ -337,9 +340,9 @@ impl Replacement {
     /// sigma 4.848e-7 rad/s): ...`.
     pub fn explain(&self, c: &Component<f64>) -> String {
         let (sensor, unit) = match self.sensor {
-            Sensor::Accel => ("accelerometer", "m/s^2"),
-            Sensor::Gyro => ("gyro", "rad/s"),
-            Sensor::Observation => ("observation", "m/s"),
+            ErrorSource::Accel => ("accelerometer", "m/s^2"),
+            ErrorSource::Gyro => ("gyro", "rad/s"),
+            ErrorSource::Observation => ("observation", "m/s"),
         };
         let params = match *c {
             Component::ExpCosine(e) => format!(
@@ -512,7 +515,7 @@ mod tests {
         // the new component's parameters in both directions.
         let back = Replacement::all(&m)
             .into_iter()
-            .find(|r| r.sensor == Sensor::Gyro)
+            .find(|r| r.sensor == ErrorSource::Gyro)
             .unwrap();
         assert_eq!(back.label(), "gyro/exp-cosine->gauss-markov");
         assert_eq!(back.starts(&m), [vec![e.sigma.ln(), e.tau.ln()]]);

@@ -7,7 +7,7 @@
 //! over a factor of 4, so benchmarks never run on the exact values seen during development.
 
 use crate::candidates::{Candidate, LIBRARY};
-use imu_ident::model::{ComponentKind as K, InsModel, Sensor as S};
+use imu_ident::model::{ComponentKind as K, ErrorSource as S, InsModel};
 use rand::Rng;
 
 /// Log-uniform draw in `[lo, hi]`.

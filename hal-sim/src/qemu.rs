@@ -31,7 +31,7 @@ use std::time::{Duration, Instant};
 use anyhow::{anyhow, bail, Context, Result};
 use defmt_decoder::{DecodeError, Frame, Table};
 use defmt_parser::Fragment;
-use imu_ident::model::{wire, ComponentKind, InsModel, Sensor};
+use imu_ident::model::{wire, ComponentKind, ErrorSource, InsModel};
 use imu_ident::replay::{encode, encoded_len, Row};
 use imu_ident::step::{AcfRecord, ParamRecord};
 use imu_ident::telemetry::{Record, WIRE_FIELDS, WIRE_TAG};
@@ -413,11 +413,15 @@ pub(crate) fn tagged<const N: usize>(
         .map_err(|_| anyhow!("`{tag}` frame has {n} fields, expected {N}"))
 }
 
-fn sensor(code: u8) -> Result<Sensor> {
-    [Sensor::Accel, Sensor::Gyro, Sensor::Observation]
-        .get(usize::from(code))
-        .copied()
-        .ok_or_else(|| anyhow!("unknown sensor code {code}"))
+fn sensor(code: u8) -> Result<ErrorSource> {
+    [
+        ErrorSource::Accel,
+        ErrorSource::Gyro,
+        ErrorSource::Observation,
+    ]
+    .get(usize::from(code))
+    .copied()
+    .ok_or_else(|| anyhow!("unknown sensor code {code}"))
 }
 
 fn kind(code: u8) -> Result<ComponentKind> {

@@ -7,7 +7,7 @@
 
 use crate::log::{LogRow, Truth};
 use anyhow::{anyhow, Result};
-use imu_ident::model::{idx, InsModel, Sensor, StateMat, StateVec, NX};
+use imu_ident::model::{idx, ErrorSource, InsModel, StateMat, StateVec, NX};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -50,10 +50,10 @@ pub fn simulate(model: &InsModel<f64>, steps: usize, seed: u64) -> Result<Vec<Lo
         .discretise(&scale)
         .map_err(|e| anyhow!("truth model: {e}"))?;
     let accel = model
-        .output_row(Sensor::Accel, &scale)
+        .output_row(ErrorSource::Accel, &scale)
         .map_err(|e| anyhow!("{e}"))?;
     let gyro = model
-        .output_row(Sensor::Gyro, &scale)
+        .output_row(ErrorSource::Gyro, &scale)
         .map_err(|e| anyhow!("{e}"))?;
     let lq = sqrt_psd(&disc.Qd);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);

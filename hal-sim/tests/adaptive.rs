@@ -7,7 +7,7 @@ use hal_sim::adaptive::{self, gm_params, tilt_window, AdaptiveRun};
 use hal_sim::log::LogRow;
 use hal_sim::{mismatch, records, replay, scenario, sim};
 use imu_ident::adapt::AdaptConfig;
-use imu_ident::model::{InsModel, Sensor};
+use imu_ident::model::{ErrorSource, InsModel};
 
 const STEPS: usize = 12 * 3600;
 /// Hours 8-12 of the run, the window of the bars.
@@ -92,14 +92,17 @@ fn identified_parameters_near_truth() {
     let start = mismatch::scaled(&t, 10.0, 10.0);
     let crb = [0.058, 0.152, 0.124, 0.377];
     let truth_v = [
-        gm_params(&t, Sensor::Accel).unwrap(),
-        gm_params(&t, Sensor::Gyro).unwrap(),
+        gm_params(&t, ErrorSource::Accel).unwrap(),
+        gm_params(&t, ErrorSource::Gyro).unwrap(),
     ];
     let mut err = [[0.0; 3]; 4];
     for (i, &seed) in SEEDS.iter().enumerate() {
         let log = sim::simulate(&t, STEPS, seed).unwrap();
         let r = adaptive::run::<f64>(&start, &log, AdaptConfig::default()).unwrap();
-        for (s, sensor) in [Sensor::Accel, Sensor::Gyro].into_iter().enumerate() {
+        for (s, sensor) in [ErrorSource::Accel, ErrorSource::Gyro]
+            .into_iter()
+            .enumerate()
+        {
             let (tau, sigma) = gm_params(&r.final_model, sensor).unwrap();
             err[2 * s][i] = (sigma / truth_v[s].1).ln();
             err[2 * s + 1][i] = (tau / truth_v[s].0).ln();
@@ -215,8 +218,8 @@ fn missing_observations_and_gaps() {
 fn cramer_rao_intervals_describe_the_spread() {
     let t = truth();
     let truth_v = [
-        gm_params(&t, Sensor::Accel).unwrap(),
-        gm_params(&t, Sensor::Gyro).unwrap(),
+        gm_params(&t, ErrorSource::Accel).unwrap(),
+        gm_params(&t, ErrorSource::Gyro).unwrap(),
     ];
     let env = |k: &str, d: u64| {
         std::env::var(k)

@@ -42,7 +42,7 @@ pub mod window;
 
 use crate::filter::Estimates;
 use crate::linalg::{chol_solve, cholesky, inverse_diagonal};
-use crate::model::{InsModel, ModelError, Sensor, StateRow, NX};
+use crate::model::{ErrorSource, InsModel, ModelError, StateRow, NX};
 use crate::Real;
 use bank::{Bank, Information, MemberInnovation};
 pub use config::AdaptConfig;
@@ -491,10 +491,10 @@ impl<T: Real> AdaptiveFilter<T> {
 fn output_rows<T: Real>(model: &InsModel<T>) -> Result<(StateRow<T>, StateRow<T>), AdaptError> {
     let scale = model.scaling().map_err(AdaptError::Model)?;
     let accel = model
-        .output_row(Sensor::Accel, &scale)
+        .output_row(ErrorSource::Accel, &scale)
         .map_err(AdaptError::Model)?;
     let gyro = model
-        .output_row(Sensor::Gyro, &scale)
+        .output_row(ErrorSource::Gyro, &scale)
         .map_err(AdaptError::Model)?;
     Ok((accel, gyro))
 }

@@ -9,7 +9,7 @@
 //! [`ComponentKind::identified`](crate::model::ComponentKind::identified)), accelerometer first,
 //! then gyro, in component order, until [`MAXP`] parameters are taken.
 
-use crate::model::{Component, InsModel, Quantity, Sensor};
+use crate::model::{Component, ErrorSource, InsModel, Quantity};
 use crate::Real;
 use heapless::Vec;
 
@@ -24,8 +24,8 @@ pub const MAXP: usize = 5;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ParamSpec {
-    /// The sensor the component belongs to.
-    pub sensor: Sensor,
+    /// The error source the component belongs to.
+    pub sensor: ErrorSource,
     /// The component's index in that sensor's list.
     pub index: u8,
     /// The quantity.
@@ -38,7 +38,10 @@ pub type Specs = Vec<ParamSpec, MAXP>;
 /// The specs of every identifiable quantity of `model`, in `theta` order (at most [`MAXP`]).
 pub fn specs<T: Real>(model: &InsModel<T>) -> Specs {
     let mut out = Specs::new();
-    let sensors = [(Sensor::Accel, &model.accel), (Sensor::Gyro, &model.gyro)];
+    let sensors = [
+        (ErrorSource::Accel, &model.accel),
+        (ErrorSource::Gyro, &model.gyro),
+    ];
     for (sensor, comps) in sensors {
         for (i, c) in comps.iter().enumerate() {
             let kinds = c.kind().identified();
@@ -62,9 +65,9 @@ fn component_mut<'a, T>(
 ) -> Option<&'a mut Component<T>> {
     let i = usize::from(spec.index);
     match spec.sensor {
-        Sensor::Accel => model.accel.get_mut(i),
-        Sensor::Gyro => model.gyro.get_mut(i),
-        Sensor::Observation => None,
+        ErrorSource::Accel => model.accel.get_mut(i),
+        ErrorSource::Gyro => model.gyro.get_mut(i),
+        ErrorSource::Observation => None,
     }
 }
 
@@ -72,9 +75,9 @@ fn component_mut<'a, T>(
 pub fn value<T: Real>(model: &InsModel<T>, spec: &ParamSpec) -> Option<T> {
     let i = usize::from(spec.index);
     let c = match spec.sensor {
-        Sensor::Accel => model.accel.get(i),
-        Sensor::Gyro => model.gyro.get(i),
-        Sensor::Observation => None,
+        ErrorSource::Accel => model.accel.get(i),
+        ErrorSource::Gyro => model.gyro.get(i),
+        ErrorSource::Observation => None,
     }?;
     c.get(spec.kind)
 }
@@ -130,7 +133,7 @@ mod tests {
         let s = specs(&m);
         assert_eq!(s.len(), 4);
         assert_eq!(s[1].kind, Quantity::Tau);
-        assert_eq!(s[2].sensor, Sensor::Gyro);
+        assert_eq!(s[2].sensor, ErrorSource::Gyro);
         let th = theta_of(&m, &s);
         assert!((th[1] - 100f64.ln()).abs() < 1e-12);
         let back = apply(&m, &s, &th).unwrap();

@@ -15,7 +15,9 @@
 use crate::filter::kalman::{Innovation, Kalman};
 use crate::linalg::{from_mat, from_vec, Arr};
 use crate::model::ins::Continuous;
-use crate::model::{idx, InsModel, ModelError, Scaling, Sensor, StateMat, StateRow, StateVec, NX};
+use crate::model::{
+    idx, ErrorSource, InsModel, ModelError, Scaling, StateMat, StateRow, StateVec, NX,
+};
 use crate::Real;
 
 /// Estimates and their standard deviations, in SI units.
@@ -108,8 +110,8 @@ impl<T: Real> InsFilter<T> {
         let scale = model.scaling()?;
         let sys = model.continuous(&scale)?;
         let (phi, qd) = model.discretise_block(&scale)?;
-        let accel_row = model.output_row(Sensor::Accel, &scale)?;
-        let gyro_row = model.output_row(Sensor::Gyro, &scale)?;
+        let accel_row = model.output_row(ErrorSource::Accel, &scale)?;
+        let gyro_row = model.output_row(ErrorSource::Gyro, &scale)?;
         let p0 = from_mat(&sys.P0);
         let kf = Kalman::new(&p0, sys.n);
         Ok(Self {
@@ -136,8 +138,8 @@ impl<T: Real> InsFilter<T> {
         }
         let sys = model.continuous(&self.scale)?;
         let (phi, qd) = model.discretise_block(&self.scale)?;
-        self.accel_row = model.output_row(Sensor::Accel, &self.scale)?;
-        self.gyro_row = model.output_row(Sensor::Gyro, &self.scale)?;
+        self.accel_row = model.output_row(ErrorSource::Accel, &self.scale)?;
+        self.gyro_row = model.output_row(ErrorSource::Gyro, &self.scale)?;
         self.h = from_vec(&sys.H);
         self.p0 = from_mat(&sys.P0);
         self.sys = sys;

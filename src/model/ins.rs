@@ -52,10 +52,11 @@ pub type StateMat<T> = SMatrix<T, NX, NX>;
 /// An observation row.
 pub type StateRow<T> = RowSVector<T, NX>;
 
-/// Which error source a component belongs to.
+/// The error source a noise component models: a sensor (the accelerometer or the gyro) or
+/// the observation (its coloured noise).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Sensor {
+pub enum ErrorSource {
     /// Accelerometer error [m/s^2].
     Accel,
     /// Gyro drift [rad/s].
@@ -64,7 +65,7 @@ pub enum Sensor {
     Observation,
 }
 
-impl Sensor {
+impl ErrorSource {
     /// Lower-case name used in files: `accel`, `gyro`, `observation`.
     pub const fn name(self) -> &'static str {
         match self {
@@ -97,9 +98,9 @@ pub struct InsModel<T> {
 /// Where one component's states sit in the state vector.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Slot {
-    /// The sensor it belongs to.
-    pub sensor: Sensor,
-    /// Its position in that sensor's component list.
+    /// The error source it belongs to.
+    pub sensor: ErrorSource,
+    /// Its position in that error source's component list.
     pub index: usize,
     /// Its first state index.
     pub start: usize,
@@ -211,16 +212,16 @@ impl<T: Real> InsModel<T> {
         let mut layout = Layout::new();
         let mut next = idx::FIRST_COMPONENT;
         let colored = self.colored.iter().map(|g| Component::GaussMarkov(*g));
-        let all = (self.accel.iter().copied().map(|c| (Sensor::Accel, c)))
-            .chain(self.gyro.iter().copied().map(|c| (Sensor::Gyro, c)))
-            .chain(colored.map(|c| (Sensor::Observation, c)));
+        let all = (self.accel.iter().copied().map(|c| (ErrorSource::Accel, c)))
+            .chain(self.gyro.iter().copied().map(|c| (ErrorSource::Gyro, c)))
+            .chain(colored.map(|c| (ErrorSource::Observation, c)));
         let (mut ia, mut ig, mut io) = (0, 0, 0);
         for (sensor, comp) in all {
             comp.validate()?;
             let counter = match sensor {
-                Sensor::Accel => &mut ia,
-                Sensor::Gyro => &mut ig,
-                Sensor::Observation => &mut io,
+                ErrorSource::Accel => &mut ia,
+                ErrorSource::Gyro => &mut ig,
+                ErrorSource::Observation => &mut io,
             };
             let states = comp.states();
             if next + states > NX {
@@ -242,9 +243,9 @@ impl<T: Real> InsModel<T> {
     /// The component a slot refers to (coloured observation terms are Gauss-Markov).
     pub fn component(&self, slot: &Slot) -> Option<Component<T>> {
         match slot.sensor {
-            Sensor::Accel => self.accel.get(slot.index).copied(),
-            Sensor::Gyro => self.gyro.get(slot.index).copied(),
-            Sensor::Observation => self
+            ErrorSource::Accel => self.accel.get(slot.index).copied(),
+            ErrorSource::Gyro => self.gyro.get(slot.index).copied(),
+            ErrorSource::Observation => self
                 .colored
                 .get(slot.index)
                 .map(|g| Component::GaussMarkov(*g)),
@@ -308,9 +309,9 @@ impl<T: Real> InsModel<T> {
             let b = comp.block();
             // The INS state this sensor drives; observation terms enter H instead.
             let driven = match slot.sensor {
-                Sensor::Accel => Some(dv),
-                Sensor::Gyro => Some(dl),
-                Sensor::Observation => None,
+                ErrorSource::Accel => Some(dv),
+                ErrorSource::Gyro => Some(dl),
+                ErrorSource::Observation => None,
             };
             if let Some(d) = driven {
                 Qc[(d, d)] += comp.white_qc();
@@ -369,11 +370,11 @@ impl<T: Real> InsModel<T> {
         discretise_block(&from_mat(&c.A), &from_mat(&c.Qc), self.dt, c.n)
     }
 
-    /// Row that extracts one sensor's total error (sum over its components) from the scaled
+    /// Row that extracts one error source's total error (sum over its components) from the scaled
     /// state, in physical units.
     pub fn output_row(
         &self,
-        sensor: Sensor,
+        sensor: ErrorSource,
         scale: &Scaling<T>,
     ) -> Result<StateRow<T>, ModelError> {
         let layout = self.layout()?;

@@ -22,7 +22,7 @@ pub use discretise::Discrete;
 pub use error_model::{ContinuousSystem, ErrorModel, StateBlock};
 pub use exp_cosine::ExpCosine;
 pub use gauss_markov::GaussMarkov;
-pub use ins::{idx, InsModel, Scaling, Sensor, StateMat, StateRow, StateVec, NX};
+pub use ins::{idx, ErrorSource, InsModel, Scaling, StateMat, StateRow, StateVec, NX};
 pub use random_constant::RandomConstant;
 pub use random_walk::RandomWalk;
 pub use white::WhiteNoise;

@@ -3,7 +3,7 @@
 
 use super::EstimateAcf;
 use crate::ident::{lag1_corrected, sigma2, SampleAcf};
-use crate::model::Sensor;
+use crate::model::ErrorSource;
 use crate::telemetry::AcfRecord;
 use crate::Real;
 
@@ -12,7 +12,7 @@ pub(super) fn acf_record<T: Real>(
     acf: &EstimateAcf<T>,
     p_mean: T,
     dt: T,
-    sensor: Sensor,
+    sensor: ErrorSource,
     k: u32,
     t: f64,
 ) -> AcfRecord {

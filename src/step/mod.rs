@@ -57,7 +57,7 @@ use crate::adapt::params::{Specs, MAXP};
 use crate::adapt::{AdaptConfig, AdaptError, AdaptiveFilter, StepStatus};
 use crate::autocorr::Autocorrelator;
 use crate::filter::{Estimates, InsFilter};
-use crate::model::{InsModel, ModelError, Quantity, Sensor, StateMat};
+use crate::model::{ErrorSource, InsModel, ModelError, Quantity, StateMat};
 use crate::telemetry::{
     status_flags, time_flags, Record, TelemetrySink, BAD_INPUT, BRIDGED, GATED_OUTLIER, MISSING,
     PARAM_CLAMPED, P_REPAIRED, SKIPPED, TIME_JUMP,
@@ -484,7 +484,7 @@ impl<T: Real> Estimator<T> {
             }
         }
         if r.acf {
-            for sensor in [Sensor::Accel, Sensor::Gyro] {
+            for sensor in [ErrorSource::Accel, ErrorSource::Gyro] {
                 sink.acf(&self.acf_identify(sensor, r.record.k, r.record.t));
             }
         }
@@ -492,8 +492,8 @@ impl<T: Real> Estimator<T> {
 
     /// The paper's identification from the estimates' autocorrelation (lag-1 bias-corrected
     /// `alpha`, `sigma^2 = R_0 + mean(P)`); NaN fields when the window cannot support it.
-    pub fn acf_identify(&self, sensor: Sensor, k: u32, t: f64) -> AcfRecord {
-        let i = usize::from(sensor == Sensor::Gyro);
+    pub fn acf_identify(&self, sensor: ErrorSource, k: u32, t: f64) -> AcfRecord {
+        let i = usize::from(sensor == ErrorSource::Gyro);
         let (acf, pm) = (&self.acf[i], self.p_mean[i]);
         acf::acf_record(acf, pm, self.dt, sensor, k, t)
     }

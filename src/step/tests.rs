@@ -154,8 +154,8 @@ fn parameters_are_reported_at_start_and_acf_on_schedule() {
     }
     // paper: one accelerometer and one gyro Gauss-Markov component.
     assert_eq!(sink.params.len(), 2);
-    assert_eq!(sink.params[0].sensor, Sensor::Accel);
-    assert_eq!(sink.params[1].sensor, Sensor::Gyro);
+    assert_eq!(sink.params[0].sensor, ErrorSource::Accel);
+    assert_eq!(sink.params[1].sensor, ErrorSource::Gyro);
     assert!(sink.params.iter().all(|p| p.tau > 0.0 && p.sigma > 0.0));
     // 5 schedules x 2 sensors; the window (1024) is full from the third on.
     assert_eq!(sink.acf.len(), 10);
@@ -317,7 +317,7 @@ fn param_records_rebuild_the_model_they_describe() {
     // Component 1 of the accelerometer does not exist in `paper`; component 0 is Gauss-Markov.
     let missing = want
         .iter()
-        .find(|p| p.sensor == Sensor::Accel && p.component == 1);
+        .find(|p| p.sensor == ErrorSource::Accel && p.component == 1);
     let wrong_kind = ParamRecord {
         kind: crate::model::ComponentKind::White,
         ..want[0]

@@ -2,7 +2,7 @@
 //! parameters at each re-identification, and the paper's autocorrelation identification of the
 //! estimates.
 
-use crate::model::{ComponentKind, InsModel, Sensor, Summary};
+use crate::model::{ComponentKind, ErrorSource, InsModel, Summary};
 use crate::Real;
 
 /// One component of the model in use, sent at each re-identification (and at the first tick).
@@ -25,8 +25,8 @@ pub struct ParamRecord {
     pub k: u32,
     /// Time [s].
     pub t: f64,
-    /// Which sensor the component models.
-    pub sensor: Sensor,
+    /// Which error source the component models.
+    pub sensor: ErrorSource,
     /// Index of the component within the sensor.
     pub component: u8,
     /// Its kind.
@@ -53,7 +53,7 @@ impl ParamRecord {
     pub fn apply_to<T: Real>(&self, m: &mut InsModel<T>) -> bool {
         let v = |x: f32| x.is_finite().then(|| T::lit(f64::from(x)));
         let i = usize::from(self.component);
-        if self.sensor == Sensor::Observation {
+        if self.sensor == ErrorSource::Observation {
             return match m.colored.get_mut(i) {
                 Some(g) if self.kind == ComponentKind::GaussMarkov => {
                     g.tau = T::lit(f64::from(self.tau));
@@ -63,7 +63,7 @@ impl ParamRecord {
                 _ => false,
             };
         }
-        let comps = if self.sensor == Sensor::Accel {
+        let comps = if self.sensor == ErrorSource::Accel {
             &mut m.accel
         } else {
             &mut m.gyro
@@ -97,7 +97,7 @@ pub struct AcfRecord {
     /// Time [s].
     pub t: f64,
     /// The sensor.
-    pub sensor: Sensor,
+    pub sensor: ErrorSource,
     /// `1 / alpha` from the bias-corrected lag-1 estimator [s] (NaN: no estimate).
     pub tau: f32,
     /// `sqrt(R_0 + mean(P))` (NaN: no estimate).
@@ -107,12 +107,12 @@ pub struct AcfRecord {
 /// First word of the defmt autocorrelation frame.
 pub const ACF_WIRE_TAG: &str = "acf";
 
-/// Wire code of a sensor (its position in `accel, gyro, observation`).
-pub const fn sensor_code(s: Sensor) -> u8 {
+/// Wire code of an error source (its position in `accel, gyro, observation`).
+pub const fn sensor_code(s: ErrorSource) -> u8 {
     match s {
-        Sensor::Accel => 0,
-        Sensor::Gyro => 1,
-        Sensor::Observation => 2,
+        ErrorSource::Accel => 0,
+        ErrorSource::Gyro => 1,
+        ErrorSource::Observation => 2,
     }
 }
 
@@ -158,7 +158,7 @@ impl AcfRecord {
 pub fn model_params<T: Real>(m: &InsModel<T>, k: u32, t: f64, mut out: impl FnMut(&ParamRecord)) {
     let f = |x: T| x.as_f64() as f32;
     let nan = f32::NAN;
-    for (sensor, comps) in [(Sensor::Accel, &m.accel), (Sensor::Gyro, &m.gyro)] {
+    for (sensor, comps) in [(ErrorSource::Accel, &m.accel), (ErrorSource::Gyro, &m.gyro)] {
         for (i, c) in comps.iter().enumerate() {
             let s = c.summary();
             let g = |x: Option<T>| x.map_or(nan, f);
@@ -181,7 +181,7 @@ pub fn model_params<T: Real>(m: &InsModel<T>, k: u32, t: f64, mut out: impl FnMu
         out(&ParamRecord {
             k,
             t,
-            sensor: Sensor::Observation,
+            sensor: ErrorSource::Observation,
             component: i as u8,
             kind: ComponentKind::GaussMarkov,
             tau: f(g.tau),

@@ -12,7 +12,7 @@ use crate::replay;
 use crate::sim;
 use anyhow::{anyhow, Result};
 use imu_ident::autocorr::acf_batch;
-use imu_ident::model::{InsModel, Sensor};
+use imu_ident::model::{ErrorSource, InsModel};
 use serde::Serialize;
 
 /// Monte Carlo runs behind the band.
@@ -52,8 +52,8 @@ fn normalised_acf(x: &[f64], max_lag: usize) -> Result<Vec<f64>> {
     Ok(r.iter().step_by(LAG_STEP).map(|v| v / r[0]).collect())
 }
 
-fn pick(sensor: Sensor, e: &EstimateRow) -> f64 {
-    if sensor == Sensor::Accel {
+fn pick(sensor: ErrorSource, e: &EstimateRow) -> f64 {
+    if sensor == ErrorSource::Accel {
         e.da_hat
     } else {
         e.dw_hat
@@ -68,10 +68,10 @@ pub fn compare(model: &InsModel<f64>, est: &[EstimateRow], seed: u64) -> Result<
     if max_lag < LAG_STEP {
         return Ok(Vec::new());
     }
-    let sensors: Vec<Sensor> = [Sensor::Accel, Sensor::Gyro]
+    let sensors: Vec<ErrorSource> = [ErrorSource::Accel, ErrorSource::Gyro]
         .into_iter()
         .filter(|s| {
-            if *s == Sensor::Accel {
+            if *s == ErrorSource::Accel {
                 !model.accel.is_empty()
             } else {
                 !model.gyro.is_empty()

@@ -29,7 +29,7 @@ use crate::candidates::LIBRARY;
 use crate::log::LogRow;
 use imu_ident::filter::InsFilter;
 use imu_ident::model::ins::G0;
-use imu_ident::model::{ComponentKind, InsModel, Sensor};
+use imu_ident::model::{ComponentKind, ErrorSource, InsModel};
 use serde::Serialize;
 
 /// One limit of what the data can show.
@@ -105,7 +105,7 @@ pub fn accel_bias_observability(
     let candidate = LIBRARY
         .iter()
         .copied()
-        .find(|c| c.sensor == Sensor::Accel && c.kind == ComponentKind::RandomConstant)?;
+        .find(|c| c.sensor == ErrorSource::Accel && c.kind == ComponentKind::RandomConstant)?;
     // A prior 1e3 times the model's own initial tilt in specific force (at least 1e-6):
     // large against 1/sqrt(J), small enough to keep the scaled covariance well conditioned.
     let sigma0 = (1e3 * G0 * model.sigma_delta0).max(1e-6);
@@ -114,7 +114,7 @@ pub fn accel_bias_observability(
         .layout()
         .ok()?
         .iter()
-        .rfind(|s| s.sensor == Sensor::Accel)
+        .rfind(|s| s.sensor == ErrorSource::Accel)
         .copied()?;
     // The step does not expose one state's posterior: a bare filter of the same model follows
     // the ticks the step decided (same observations, same gate decisions, same repairs), so

@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{ensure, Context, Result};
 use imu_ident::model::{
-    Component, ComponentKind, ExpCosine, GaussMarkov, RandomWalk, Sensor, WhiteNoise,
+    Component, ComponentKind, ErrorSource, ExpCosine, GaussMarkov, RandomWalk, WhiteNoise,
 };
 use serde::Serialize;
 
@@ -58,10 +58,10 @@ impl SensorArg {
             None
         }
     }
-    fn core(self) -> Sensor {
+    fn core(self) -> ErrorSource {
         match self {
-            Self::Gyro => Sensor::Gyro,
-            Self::Accel => Sensor::Accel,
+            Self::Gyro => ErrorSource::Gyro,
+            Self::Accel => ErrorSource::Accel,
         }
     }
 }

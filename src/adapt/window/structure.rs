@@ -23,11 +23,11 @@
 //!
 //! ```
 //! use imu_ident::adapt::window::structure::{site, swap};
-//! use imu_ident::model::{ComponentKind, InsModel, Sensor};
+//! use imu_ident::model::{ComponentKind, InsModel, ErrorSource};
 //! let paper = InsModel::<f64>::paper();
 //! // The paper's two Gauss-Markov components are the candidates, accelerometer first.
 //! let s = site(&paper, 1).unwrap();
-//! assert_eq!((s.sensor, s.index, s.kind), (Sensor::Gyro, 0, ComponentKind::ExpCosine));
+//! assert_eq!((s.sensor, s.index, s.kind), (ErrorSource::Gyro, 0, ComponentKind::ExpCosine));
 //! assert!(site(&paper, 2).is_none());
 //! let ec = swap(&paper, &s, 0.01).unwrap();
 //! assert_eq!(ec.gyro[0].kind(), ComponentKind::ExpCosine);
@@ -36,7 +36,9 @@
 use super::{Phase, Switch};
 use crate::adapt::guard::Bounds;
 use crate::adapt::params::{remap, specs, theta_of, Specs, MAXP};
-use crate::model::{Component, ComponentKind, ExpCosine, GaussMarkov, InsModel, Quantity, Sensor};
+use crate::model::{
+    Component, ComponentKind, ErrorSource, ExpCosine, GaussMarkov, InsModel, Quantity,
+};
 use crate::Real;
 
 /// Periods scanned for a new `beta`.
@@ -63,8 +65,8 @@ const SCAN_RATIO: f64 = 1.5;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Site {
-    /// The sensor of the component.
-    pub sensor: Sensor,
+    /// The error source of the component.
+    pub sensor: ErrorSource,
     /// Its index in that sensor's list.
     pub index: u8,
     /// The kind it becomes.
@@ -74,7 +76,7 @@ pub struct Site {
 impl Site {
     /// A placeholder (all-zero bits: statics stay in `.bss`).
     pub const BLANK: Self = Self {
-        sensor: Sensor::Accel,
+        sensor: ErrorSource::Accel,
         index: 0,
         kind: ComponentKind::GaussMarkov,
     };
@@ -106,17 +108,17 @@ pub struct Alternative<T: Real> {
 
 fn components<T: Real>(
     model: &InsModel<T>,
-) -> impl Iterator<Item = (Sensor, usize, &Component<T>)> {
+) -> impl Iterator<Item = (ErrorSource, usize, &Component<T>)> {
     let a = model
         .accel
         .iter()
         .enumerate()
-        .map(|(i, c)| (Sensor::Accel, i, c));
+        .map(|(i, c)| (ErrorSource::Accel, i, c));
     let g = model
         .gyro
         .iter()
         .enumerate()
-        .map(|(i, c)| (Sensor::Gyro, i, c));
+        .map(|(i, c)| (ErrorSource::Gyro, i, c));
     a.chain(g)
 }
 
@@ -142,9 +144,9 @@ pub fn site<T: Real>(model: &InsModel<T>, k: usize) -> Option<Site> {
 pub fn swap<T: Real>(model: &InsModel<T>, site: &Site, beta: T) -> Option<InsModel<T>> {
     let mut m = model.clone();
     let list = match site.sensor {
-        Sensor::Accel => &mut m.accel,
-        Sensor::Gyro => &mut m.gyro,
-        Sensor::Observation => return None,
+        ErrorSource::Accel => &mut m.accel,
+        ErrorSource::Gyro => &mut m.gyro,
+        ErrorSource::Observation => return None,
     };
     let c = list.get_mut(usize::from(site.index))?;
     if c.kind().alternative() != Some(site.kind) {
