@@ -128,6 +128,17 @@ pub enum Command {
         /// else 0,0,0.
         #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
         nhc_lever: Option<Vec<f64>>,
+        /// Zero-velocity updates: after every filter step at rest, the velocity is zero with
+        /// this standard deviation [m/s] on each axis (also during outages). Rest: every IMU
+        /// sample of the step within the --zupt-detector bounds, and the solution slower than
+        /// its speed bound. Off by default. Not carried by the firmware's replay (--qemu-elf).
+        #[arg(long)]
+        zupt: Option<f64>,
+        /// The rest detector's bounds: rate magnitude [rad/s], departure of the specific-force
+        /// magnitude from normal gravity [m/s^2] (both on every sample of the step), and the
+        /// solution's speed [m/s].
+        #[arg(long, value_delimiter = ',', default_values_t = [0.15, 0.6, 0.5])]
+        zupt_detector: Vec<f64>,
         /// Factors on the GNSS position,velocity standard deviations.
         #[arg(long, value_delimiter = ',', default_values_t = [1.0, 1.0])]
         gnss_sd_factor: Vec<f64>,

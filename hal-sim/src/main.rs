@@ -44,6 +44,8 @@ fn main() -> Result<()> {
             identify,
             nhc,
             nhc_lever,
+            zupt,
+            zupt_detector,
             scale_factors,
             imu_time_shift,
             truth,
@@ -71,6 +73,26 @@ fn main() -> Result<()> {
             }
             if !(fix_interval.is_finite() && fix_interval >= 0.0) {
                 anyhow::bail!("--fix-interval: expected seconds >= 0, got {fix_interval}");
+            }
+            let zupt = zupt
+                .map(|sd| -> Result<imu_ident::nav::Zupt<f64>> {
+                    let [gyro_max, accel_max, speed_max] = three(zupt_detector, "zupt-detector")?;
+                    imu_ident::nav::Zupt {
+                        sd,
+                        gyro_max,
+                        accel_max,
+                        speed_max,
+                    }
+                    .checked()
+                    .map_err(|_| {
+                        anyhow::anyhow!(
+                            "--zupt, --zupt-detector: expected positive numbers, got {sd} and {gyro_max},{accel_max},{speed_max}"
+                        )
+                    })
+                })
+                .transpose()?;
+            if zupt.is_some() && qemu_elf.is_some() {
+                anyhow::bail!("--zupt: the firmware's replay (--qemu-elf) does not carry zero-velocity updates");
             }
             let nhc_lever = match nhc_lever {
                 Some(v) => three(v, "nhc-lever")?,
@@ -109,6 +131,7 @@ fn main() -> Result<()> {
                 imu_time_shift,
                 nhc,
                 nhc_lever,
+                zupt,
                 adapt: if adapt {
                     let [first, every] = <[f64; 2]>::try_from(adapt_every)
                         .map_err(|_| anyhow::anyhow!("--adapt-every: expected FIRST,EVERY"))?;

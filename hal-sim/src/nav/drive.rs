@@ -13,8 +13,8 @@ use crate::nav_io::{GnssFix, ImuSample};
 use anyhow::{bail, Result};
 use imu_ident::filter::AxisStatus;
 use imu_ident::nav::run::Nhc;
-use imu_ident::nav::{Navigator, NAV_N};
-use imu_ident::strapdown::Increment;
+use imu_ident::nav::{Navigator, RestDetector, Zupt, NAV_N};
+use imu_ident::strapdown::{earth, Increment};
 use imu_ident::Real;
 use nalgebra::Vector3;
 
@@ -28,6 +28,10 @@ pub struct NavLoop<T: Real> {
     nhc_core: Option<Nhc<T>>,
     /// The constraint's statistics (with `--nhc`).
     pub nhc: Option<records::NhcSummary>,
+    zupt_core: Option<Zupt<T>>,
+    rest: RestDetector,
+    /// The zero-velocity updates' statistics (with `--zupt`).
+    pub zupt: Option<records::ZuptSummary>,
     /// Index of the last IMU sample mechanised (the next interval is `imu[i]..imu[i + 1]`).
     pub i: usize,
     /// Index of the next fix.
@@ -83,11 +87,27 @@ impl<T: Real> NavLoop<T> {
             lever: args.nhc_lever,
             ..Default::default()
         });
+        let zupt_core = args
+            .zupt
+            .map(|z| {
+                Zupt {
+                    sd: T::lit(z.sd),
+                    gyro_max: T::lit(z.gyro_max),
+                    accel_max: T::lit(z.accel_max),
+                    speed_max: z.speed_max,
+                }
+                .checked()
+            })
+            .transpose()
+            .map_err(|e| anyhow::anyhow!("nav: zero-velocity update (--zupt): {e:?}"))?;
         let lp = Self {
             nav,
             planner: FixPlanner::new(args, outages.clone()),
             nhc_core,
             nhc,
+            zupt_core,
+            rest: RestDetector::default(),
+            zupt: args.zupt.map(records::ZuptSummary::new),
             i: k,
             fix_k: fixes.partition_point(|f| f.t < setup.t0),
             heading_sd: setup.heading_sd,
@@ -129,6 +149,15 @@ impl<T: Real> NavLoop<T> {
                 &Vector3::from(b.accel).map(T::lit),
                 T::lit(dt),
             );
+            if let Some(z) = self.zupt_core.as_ref() {
+                // The raw sample, its specific force in NED with the solution's attitude,
+                // against normal gravity at the solution (`rest` module docs).
+                let p = self.nav.ins().position();
+                let g = earth::normal_gravity(T::lit(p.lat), T::lit(p.h));
+                let f_n = self.nav.ins().dcm() * Vector3::from(b.accel).map(T::lit);
+                self.rest
+                    .sample(z, &Vector3::from(b.gyro).map(T::lit), &f_n, g);
+            }
             let stepped = self
                 .nav
                 .imu(b.t, &inc)
@@ -144,6 +173,19 @@ impl<T: Real> NavLoop<T> {
                     let nu = f.innovation.map(|v| v.as_f64());
                     let s = f.variance.map(|v| v.as_f64());
                     sum.add(nu, s, f.gated, self.planner.withheld_at(b.t));
+                }
+            }
+            // A zero-velocity update after a step found at rest (`Zupt::after_step`); below
+            // its speed bound, so never together with the constraint (above NHC_MIN_SPEED).
+            if let (true, Some(z)) = (stepped, self.zupt_core.as_ref()) {
+                let fused = z.after_step(&mut self.nav, &mut self.rest).map_err(|e| {
+                    anyhow::anyhow!("nav: zero-velocity update at t = {}: {e:?}", b.t)
+                })?;
+                if let (Some(f), Some(sum)) = (fused, self.zupt.as_mut()) {
+                    let nis: f64 = (0..3)
+                        .map(|i| f.innovation[i].as_f64().powi(2) / f.variance[i].as_f64())
+                        .sum();
+                    sum.add(nis, f.gated, self.planner.withheld_at(b.t));
                 }
             }
             while self.fix_k < fixes.len() && fixes[self.fix_k].t <= b.t {

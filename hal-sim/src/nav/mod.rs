@@ -88,6 +88,9 @@ pub struct NavArgs {
     pub nhc: Option<f64>,
     /// The point the constraint holds at, from the IMU, body FRD [m] (the body origin).
     pub nhc_lever: [f64; 3],
+    /// Zero-velocity updates after every filter step found at rest
+    /// ([`imu_ident::nav::rest`]), or none.
+    pub zupt: Option<imu_ident::nav::Zupt<f64>>,
     /// Online identification of the sensor noise ([`adapt`]), or none.
     pub adapt: Option<adapt::AdaptConfig>,
 }
@@ -134,6 +137,7 @@ impl NavArgs {
             imu_time_shift: 0.0,
             nhc: None,
             nhc_lever: [0.0; 3],
+            zupt: None,
             adapt: None,
         }
     }
@@ -243,6 +247,12 @@ pub fn run_identified(
     if let Some(sd) = a.nhc {
         opts += &format!(" --nhc {sd}");
     }
+    if let Some(z) = a.zupt {
+        opts += &format!(
+            " --zupt {} --zupt-detector {},{},{}",
+            z.sd, z.gyro_max, z.accel_max, z.speed_max
+        );
+    }
     crate::output::write_string(&out.join("identified-options.txt"), &(opts + "\n"))?;
     Ok((run, id))
 }
@@ -298,6 +308,7 @@ pub fn run_observed<T: Real>(
         heading_known,
     );
     summary.nhc = lp.nhc.map(records::NhcSummary::finish);
+    summary.zupt = lp.zupt.map(records::ZuptSummary::finish);
     Ok(NavRun {
         epochs,
         outages: scores,

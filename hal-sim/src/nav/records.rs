@@ -243,6 +243,9 @@ pub struct NavSummary {
     /// The non-holonomic constraint's updates (`--nhc`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub nhc: Option<NhcSummary>,
+    /// The zero-velocity updates (`--zupt`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub zupt: Option<ZuptSummary>,
 }
 
 /// What the non-holonomic constraint did over a run (`--nhc`; not part of `loglik`, which is
@@ -292,6 +295,53 @@ impl NhcSummary {
     }
 }
 
+/// What the zero-velocity updates did over a run (`--zupt`; like the constraint, not part of
+/// `loglik`).
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct ZuptSummary {
+    /// Standard deviation of each velocity axis at rest [m/s].
+    pub sd: f64,
+    /// The rest detector's bounds: rate [rad/s], specific force from gravity [m/s^2], speed
+    /// [m/s] (`imu_ident::nav::rest`).
+    pub detector: [f64; 3],
+    /// Updates made (filter steps found at rest).
+    pub updates: usize,
+    /// Of which rejected by the gate.
+    pub gated: usize,
+    /// Updates made while GNSS was withheld.
+    pub in_outages: usize,
+    /// Mean NIS per axis of the accepted updates (1 when the velocity sd is honest at rest).
+    pub mean_nis_axis: f64,
+}
+
+impl ZuptSummary {
+    /// No update yet, with the run's settings.
+    pub fn new(z: imu_ident::nav::Zupt<f64>) -> Self {
+        Self {
+            sd: z.sd,
+            detector: [z.gyro_max, z.accel_max, z.speed_max],
+            ..Self::default()
+        }
+    }
+
+    /// Adds one update: its NIS summed over the three axes, and the gate's result.
+    pub fn add(&mut self, nis: f64, gated: bool, withheld: bool) {
+        self.updates += 1;
+        self.in_outages += usize::from(withheld);
+        if gated {
+            self.gated += 1;
+        } else {
+            self.mean_nis_axis += nis / 3.0;
+        }
+    }
+
+    /// Turns the sum of [`add`](Self::add) into a mean.
+    pub fn finish(mut self) -> Self {
+        self.mean_nis_axis /= (self.updates - self.gated).max(1) as f64;
+        self
+    }
+}
+
 impl NavSummary {
     /// From the records.
     pub fn new(
@@ -332,6 +382,7 @@ impl NavSummary {
             outages_scored: scores.map(|s| s.outages.len()),
             truth: None,
             nhc: None,
+            zupt: None,
         }
     }
 }

@@ -277,6 +277,28 @@ fn summary_table(run: &NavRun) -> String {
             ),
         );
     }
+    if let Some(z) = &s.zupt {
+        h += &kv(
+            "zero-velocity updates (--zupt): sd; rest below rate, specific force, speed",
+            format!(
+                "{}; {}, {}, {}",
+                sig4(z.sd, "m/s"),
+                sig4(z.detector[0], "rad/s"),
+                sig4(z.detector[1], "m/s²"),
+                sig4(z.detector[2], "m/s")
+            ),
+        );
+        h += &kv(
+            "zero-velocity updates (gated / in outages); mean NIS per axis",
+            format!(
+                "{} ({} / {}); {}",
+                z.updates,
+                z.gated,
+                z.in_outages,
+                sig4(z.mean_nis_axis, "")
+            ),
+        );
+    }
     h += &kv("heading aligned", s.heading_known.to_string());
     h += &kv("IMU gaps > 0.1 s", s.imu_gaps.to_string());
     h += &kv("run time", sig4(s.run_seconds, "s"));
