@@ -131,7 +131,7 @@ pub enum Command {
         /// Zero-velocity updates: after every filter step at rest, the velocity is zero with
         /// this standard deviation [m/s] on each axis (also during outages). Rest: every IMU
         /// sample of the step within the --zupt-detector bounds, and the solution slower than
-        /// its speed bound. Off by default. Not carried by the firmware's replay (--qemu-elf).
+        /// its speed bound. Off by default; with --qemu-elf the firmware applies it too.
         #[arg(long)]
         zupt: Option<f64>,
         /// The rest detector's bounds: rate magnitude [rad/s], departure of the specific-force

@@ -91,9 +91,6 @@ fn main() -> Result<()> {
                     })
                 })
                 .transpose()?;
-            if zupt.is_some() && qemu_elf.is_some() {
-                anyhow::bail!("--zupt: the firmware's replay (--qemu-elf) does not carry zero-velocity updates");
-            }
             let nhc_lever = match nhc_lever {
                 Some(v) => three(v, "nhc-lever")?,
                 None => hal_sim::nav::nhc_lever_from_meta(&imu)?.unwrap_or([0.0; 3]),

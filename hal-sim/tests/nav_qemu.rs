@@ -19,7 +19,9 @@
 //!
 //! The same bars hold with the non-holonomic constraint on (`--nhc`, applied by the core's
 //! `Nhc::after_step` in both runs), on a second drive whose heading comes from the GNSS course
-//! (so the constraint starts with the first heading fix, a decision the replay carries).
+//! (so the constraint starts with the first heading fix, a decision the replay carries), and
+//! with zero-velocity updates (`--zupt`, the core's `Zupt::after_step`) on a stop-and-go drive
+//! whose 120-s stop falls inside a 180-s outage.
 
 use std::path::PathBuf;
 
@@ -79,10 +81,52 @@ fn drive_nhc(dir: &std::path::Path) -> NavArgs {
     }
 }
 
+/// The stop-and-go drive (`Profile::stop_and_go`, a 120-s stop from 260 s), seed 19, GNSS
+/// withheld over [240 s, 420 s) from the simulation's start, the options of [`drive_of`] and
+/// zero-velocity updates at 0.02 m/s with the default detector.
+fn drive_zupt(dir: &std::path::Path) -> NavArgs {
+    use hal_sim::trajectory::{gnss::GnssConfig, profile::Profile, write};
+    let profile = Profile::stop_and_go(120.0).unwrap_or_else(|e| panic!("{e:#}"));
+    let start = imu_ident::strapdown::Geodetic {
+        lat: 45f64.to_radians(),
+        lon: 7f64.to_radians(),
+        h: 300.0,
+    };
+    let sim = hal_sim::trajectory::errors::ImuErrorModel::mems();
+    let d = write::simulate_drive(&profile, start, 0.01, &sim, GnssConfig::default(), 19)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    write::write_drive(dir, &d).unwrap_or_else(|e| panic!("{e:#}"));
+    let fixes = read_gnss_csv(&dir.join("gnss.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+    let t_first = fixes.first().map_or(0.0, |f| f.t);
+    let truth =
+        hal_sim::nav_io::read_truth_csv(&dir.join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+    NavArgs {
+        outages: Some(hal_sim::nav_io::OutageSpec {
+            start: 240.0 - t_first,
+            len: 180.0,
+            period: 1e6,
+            margin: 10.0,
+        }),
+        yaw_deg: Some(truth[0].rpy_deg[2]),
+        zupt: Some(imu_ident::nav::Zupt {
+            sd: 0.02,
+            gyro_max: 0.15,
+            accel_max: 0.6,
+            speed_max: 0.5,
+        }),
+        ..drive_of_files(dir)
+    }
+}
+
 /// A simulated drive of `hours` (seed, GNSS gaps) written into `dir`, and the run's options.
 fn drive_of(dir: &std::path::Path, hours: f64, seed: u64, gaps: Vec<(f64, f64)>) -> NavArgs {
     hal_sim::trajectory::write::simulate_drive_files(hours, 100.0, seed, gaps, dir)
         .unwrap_or_else(|e| panic!("{e:#}"));
+    drive_of_files(dir)
+}
+
+/// The run's options for the drive already written into `dir`.
+fn drive_of_files(dir: &std::path::Path) -> NavArgs {
     let truth =
         hal_sim::nav_io::read_truth_csv(&dir.join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
     NavArgs {
@@ -193,6 +237,27 @@ fn qemu_firmware_nav_with_the_constraint_matches_the_host_navigator() {
     assert!(h32.epochs.first().is_some_and(|e| !e.heading_known));
 }
 
+/// The parity check with zero-velocity updates (`--zupt`) on the stop-and-go drive: the
+/// firmware detects rest and updates through the replay (sd and the detector's bounds) exactly
+/// where the host does. Its updates are counted in the `step` class.
+#[test]
+fn qemu_firmware_nav_with_zero_velocity_updates_matches_the_host_navigator() {
+    let Some(elf) = firmware_elf() else { return };
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let args = drive_zupt(dir.path());
+    let (_, h32) = parity_under_qemu(&elf, &args);
+    let z = h32
+        .summary
+        .zupt
+        .as_ref()
+        .unwrap_or_else(|| panic!("no zero-velocity summary"));
+    eprintln!(
+        "zero-velocity updates: {} ({} gated, {} in the outage)",
+        z.updates, z.gated, z.in_outages
+    );
+    assert!(z.in_outages >= 118, "{z:?}");
+}
+
 /// Runs `args` through the firmware under QEMU and the host (f32 and f64), prints the parity
 /// and instruction counts, asserts the bars (module docs); returns the firmware run and the
 /// host f32 run.
@@ -258,7 +323,7 @@ fn parity_under_qemu(elf: &std::path::Path, args: &NavArgs) -> (NavFirmwareRun, 
 fn nav_replay_on_the_host_is_the_host_run_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let (updates, host) = replay_matches_host_bit_for_bit(&drive(dir.path()));
-    assert_eq!((updates, host.summary.nhc.is_none()), (0, true));
+    assert_eq!((updates, host.summary.nhc.is_none()), ([0, 0], true));
 }
 
 /// [`nav_replay_on_the_host_is_the_host_run_bit_for_bit`] with the non-holonomic constraint:
@@ -273,20 +338,37 @@ fn nav_replay_with_the_constraint_is_the_host_run_bit_for_bit() {
         .nhc
         .unwrap_or_else(|| panic!("no constraint summary"));
     assert!(c.updates > 200, "{} updates", c.updates);
-    assert_eq!(updates, c.updates);
+    assert_eq!(updates, [c.updates, 0]);
+}
+
+/// [`nav_replay_on_the_host_is_the_host_run_bit_for_bit`] with zero-velocity updates, on the
+/// stop-and-go drive: the replay loop detects rest and updates at the same steps as the host
+/// driver, with the same result, because both call the core's `RestDetector` and
+/// `Zupt::after_step`.
+#[test]
+fn nav_replay_with_zero_velocity_updates_is_the_host_run_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let (updates, host) = replay_matches_host_bit_for_bit(&drive_zupt(dir.path()));
+    let z = host
+        .summary
+        .zupt
+        .unwrap_or_else(|| panic!("no zero-velocity summary"));
+    // The 120-s stop inside the outage, and the rest after the alignment.
+    assert!(z.in_outages >= 118, "{z:?}");
+    assert_eq!(updates, [0, z.updates]);
 }
 
 /// The replay of `args` through `NavReplay<f32>` on the host against `run_with::<f32>`:
-/// asserts bit-for-bit equality at every epoch; returns the replay's constraint updates and
-/// the host run.
-fn replay_matches_host_bit_for_bit(args: &NavArgs) -> (usize, NavRun) {
+/// asserts bit-for-bit equality at every epoch; returns the replay's constraint and
+/// zero-velocity updates and the host run.
+fn replay_matches_host_bit_for_bit(args: &NavArgs) -> ([usize; 2], NavRun) {
     let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));
     let fixes = read_gnss_csv(&args.gnss).unwrap_or_else(|e| panic!("{e:#}"));
     let bytes = encode_replay(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let mut dec = Decoder::new();
     let mut run: Option<NavReplay<f32, NAV_N>> = None;
     let mut epochs = Vec::new();
-    let mut updates = 0;
+    let mut updates = [0, 0];
     for &b in &bytes {
         match dec.push(b).unwrap_or_else(|e| panic!("{e}")) {
             None => {}
@@ -301,7 +383,8 @@ fn replay_matches_host_bit_for_bit(args: &NavArgs) -> (usize, NavRun) {
                 match r {
                     Record::Imu(r) => {
                         let done = run.imu(&r).unwrap_or_else(|e| panic!("{e:?}"));
-                        updates += usize::from(done.nhc.is_some());
+                        updates[0] += usize::from(done.nhc.is_some());
+                        updates[1] += usize::from(done.zupt.is_some());
                     }
                     Record::Gnss(r) => {
                         let fused = run.gnss(&r).unwrap_or_else(|e| panic!("{e:?}"));

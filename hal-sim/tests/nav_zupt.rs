@@ -55,17 +55,7 @@ fn at(run: &NavRun, truth: &[TruthRow], t: f64) -> ([f64; 2], [f64; 2], [f64; 2]
 
 #[test]
 fn zero_velocity_updates_hold_a_stop_in_an_outage() {
-    let profile = Profile::new(0.0, 0.4, 1.0)
-        .and_then(|p| p.hold(60.0))
-        .and_then(|p| p.accelerate(10.0, 10.0))
-        .and_then(|p| p.hold(100.0))
-        .and_then(|p| p.turn(std::f64::consts::FRAC_PI_2, 20.0))
-        .and_then(|p| p.hold(60.0))
-        .and_then(|p| p.accelerate(-10.0, 10.0))
-        .and_then(|p| p.hold(STOP.1 - STOP.0))
-        .and_then(|p| p.accelerate(10.0, 10.0))
-        .and_then(|p| p.hold(60.0))
-        .unwrap_or_else(|e| panic!("{e:#}"));
+    let profile = Profile::stop_and_go(STOP.1 - STOP.0).unwrap_or_else(|e| panic!("{e:#}"));
     let sim = SimModel::mems();
     let start = Geodetic {
         lat: 45f64.to_radians(),

@@ -12,7 +12,8 @@
 //! - Output (defmt on semihosting stdout): `nav` per GNSS epoch (time, position f64 rad/m,
 //!   NED velocity, position sigmas N/E/D, flags); `icount` per class: `imu` (an IMU sample
 //!   mechanised, no filter step), `step` (an IMU sample whose end starts the 1 Hz filter step:
-//!   mechanisation + propagation), `nhc` (the same with the non-holonomic constraint applied
+//!   mechanisation + propagation, and the zero-velocity update when one is applied),
+//!   `nhc` (the same with the non-holonomic constraint applied
 //!   after the propagation: gate + two sequential updates + closed-loop correction; none
 //!   without the constraint), `gnss` (a fix fused: gate + six sequential updates +
 //!   closed-loop correction); `stack` for start-up and for the run.

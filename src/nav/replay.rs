@@ -3,17 +3,18 @@
 //! the order the host driver processes them. The loop that consumes it is
 //! [`NavReplay`](super::run::NavReplay).
 //!
-//! # Format (version 2, all integers and floats little-endian)
+//! # Format (version 3, all integers and floats little-endian)
 //!
 //! ```text
-//! header     magic "IMUN" | version u16 = 2 | reserved u16 = 0 | record count u32      12 bytes
-//! setup      40 f64, in this order:                                                   328 bytes
+//! header     magic "IMUN" | version u16 = 3 | reserved u16 = 0 | record count u32      12 bytes
+//! setup      44 f64, in this order:                                                   360 bytes
 //!              t0 [s] | lat, lon [rad], h [m] | q_b^n w, x, y, z | v N, E, D [m/s]
 //!              | gyro bias x, y, z [rad/s] (NaN: none) | lever arm x, y, z [m, body FRD]
 //!              | sd_att N, E, D [rad] | sd_vel [m/s] | sd_pos [m] | obs_sd x 6
 //!              | step [s] | gate (NaN: none) | max_imu_gap [s] | sd factors pos, vel
 //!              | heading sd [rad] | scale-factor sd gyro, accel (NaN: none)
 //!              | NHC sd [m/s] (NaN: none) | NHC lever x, y, z [m, body FRD]
+//!              | ZUPT sd [m/s] (NaN: none) | ZUPT rate, specific-force, speed bounds
 //!            then max_rejections u8 | components per axis u8 x 6 (gyro x, y, z, accel x, y, z)
 //!            | setup flags u8
 //! components per component, axes in the order above: kind u8 | a, b, c f64             25 bytes
@@ -31,10 +32,13 @@
 //! filter step once the heading is known, from the start or from the first fix flagged
 //! [`gnss_flags::HEADING`] ([`NavReplay::imu`](super::run::NavReplay::imu)), as the host does.
 //!
+//! With zero-velocity updates (ZUPT) on, the loop applies them after every filter step found
+//! at rest ([`Zupt::after_step`](super::rest::Zupt::after_step)), as the host does.
+//!
 //! Version 2 added the NHC (sd and lever arm) and the setup flags (the byte that was zero
-//! padding in version 1). Version 1 replays are rejected ([`NavReplayError::BadVersion`]), not
-//! read with the constraint off: the replay is an intermediate file that `hal_sim::nav_qemu`
-//! writes afresh for every run, so there is nothing to migrate, and one layout keeps the
+//! padding in version 1); version 3 the ZUPT (sd and the rest detector's three bounds). Older
+//! replays are rejected ([`NavReplayError::BadVersion`]), not read with the new aiding off:
+//! the replay is an intermediate file that `hal_sim::nav_qemu` writes afresh for every run, so there is nothing to migrate, and one layout keeps the
 //! firmware's decoder to one panic-free path.
 //!
 //! GNSS flags ([`gnss_flags`]): withheld, set the heading to `yaw` (with the fix's velocity)
@@ -51,20 +55,21 @@
 //! known at the end: a consumer must call [`Decoder::finish`].
 
 use super::imu_model::ImuErrorModel;
+use super::rest::Zupt;
 use super::NavInit;
 use crate::crc::Crc32;
 use crate::strapdown::{Geodetic, Quat};
 
 /// First four bytes.
 pub const MAGIC: [u8; 4] = *b"IMUN";
-/// Format version (2: the non-holonomic constraint and the setup flags; module docs).
-pub const VERSION: u16 = 2;
+/// Format version (3: the zero-velocity updates; module docs).
+pub const VERSION: u16 = 3;
 /// Header length.
 pub const HEADER_LEN: usize = 12;
-/// Setup block length (40 `f64`, then `max_rejections`, six counts and the setup flags).
+/// Setup block length (44 `f64`, then `max_rejections`, six counts and the setup flags).
 pub const SETUP_LEN: usize = SETUP_F64 * 8 + 8;
 /// `f64` fields of the setup block.
-const SETUP_F64: usize = 40;
+const SETUP_F64: usize = 44;
 /// One component.
 pub const COMPONENT_LEN: usize = 25;
 /// IMU record payload (after the tag).
@@ -143,6 +148,8 @@ pub struct NavSetup {
     /// The point the constraint holds at, from the IMU, body FRD [m] (kept without the
     /// constraint too, so that every setup round-trips).
     pub nhc_lever: [f64; 3],
+    /// Zero-velocity updates after every filter step at rest (none: not applied).
+    pub zupt: Option<Zupt<f64>>,
     /// The heading is known from the start (given), not first set by a fix flagged
     /// [`gnss_flags::HEADING`]: the constraint waits for a known heading.
     pub heading_known: bool,
@@ -266,7 +273,10 @@ pub fn encode(
     let nan3 = [f64::NAN; 3];
     let q = s.att;
     let nan2 = [f64::NAN; 2];
-    let parts: [&[f64]; 14] = [
+    let zupt = s.zupt.map_or([f64::NAN; 4], |z| {
+        [z.sd, z.gyro_max, z.accel_max, z.speed_max]
+    });
+    let parts: [&[f64]; 15] = [
         &[s.t0, s.pos.lat, s.pos.lon, s.pos.h],
         &[q.w, q.x, q.y, q.z],
         &s.vel,
@@ -281,6 +291,7 @@ pub fn encode(
         s.scale_factor_sd.as_ref().unwrap_or(&nan2),
         &[s.nhc_sd.unwrap_or(f64::NAN)],
         &s.nhc_lever,
+        &zupt,
     ];
     for v in parts.iter().flat_map(|p| p.iter()) {
         put(&v.to_le_bytes());

@@ -9,6 +9,7 @@ use super::{
 use crate::crc::Crc32;
 use crate::model::ComponentKind;
 use crate::nav::imu_model::{ImuErrorModel, MAX_AXIS_COMPONENTS};
+use crate::nav::rest::Zupt;
 use crate::nav::NavInit;
 use crate::strapdown::{Geodetic, Quat};
 use nalgebra::Vector3;
@@ -107,6 +108,7 @@ impl Decoder {
                 scale_factor_sd: None,
                 nhc_sd: None,
                 nhc_lever: [0.0; 3],
+                zupt: None,
                 heading_known: false,
             },
         }
@@ -231,6 +233,13 @@ impl Decoder {
         let nhc_sd = r.f64();
         s.nhc_sd = (!nhc_sd.is_nan()).then_some(nhc_sd);
         s.nhc_lever = [r.f64(), r.f64(), r.f64()];
+        let z = [r.f64(), r.f64(), r.f64(), r.f64()];
+        s.zupt = (!z[0].is_nan()).then_some(Zupt {
+            sd: z[0],
+            gyro_max: z[1],
+            accel_max: z[2],
+            speed_max: z[3],
+        });
         s.max_rejections = r.u8();
         let counts: [u8; 6] = r.take();
         let flags = r.u8();

@@ -48,6 +48,12 @@ fn setup() -> NavSetup {
         scale_factor_sd: Some([0.01, 0.002]),
         nhc_sd: Some(0.05),
         nhc_lever: [0.1, -0.2, 0.65],
+        zupt: Some(Zupt {
+            sd: 0.02,
+            gyro_max: 0.15,
+            accel_max: 0.6,
+            speed_max: 0.5,
+        }),
         heading_known: true,
     }
 }
@@ -147,6 +153,7 @@ fn no_gate_no_bias_no_constraint_and_no_records_round_trip() {
     s.imu = ImuErrorModel::default();
     // Without the constraint its lever arm is kept, and the heading flag is off.
     s.nhc_sd = None;
+    s.zupt = None;
     s.heading_known = false;
     let (back, recs) = decoded(&encoded(&s, &[])).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(back, Some(s));
@@ -186,46 +193,57 @@ fn header_errors_are_specific() {
     assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
 }
 
-/// A version-1 replay (no constraint, 48 bytes shorter setup) is refused at its header with
-/// the version it has, before its setup could be misread; the message says which one is read.
+/// Version-1 and version-2 replays (shorter setups: no constraint, no zero-velocity update)
+/// are refused at their header with the version they have, before their setup could be
+/// misread; the message says which one is read.
 #[test]
-fn version_1_is_refused_with_its_number() {
-    let mut v1 = encoded(&setup(), &records(2));
-    v1[4..6].copy_from_slice(&1u16.to_le_bytes());
-    let e = decoded(&v1).err();
-    assert_eq!(e, Some(NavReplayError::BadVersion(1)));
-    let msg = std::format!("{}", NavReplayError::BadVersion(1));
-    assert!(
-        msg.contains("version 1") && msg.contains("version 2"),
-        "{msg}"
-    );
-    let mut dec = Decoder::new();
-    let errs: Vec<_> = v1[..HEADER_LEN].iter().map(|&b| dec.push(b)).collect();
-    assert_eq!(errs.last(), Some(&Err(NavReplayError::BadVersion(1))));
+fn older_versions_are_refused_with_their_number() {
+    for v in [1u16, 2] {
+        let mut old = encoded(&setup(), &records(2));
+        old[4..6].copy_from_slice(&v.to_le_bytes());
+        let e = decoded(&old).err();
+        assert_eq!(e, Some(NavReplayError::BadVersion(v)));
+        let msg = std::format!("{}", NavReplayError::BadVersion(v));
+        assert!(
+            msg.contains(&std::format!("version {v}")) && msg.contains("version 3"),
+            "{msg}"
+        );
+        let mut dec = Decoder::new();
+        let errs: Vec<_> = old[..HEADER_LEN].iter().map(|&b| dec.push(b)).collect();
+        assert_eq!(errs.last(), Some(&Err(NavReplayError::BadVersion(v))));
+    }
 }
 
-/// Every setup field lands at its documented offset: the constraint's sd and lever arm are the
-/// last four `f64` of the block, the setup flags its last byte.
+/// Every setup field lands at its documented offset: the constraint's sd and lever arm, then
+/// the zero-velocity update's sd and bounds are the last eight `f64` of the block, the setup
+/// flags its last byte.
 #[test]
-fn version_2_fields_are_at_their_documented_offsets() {
+fn version_3_fields_are_at_their_documented_offsets() {
     let s = setup();
     let bytes = encoded(&s, &[]);
     let f64_at = |k: usize| {
         let o = HEADER_LEN + 8 * k;
         f64::from_le_bytes(bytes[o..o + 8].try_into().unwrap_or([0; 8]))
     };
-    assert_eq!(SETUP_LEN, 40 * 8 + 8);
+    assert_eq!(SETUP_LEN, 44 * 8 + 8);
     assert_eq!(f64_at(36), 0.05);
     assert_eq!([f64_at(37), f64_at(38), f64_at(39)], s.nhc_lever);
+    assert_eq!(
+        [f64_at(40), f64_at(41), f64_at(42), f64_at(43)],
+        [0.02, 0.15, 0.6, 0.5]
+    );
     assert_eq!(
         bytes[HEADER_LEN + SETUP_LEN - 1],
         setup_flags::HEADING_KNOWN
     );
     let mut off = s.clone();
     off.nhc_sd = None;
+    off.zupt = None;
     let bytes = encoded(&off, &[]);
-    let o = HEADER_LEN + 8 * 36;
-    assert!(f64::from_le_bytes(bytes[o..o + 8].try_into().unwrap_or([0; 8])).is_nan());
+    for k in [36, 40] {
+        let o = HEADER_LEN + 8 * k;
+        assert!(f64::from_le_bytes(bytes[o..o + 8].try_into().unwrap_or([0; 8])).is_nan());
+    }
 }
 
 #[test]

@@ -21,12 +21,12 @@
 //! use imu_ident::nav::rest::{RestDetector, Zupt};
 //! use nalgebra::Vector3;
 //! let z = Zupt { sd: 0.02, gyro_max: 0.1, accel_max: 0.3, speed_max: 0.5 };
-//! let mut d = RestDetector::default();
-//! d.sample(&z, &Vector3::new(0.01, 0.0, -0.02), &Vector3::new(0.0, 0.1, -9.8), 9.806);
+//! let mut d = RestDetector::new(9.806);
+//! d.sample(&z, &Vector3::new(0.01, 0.0, -0.02), &Vector3::new(0.0, 0.1, -9.8));
 //! assert!(d.take());
-//! d.sample(&z, &Vector3::new(0.5, 0.0, 0.0), &Vector3::new(0.0, 0.0, -9.8), 9.806);
+//! d.sample(&z, &Vector3::new(0.5, 0.0, 0.0), &Vector3::new(0.0, 0.0, -9.8));
 //! assert!(!d.take()); // turning
-//! d.sample(&z, &Vector3::new(0.0, 0.0, 0.0), &Vector3::new(-1.0, 0.0, -9.8), 9.806);
+//! d.sample(&z, &Vector3::new(0.0, 0.0, 0.0), &Vector3::new(-1.0, 0.0, -9.8));
 //! assert!(!d.take()); // braking
 //! assert!(!d.take()); // no sample since the last step
 //! ```
@@ -34,6 +34,7 @@
 use super::navigator::{NavError, Navigator};
 use crate::filter::Fused;
 use crate::model::ModelError;
+use crate::strapdown::earth;
 use crate::Real;
 use nalgebra::Vector3;
 
@@ -68,15 +69,29 @@ impl<T: Real> Zupt<T> {
         }
     }
 
+    /// The settings `z` (as a replay or the command line gives them) in `T`, checked.
+    pub fn cast_checked(z: &Zupt<f64>) -> Result<Self, NavError> {
+        Self {
+            sd: T::lit(z.sd),
+            gyro_max: T::lit(z.gyro_max),
+            accel_max: T::lit(z.accel_max),
+            speed_max: z.speed_max,
+        }
+        .checked()
+    }
+
     /// After an IMU sample that ended a filter step: the update when the detector saw rest
     /// over the step and the solution is slower than `speed_max`; the detector restarts for
-    /// the next step either way. Returns the fusion result when applied.
+    /// the next step either way, with normal gravity at the solution's position (once per
+    /// step: it changes by 3e-6 m/s^2 per metre of height). Returns the fusion result when
+    /// applied.
     pub fn after_step<const N: usize>(
         &self,
         nav: &mut Navigator<T, N>,
-        detector: &mut RestDetector,
+        detector: &mut RestDetector<T>,
     ) -> Result<Option<Fused<T, 3>>, NavError> {
         let still = detector.take();
+        detector.g = RestDetector::gravity_at(nav);
         // The speed in f64 whatever T, as for the constraint (`Nhc::after_step`).
         let speed = nav.ins().velocity().map(|v| v.as_f64()).norm();
         if !(still && speed <= self.speed_max) {
@@ -87,38 +102,45 @@ impl<T: Real> Zupt<T> {
 }
 
 /// Whether every IMU sample since the last step looked at rest.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct RestDetector {
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RestDetector<T> {
     still: bool,
     samples: u32,
+    /// Normal gravity at the solution [m/s^2], set at the start and after every step.
+    g: T,
 }
 
-impl Default for RestDetector {
-    fn default() -> Self {
+impl<T: Real> RestDetector<T> {
+    /// A detector with normal gravity `g` [m/s^2].
+    pub fn new(g: T) -> Self {
         Self {
             still: true,
             samples: 0,
+            g,
         }
     }
-}
 
-impl RestDetector {
-    /// One IMU sample: body rates `gyro` [rad/s], the specific force resolved in NED `f_n`
-    /// [m/s^2] (`C_b^n f_b` with the solution's attitude), normal gravity `g` at the solution
-    /// [m/s^2]. A non-finite sample is not at rest.
-    pub fn sample<T: Real>(&mut self, z: &Zupt<T>, gyro: &Vector3<T>, f_n: &Vector3<T>, g: T) {
+    /// Normal gravity at the solution of `nav` [m/s^2].
+    pub fn gravity_at<const N: usize>(nav: &Navigator<T, N>) -> T {
+        let p = nav.ins().position();
+        earth::normal_gravity(T::lit(p.lat), T::lit(p.h))
+    }
+
+    /// One IMU sample: body rates `gyro` [rad/s] and the specific force resolved in NED `f_n`
+    /// [m/s^2] (`C_b^n f_b` with the solution's attitude). A non-finite sample is not at rest.
+    pub fn sample(&mut self, z: &Zupt<T>, gyro: &Vector3<T>, f_n: &Vector3<T>) {
         let at_rest = gyro.norm() <= z.gyro_max
-            && (f_n + Vector3::new(T::zero(), T::zero(), g)).norm() <= z.accel_max;
+            && (f_n + Vector3::new(T::zero(), T::zero(), self.g)).norm() <= z.accel_max;
         // `<=` is false for NaN, so a bad sample breaks the rest.
         self.still &= at_rest;
         self.samples = self.samples.saturating_add(1);
     }
 
     /// Whether the step that just ended was at rest (at least one sample, all at rest), and
-    /// restart for the next step.
+    /// restart for the next step (gravity kept).
     pub fn take(&mut self) -> bool {
         let still = self.still && self.samples > 0;
-        *self = Self::default();
+        *self = Self::new(self.g);
         still
     }
 }
@@ -158,20 +180,23 @@ mod tests {
 
     #[test]
     fn one_bad_sample_breaks_the_rest_of_its_step_only() {
-        let mut d = RestDetector::default();
+        let mut d = RestDetector::new(9.8);
         for _ in 0..99 {
-            d.sample(&Z, &Vector3::zeros(), &REST_F, 9.8);
+            d.sample(&Z, &Vector3::zeros(), &REST_F);
         }
-        d.sample(&Z, &Vector3::new(f64::NAN, 0.0, 0.0), &REST_F, 9.8);
+        d.sample(&Z, &Vector3::new(f64::NAN, 0.0, 0.0), &REST_F);
         assert!(!d.take());
         d.sample(
             &Z,
             &Vector3::zeros(),
             &Vector3::new(0.0, 0.0, f64::INFINITY),
-            9.8,
         );
         assert!(!d.take());
-        d.sample(&Z, &Vector3::zeros(), &REST_F, 9.8);
+        d.sample(&Z, &Vector3::zeros(), &REST_F);
         assert!(d.take());
+        // A NaN gravity (a broken solution) never detects rest.
+        let mut d = RestDetector::new(f64::NAN);
+        d.sample(&Z, &Vector3::zeros(), &REST_F);
+        assert!(!d.take());
     }
 }

@@ -9,6 +9,7 @@
 
 use super::navigator::{GnssFix, NavConfig, NavError, Navigator, NHC_Z};
 use super::replay::{gnss_flags, GnssRecord, ImuRecord, NavSetup};
+use super::rest::{RestDetector, Zupt};
 use super::{NavInit, NavPoint, StrapdownErrorModel, NAV_Z};
 use crate::filter::Fused;
 use crate::model::ModelError;
@@ -113,6 +114,8 @@ pub struct ImuStep<T> {
     pub stepped: bool,
     /// The non-holonomic constraint's update after the step, when it was applied.
     pub nhc: Option<Fused<T, NHC_Z>>,
+    /// The zero-velocity update after the step, when it was applied.
+    pub zupt: Option<Fused<T, 3>>,
 }
 
 /// The solution at a GNSS epoch.
@@ -154,6 +157,8 @@ pub struct NavReplay<T: Real, const N: usize> {
     sd_factor: [T; 2],
     heading_sd: T,
     nhc: Option<Nhc<T>>,
+    zupt: Option<Zupt<T>>,
+    rest: RestDetector<T>,
     /// Given at the start, or set from a fix flagged [`gnss_flags::HEADING`] since.
     heading_known: bool,
 }
@@ -164,12 +169,17 @@ impl<T: Real, const N: usize> NavReplay<T, N> {
         // The constraint first: a fallible step after the navigator's construction would hold
         // the navigator (about 6 KB in f32) in one more stack temporary on the firmware.
         let nhc = setup.nhc()?;
+        let zupt = setup.zupt.as_ref().map(Zupt::cast_checked).transpose()?;
+        let nav = setup.navigator()?;
+        let rest = RestDetector::new(RestDetector::gravity_at(&nav));
         Ok(Self {
-            nav: setup.navigator()?,
+            nav,
             t: setup.t0,
             sd_factor: setup.sd_factor.map(T::lit),
             heading_sd: T::lit(setup.heading_sd),
             nhc,
+            zupt,
+            rest,
             heading_known: setup.heading_known,
         })
     }
@@ -190,25 +200,33 @@ impl<T: Real, const N: usize> NavReplay<T, N> {
     }
 
     /// One IMU sample (mean rates over `(previous t, r.t]`), then, when it ended a filter
-    /// step, the non-holonomic constraint if the setup has one ([`Nhc::after_step`]): the host
-    /// driver's order, before the fixes this sample reaches.
+    /// step, the non-holonomic constraint if the setup has one ([`Nhc::after_step`]) and the
+    /// zero-velocity update if the setup has one and the step was at rest
+    /// ([`Zupt::after_step`]): the host driver's order, before the fixes this sample reaches.
     pub fn imu(&mut self, r: &ImuRecord) -> Result<ImuStep<T>, NavError> {
         let dt = r.t - self.t;
         if dt.is_nan() || dt <= 0.0 {
             return Err(NavError::BadTime);
         }
-        let inc = Increment::from_rates(
-            &Vector3::from(r.gyro).map(|v| T::lit(f64::from(v))),
-            &Vector3::from(r.accel).map(|v| T::lit(f64::from(v))),
-            T::lit(dt),
-        );
+        let gyro = Vector3::from(r.gyro).map(|v| T::lit(f64::from(v)));
+        let accel = Vector3::from(r.accel).map(|v| T::lit(f64::from(v)));
+        if let Some(z) = &self.zupt {
+            // The sample with the attitude before it (the host driver's order).
+            let f_n = self.nav.ins().dcm() * accel;
+            self.rest.sample(z, &gyro, &f_n);
+        }
+        let inc = Increment::from_rates(&gyro, &accel, T::lit(dt));
         let stepped = self.nav.imu(r.t, &inc)?;
         self.t = r.t;
         let nhc = match (&self.nhc, stepped) {
             (Some(c), true) => c.after_step(&mut self.nav, self.heading_known)?,
             _ => None,
         };
-        Ok(ImuStep { stepped, nhc })
+        let zupt = match (&self.zupt, stepped) {
+            (Some(z), true) => z.after_step(&mut self.nav, &mut self.rest)?,
+            _ => None,
+        };
+        Ok(ImuStep { stepped, nhc, zupt })
     }
 
     /// One GNSS fix: the heading is set and the fix fused as its flags say. Returns the fusion

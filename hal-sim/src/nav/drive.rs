@@ -14,7 +14,7 @@ use anyhow::{bail, Result};
 use imu_ident::filter::AxisStatus;
 use imu_ident::nav::run::Nhc;
 use imu_ident::nav::{Navigator, RestDetector, Zupt, NAV_N};
-use imu_ident::strapdown::{earth, Increment};
+use imu_ident::strapdown::Increment;
 use imu_ident::Real;
 use nalgebra::Vector3;
 
@@ -29,7 +29,7 @@ pub struct NavLoop<T: Real> {
     /// The constraint's statistics (with `--nhc`).
     pub nhc: Option<records::NhcSummary>,
     zupt_core: Option<Zupt<T>>,
-    rest: RestDetector,
+    rest: RestDetector<T>,
     /// The zero-velocity updates' statistics (with `--zupt`).
     pub zupt: Option<records::ZuptSummary>,
     /// Index of the last IMU sample mechanised (the next interval is `imu[i]..imu[i + 1]`).
@@ -89,24 +89,18 @@ impl<T: Real> NavLoop<T> {
         });
         let zupt_core = args
             .zupt
-            .map(|z| {
-                Zupt {
-                    sd: T::lit(z.sd),
-                    gyro_max: T::lit(z.gyro_max),
-                    accel_max: T::lit(z.accel_max),
-                    speed_max: z.speed_max,
-                }
-                .checked()
-            })
+            .as_ref()
+            .map(Zupt::cast_checked)
             .transpose()
             .map_err(|e| anyhow::anyhow!("nav: zero-velocity update (--zupt): {e:?}"))?;
+        let rest = RestDetector::new(RestDetector::gravity_at(&nav));
         let lp = Self {
             nav,
             planner: FixPlanner::new(args, outages.clone()),
             nhc_core,
             nhc,
             zupt_core,
-            rest: RestDetector::default(),
+            rest,
             zupt: args.zupt.map(records::ZuptSummary::new),
             i: k,
             fix_k: fixes.partition_point(|f| f.t < setup.t0),
@@ -150,13 +144,11 @@ impl<T: Real> NavLoop<T> {
                 T::lit(dt),
             );
             if let Some(z) = self.zupt_core.as_ref() {
-                // The raw sample, its specific force in NED with the solution's attitude,
-                // against normal gravity at the solution (`rest` module docs).
-                let p = self.nav.ins().position();
-                let g = earth::normal_gravity(T::lit(p.lat), T::lit(p.h));
+                // The raw sample, its specific force in NED with the solution's attitude
+                // (`rest` module docs).
                 let f_n = self.nav.ins().dcm() * Vector3::from(b.accel).map(T::lit);
                 self.rest
-                    .sample(z, &Vector3::from(b.gyro).map(T::lit), &f_n, g);
+                    .sample(z, &Vector3::from(b.gyro).map(T::lit), &f_n);
             }
             let stepped = self
                 .nav

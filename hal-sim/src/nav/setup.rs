@@ -116,6 +116,7 @@ pub fn start(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<Sta
         scale_factor_sd: args.scale_factor_sd,
         nhc_sd: args.nhc,
         nhc_lever: args.nhc_lever,
+        zupt: args.zupt,
         // The planner's start (`FixPlanner::new`): a given yaw.
         heading_known: args.yaw_deg.is_some(),
     };

@@ -238,6 +238,22 @@ impl Profile {
         p.accelerate(-40.0, 60.0)?.hold(10.0)
     }
 
+    /// A stop-and-go drive (the zero-velocity update's tests): 60 s static, away to 10 m/s in
+    /// 10 s, 100 s straight, a right quarter turn in 20 s, 60 s straight, braking to rest in
+    /// 10 s (at 260 s), `stop` s at rest, away to 10 m/s in 10 s, 60 s straight.
+    pub fn stop_and_go(stop: f64) -> Result<Self> {
+        Self::new(0.0, 0.4, 1.0)?
+            .hold(60.0)?
+            .accelerate(10.0, 10.0)?
+            .hold(100.0)?
+            .turn(PI / 2.0, 20.0)?
+            .hold(60.0)?
+            .accelerate(-10.0, 10.0)?
+            .hold(stop)?
+            .accelerate(10.0, 10.0)?
+            .hold(60.0)
+    }
+
     /// The kinematics at time `t` (clamped to the profile).
     pub fn at(&self, t: f64) -> Kinematics {
         let idx = self
