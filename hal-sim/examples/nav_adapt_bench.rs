@@ -7,7 +7,9 @@
 //!       grade=mems seeds=8 first=8001 starts=0.1,10,rand
 //!
 //! Other keys: `grade=tactical`, `hours=` (2), `rate=` (IMU Hz, 100), `score_from=` (3600 s),
-//! `adapt_first=`, `every=`, `window=` (600, 1200, 7200 s), `per_axis=1`, `taus=` (`held`,
+//! `adapt_first=`, `every=`, `window=` (600, 1200, 7200 s), `method=bank` (the core's
+//! shadow-filter bank, `nav --adapt-method bank`; with it `every=` defaults to 1200 s and
+//! `offset=`, `min_offset=`, `min_gain=`, `bank_conservative=1` set its `OnlineConfig`), `per_axis=1`, `taus=` (`held`,
 //! `tested`, `free`; default the command's), `conservative=0`, `truth_axes=K` (the true
 //! model's intensities differ by axis: each axis's white density and sigmas scaled by its own
 //! log-uniform factor in [1/K, K], drawn per seed; correlation times alike; default 1, the
@@ -29,7 +31,7 @@
 mod bench_args;
 
 use bench_args::{arg, arg_or, pct};
-use hal_sim::nav::adapt::{AdaptConfig, TauMode};
+use hal_sim::nav::adapt::{AdaptConfig, AdaptMethod, TauMode};
 use hal_sim::nav::{run_with, NavArgs, NavRun};
 use hal_sim::nav_io::outages::OutageSpec;
 use hal_sim::nav_io::TruthRow;
@@ -110,9 +112,11 @@ fn main() {
         .split(',')
         .map(str::to_string)
         .collect();
+    let bank = arg("method").as_deref() == Some("bank");
+    let d = AdaptConfig::DEFAULT;
     let cfg = AdaptConfig {
-        first: arg_or("adapt_first", 600.0),
-        every: arg_or("every", 1200.0),
+        first: arg_or("adapt_first", if bank { d.bank.first } else { d.first }),
+        every: arg_or("every", if bank { d.bank.every } else { d.every }),
         window: arg_or("window", 7200.0),
         per_axis: arg_or("per_axis", 0) != 0,
         taus: match arg("taus").as_deref() {
@@ -123,6 +127,20 @@ fn main() {
             Some(t) => panic!("taus={t}: held, tested or free"),
         },
         conservative: arg_or("conservative", 1) != 0,
+        method: if bank {
+            AdaptMethod::Bank
+        } else {
+            AdaptMethod::Replay
+        },
+        bank: imu_ident::nav::OnlineConfig {
+            first: arg_or("adapt_first", d.bank.first),
+            every: arg_or("every", d.bank.every),
+            offset: arg_or("offset", d.bank.offset),
+            min_offset: arg_or("min_offset", d.bank.min_offset),
+            min_gain: arg_or("min_gain", d.bank.min_gain),
+            conservative: arg_or("bank_conservative", u8::from(d.bank.conservative)) != 0,
+            ..d.bank
+        },
     };
     let sim = match grade.as_str() {
         "mems" => SimModel::mems(),

@@ -152,9 +152,15 @@ pub enum Command {
         /// times; writes adapt.json and adapt.csv.
         #[arg(long, conflicts_with_all = ["identify", "qemu_elf"])]
         adapt: bool,
-        /// First online search and interval between searches FIRST,EVERY [s].
-        #[arg(long, value_delimiter = ',', default_values_t = [ADAPT.first, ADAPT.every])]
-        adapt_every: Vec<f64>,
+        /// First online search and interval between searches FIRST,EVERY [s] (default 600,1200;
+        /// the bank's `OnlineConfig::DEFAULT` with `--adapt-method bank`).
+        #[arg(long, value_delimiter = ',')]
+        adapt_every: Option<Vec<f64>>,
+        /// How the online identification maximises the likelihood: a pattern search over
+        /// replays of the window (host only), or the core's bank of shadow filters with a
+        /// recursive Gauss-Newton (what the MCU runs; docs/ADAPTATION.md §11).
+        #[arg(long, value_enum, default_value_t = ADAPT.method)]
+        adapt_method: crate::nav::adapt::AdaptMethod,
         /// Window of the online searches [s] (from the start while the run is shorter).
         #[arg(long, default_value_t = ADAPT.window)]
         adapt_window: f64,

@@ -51,6 +51,7 @@ fn main() -> Result<()> {
             truth,
             adapt,
             adapt_every,
+            adapt_method,
             adapt_window,
             adapt_per_axis,
             adapt_taus,
@@ -130,7 +131,14 @@ fn main() -> Result<()> {
                 nhc_lever,
                 zupt,
                 adapt: if adapt {
-                    let [first, every] = <[f64; 2]>::try_from(adapt_every)
+                    let bank = adapt_method == hal_sim::nav::adapt::AdaptMethod::Bank;
+                    let cfg = hal_sim::nav::adapt::AdaptConfig::DEFAULT;
+                    let default_every = if bank {
+                        vec![cfg.bank.first, cfg.bank.every]
+                    } else {
+                        vec![cfg.first, cfg.every]
+                    };
+                    let [first, every] = <[f64; 2]>::try_from(adapt_every.unwrap_or(default_every))
                         .map_err(|_| anyhow::anyhow!("--adapt-every: expected FIRST,EVERY"))?;
                     if !(first > 0.0 && every > 0.0 && adapt_window > 0.0) {
                         anyhow::bail!("--adapt-every, --adapt-window: expected positive seconds");
@@ -141,7 +149,13 @@ fn main() -> Result<()> {
                         window: adapt_window,
                         per_axis: adapt_per_axis,
                         taus: adapt_taus,
-                        conservative: true,
+                        method: adapt_method,
+                        bank: imu_ident::nav::OnlineConfig {
+                            first,
+                            every,
+                            ..cfg.bank
+                        },
+                        ..cfg
                     })
                 } else {
                     None

@@ -386,6 +386,7 @@ fn nav_replay(nhc: (u64, [u64; 3], bool), n: usize) -> Vec<u8> {
         nhc_sd: Some(f64::from_bits(sd)).filter(|v| !v.is_nan()),
         nhc_lever: lever.map(f64::from_bits),
         zupt: None,
+        online: None,
         heading_known,
     };
     let records: Vec<Record> = (0..n)

@@ -28,7 +28,7 @@
 //! - from the true intensities with both correlation times 10x too short (30 s for 300 s), the
 //!   test rejects them and the search lengthens both.
 
-use hal_sim::nav::adapt::{AdaptConfig, TauMode, FLAT_NATS};
+use hal_sim::nav::adapt::{AdaptConfig, AdaptMethod, TauMode, FLAT_NATS};
 use hal_sim::nav::model::scaled_sd;
 use hal_sim::nav::{run_with, NavArgs};
 use hal_sim::nav_io::{GnssFix, ImuSample};
@@ -99,6 +99,8 @@ const ONE_SEARCH: AdaptConfig = AdaptConfig {
     per_axis: false,
     taus: TauMode::Held,
     conservative: true,
+    method: AdaptMethod::Replay,
+    bank: imu_ident::nav::OnlineConfig::DEFAULT,
 };
 
 #[test]

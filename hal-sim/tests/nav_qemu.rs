@@ -32,7 +32,7 @@ use hal_sim::nav_qemu::{
 };
 use hal_sim::qemu::QemuConfig;
 use imu_ident::nav::replay::{gnss_flags, Decoder, Event, Record};
-use imu_ident::nav::{ImuErrorModel, NavInit, NavReplay, NAV_N};
+use imu_ident::nav::{ImuErrorModel, NavInit, NavReplay, OnlineIdent, NAV_N};
 use nalgebra::Vector3;
 
 /// The firmware ELF, or `None` (after saying why) when the test should be skipped.
@@ -258,6 +258,24 @@ fn qemu_firmware_nav_with_zero_velocity_updates_matches_the_host_navigator() {
     assert!(z.in_outages >= 118, "{z:?}");
 }
 
+/// The parity check with the online identification by the bank (`--adapt-method bank`, from a
+/// model 10x too large): the firmware starts the bank in its static from the replay's setup,
+/// and decides and retunes where the host does. Its bank costs are in the `step` class (a step
+/// predicts every shadow) and the `gnss` class (a fix is fused into every shadow).
+#[test]
+fn qemu_firmware_nav_with_the_online_identification_matches_the_host_navigator() {
+    let Some(elf) = firmware_elf() else { return };
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let args = drive_online(dir.path());
+    let (_, h32) = parity_under_qemu(&elf, &args);
+    let log = h32.adapt.as_ref().unwrap_or_else(|| panic!("no adapt log"));
+    eprintln!(
+        "online identification: {} decisions, final log10 factors {:?}",
+        log.searches.len(),
+        log.searches.last().map(|s| &s.log10_factors)
+    );
+}
+
 /// Runs `args` through the firmware under QEMU and the host (f32 and f64), prints the parity
 /// and instruction counts, asserts the bars (module docs); returns the firmware run and the
 /// host f32 run.
@@ -358,6 +376,48 @@ fn nav_replay_with_zero_velocity_updates_is_the_host_run_bit_for_bit() {
     assert_eq!(updates, [0, z.updates]);
 }
 
+/// [`drive`] started with every standard deviation 10x too large, identified online by the
+/// core's bank of shadow filters (`--adapt --adapt-method bank`), decisions every 2 min from
+/// 2 min.
+fn drive_online(dir: &std::path::Path) -> NavArgs {
+    use hal_sim::nav::adapt::{AdaptConfig, AdaptMethod};
+    let args = drive(dir);
+    NavArgs {
+        model: hal_sim::nav::model::scaled_sd(&args.model, 10.0),
+        adapt: Some(AdaptConfig {
+            method: AdaptMethod::Bank,
+            bank: imu_ident::nav::OnlineConfig {
+                first: 120.0,
+                every: 120.0,
+                ..imu_ident::nav::OnlineConfig::DEFAULT
+            },
+            ..AdaptConfig::DEFAULT
+        }),
+        ..args
+    }
+}
+
+/// [`nav_replay_on_the_host_is_the_host_run_bit_for_bit`] with the online identification by
+/// the bank: the replay loop (`NavReplay::imu`) starts the same bank from the replay's setup,
+/// takes its decisions after the same steps and retunes the running filter the same way as
+/// the host driver, because both run the core's `OnlineIdent`.
+#[test]
+fn nav_replay_with_the_online_identification_is_the_host_run_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let args = drive_online(dir.path());
+    let (_, host) = replay_matches_host_bit_for_bit(&args);
+    let log = host
+        .adapt
+        .as_ref()
+        .unwrap_or_else(|| panic!("no adapt log"));
+    let moved = log
+        .searches
+        .iter()
+        .filter(|s| s.log10_factors.iter().any(|x| *x != 0.0))
+        .count();
+    assert!(log.searches.len() >= 3 && moved >= 1, "{:?}", log.searches);
+}
+
 /// The replay of `args` through `NavReplay<f32>` on the host against `run_with::<f32>`:
 /// asserts bit-for-bit equality at every epoch; returns the replay's constraint and
 /// zero-velocity updates and the host run.
@@ -366,7 +426,10 @@ fn replay_matches_host_bit_for_bit(args: &NavArgs) -> ([usize; 2], NavRun) {
     let fixes = read_gnss_csv(&args.gnss).unwrap_or_else(|e| panic!("{e:#}"));
     let bytes = encode_replay(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let mut dec = Decoder::new();
-    let mut run: Option<NavReplay<f32, NAV_N>> = None;
+    // The bank (with `--adapt-method bank`) as the firmware keeps it: started in place.
+    let mut bank = Box::new(OnlineIdent::<f32, NAV_N, 17>::BLANK);
+    let mut bank_slot = Some(&mut *bank);
+    let mut run: Option<NavReplay<f32, NAV_N, Option<&mut OnlineIdent<f32, NAV_N, 17>>>> = None;
     let mut epochs = Vec::new();
     let mut updates = [0, 0];
     for &b in &bytes {
@@ -374,7 +437,16 @@ fn replay_matches_host_bit_for_bit(args: &NavArgs) -> ([usize; 2], NavRun) {
             None => {}
             Some(Event::Setup) => {
                 let setup = dec.setup().unwrap_or_else(|| panic!("no setup"));
-                run = Some(NavReplay::new(setup).unwrap_or_else(|e| panic!("{e:?}")));
+                let plain = NavReplay::<f32, NAV_N>::new(setup).unwrap_or_else(|e| panic!("{e:?}"));
+                let obs = match (setup.online, bank_slot.take()) {
+                    (Some(cfg), Some(b)) => {
+                        b.start(cfg, plain.navigator(), setup.t0)
+                            .unwrap_or_else(|e| panic!("{e:?}"));
+                        Some(b)
+                    }
+                    _ => None,
+                };
+                run = Some(plain.with_observer(obs));
             }
             Some(Event::Record(r)) => {
                 let run = run

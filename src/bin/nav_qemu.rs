@@ -51,14 +51,20 @@ mod firmware {
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS};
     use imu_ident::nav::replay::{Decoder, Event, NavReplayError, Record};
-    use imu_ident::nav::{NavError, NavReplay, NavSetup, NAV_N};
+    use imu_ident::nav::{NavError, NavReplay, NavSetup, OnlineIdent, NAV_N};
 
     /// File read when QEMU passes no argument.
     const DEFAULT_LOG: &CStr = c"nav.bin";
     /// Read size: the decoder takes any chunking, so this only trades RAM for host calls.
     const CHUNK: usize = 512;
 
-    type Run = NavReplay<f32, NAV_N>;
+    /// Shadow filters of the online identification: two per coordinate, the centre and one per
+    /// pair, enough for a white noise and a Gauss-Markov on each sensor, tied (15), plus two.
+    const BANK: usize = 17;
+
+    type Bank = OnlineIdent<f32, NAV_N, BANK>;
+
+    type Run = NavReplay<f32, NAV_N, Option<&'static mut Bank>>;
 
     /// Why a replay failed.
     #[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
@@ -83,6 +89,9 @@ mod firmware {
     /// setup has been read.
     static mut RUN: MaybeUninit<Run> = MaybeUninit::uninit();
 
+    /// The online identification's bank (about 45 KB), all zeros until started in place.
+    static mut BANK_STATE: Bank = Bank::BLANK;
+
     #[entry]
     fn main() -> ! {
         semihost::paint_stack();
@@ -104,10 +113,29 @@ mod firmware {
     /// construction are not part of the record loop's stack).
     #[inline(never)]
     fn init(setup: &NavSetup) -> Result<&'static mut Run, FirmwareError> {
-        let run = Run::new(setup).map_err(FirmwareError::Nav)?;
+        let plain = NavReplay::<f32, NAV_N>::new(setup).map_err(FirmwareError::Nav)?;
+        let bank = start_bank(setup, &plain)?;
+        let run = plain.with_observer(bank);
         // SAFETY: called once, before any other reference to RUN exists.
         let slot = unsafe { &mut *core::ptr::addr_of_mut!(RUN) };
         Ok(slot.write(run))
+    }
+
+    /// Starts the online identification's bank in [`BANK_STATE`] when the setup asks for it
+    /// (its own frame: the shadows' construction is not part of `init`'s).
+    #[inline(never)]
+    fn start_bank(
+        setup: &NavSetup,
+        plain: &NavReplay<f32, NAV_N>,
+    ) -> Result<Option<&'static mut Bank>, FirmwareError> {
+        let Some(cfg) = setup.online else {
+            return Ok(None);
+        };
+        // SAFETY: called once, before any other reference to BANK_STATE exists.
+        let bank = unsafe { &mut *core::ptr::addr_of_mut!(BANK_STATE) };
+        bank.start(cfg, plain.navigator(), setup.t0)
+            .map_err(|e| FirmwareError::Nav(NavError::Model(e)))?;
+        Ok(Some(bank))
     }
 
     #[inline(never)]

@@ -191,6 +191,41 @@ impl<T: Real> StrapdownErrorModel<T> {
         }
     }
 
+    /// Scales the covariance `p` (scaled states, of a filter running this model) for the
+    /// model `new` of the same layout: where a component's magnitude
+    /// ([`Component::magnitude`](crate::model::Component::magnitude): its stationary sigma, a
+    /// random walk's one-hour growth) grows by `r`, its states' rows and columns grow by `r`.
+    /// A prior that was too tight left a posterior too tight; with a correlation time of hours
+    /// the new `Q` alone would take hours to loosen it. A magnitude that shrinks leaves the
+    /// covariance as it is: the estimates made under the looser model are no better than it
+    /// said.
+    pub fn retune_covariance<const N: usize>(&self, new: &Self, p: &mut Arr<T, N>) {
+        let mut old = [T::zero(); N];
+        self.for_each_component(&mut |_, _, k, c| {
+            for i in k..k + c.states() {
+                if let Some(v) = old.get_mut(i) {
+                    *v = c.magnitude();
+                }
+            }
+        });
+        let mut r = [T::one(); N];
+        new.for_each_component(&mut |_, _, k, c| {
+            for i in k..k + c.states() {
+                if let (Some(v), Some(o)) = (r.get_mut(i), old.get(i)) {
+                    let ratio = c.magnitude() / *o;
+                    if ratio.is_finite() && ratio > T::one() {
+                        *v = ratio;
+                    }
+                }
+            }
+        });
+        for (row, ri) in p.iter_mut().zip(r.iter()) {
+            for (v, rj) in row.iter_mut().zip(r.iter()) {
+                *v = *v * *ri * *rj;
+            }
+        }
+    }
+
     /// The sensor errors `(b_g, b_a)` (rad/s, m/s^2, body axes) of the physical state `x`: per
     /// axis the sum of its components' outputs `C_c x_c`.
     pub fn sensor_errors<const N: usize>(&self, x: &[T; N]) -> (Vector3<T>, Vector3<T>) {

@@ -53,6 +53,12 @@ pub struct ImuErrorModel<T: Real> {
 }
 
 impl<T: Real> ImuErrorModel<T> {
+    /// No component on any axis (usable in `const` items).
+    pub const EMPTY: Self = Self {
+        gyro: [Vec::new(), Vec::new(), Vec::new()],
+        accel: [Vec::new(), Vec::new(), Vec::new()],
+    };
+
     /// The components of one sensor's axes.
     pub fn sensor(&self, s: ImuSensor) -> &[AxisModel<T>; 3] {
         match s {

@@ -11,13 +11,17 @@
 pub mod error_model;
 pub mod imu_model;
 pub mod navigator;
+pub mod online;
 pub mod replay;
 pub mod rest;
 pub mod run;
 
 pub use error_model::{nav_idx, NavInit, NavPoint, StrapdownErrorModel, NAV_Z};
 pub use imu_model::{AxisModel, ImuErrorModel, ImuSensor, MAX_AXIS_COMPONENTS};
-pub use navigator::{GnssFix, NavConfig, NavError, Navigator, CHI2_9999, NHC_Z};
+pub use navigator::{
+    GnssFix, NavConfig, NavError, NavObserver, Navigator, ObservationKind, CHI2_9999, NHC_Z,
+};
+pub use online::{OnlineConfig, OnlineIdent};
 pub use replay::NavSetup;
 pub use rest::{RestDetector, Zupt};
 pub use run::{Epoch, ImuStep, NavReplay, Nhc, NHC_MIN_SPEED};

@@ -112,9 +112,10 @@ pub struct GnssFix<T: Real> {
     pub sd_vel: Vector3<T>,
 }
 
-/// The INS/GNSS navigator with at most `N` filter states.
+/// The INS/GNSS navigator with at most `N` filter states, reporting its filter operations to
+/// the observer `O` ([`NavObserver`]; none by default).
 #[derive(Debug, Clone)]
-pub struct Navigator<T: Real, const N: usize> {
+pub struct Navigator<T: Real, const N: usize, O = ()> {
     ins: Strapdown<T>,
     model: StrapdownErrorModel<T>,
     scale: [T; N],
@@ -141,6 +142,7 @@ pub struct Navigator<T: Real, const N: usize> {
     rejected: u8,
     rejected_nhc: u8,
     rejected_zupt: u8,
+    obs: O,
 }
 
 impl<T: Real, const N: usize> Navigator<T, N> {
@@ -187,7 +189,60 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             rejected: 0,
             rejected_nhc: 0,
             rejected_zupt: 0,
+            obs: (),
         })
+    }
+
+    /// The same navigator reporting its filter operations to `obs` from now on.
+    pub fn with_observer<O: NavObserver<T, N>>(self, obs: O) -> Navigator<T, N, O> {
+        Navigator {
+            ins: self.ins,
+            model: self.model,
+            scale: self.scale,
+            p0: self.p0,
+            kf: self.kf,
+            cfg: self.cfg,
+            t: self.t,
+            t_kf: self.t_kf,
+            t_step: self.t_step,
+            fix_since_step: self.fix_since_step,
+            sum_fn: self.sum_fn,
+            sum_dt: self.sum_dt,
+            sum_dtheta: self.sum_dtheta,
+            sum_dv: self.sum_dv,
+            w_b: self.w_b,
+            s_g: self.s_g,
+            s_a: self.s_a,
+            b_g: self.b_g,
+            b_a: self.b_a,
+            gaps: self.gaps,
+            rejected: self.rejected,
+            rejected_nhc: self.rejected_nhc,
+            rejected_zupt: self.rejected_zupt,
+            obs,
+        }
+    }
+}
+
+impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
+    /// The observer.
+    pub fn observer(&self) -> &O {
+        &self.obs
+    }
+
+    /// The observer, mutable (an online identification deciding between steps).
+    pub fn observer_mut(&mut self) -> &mut O {
+        &mut self.obs
+    }
+
+    /// The scaling of the filter's states (`x = S x'`, fixed at the start).
+    pub fn scale(&self) -> &[T; N] {
+        &self.scale
+    }
+
+    /// The initial covariance (scaled), the filter's repair value.
+    pub fn p0(&self) -> &Arr<T, N> {
+        &self.p0
     }
 
     /// The mechanisation (solution at [`time`](Self::time)).
@@ -276,31 +331,9 @@ impl<T: Real, const N: usize> Navigator<T, N> {
     ///
     /// [`Component::magnitude`]: crate::model::Component::magnitude
     pub fn retune_imu_model(&mut self, imu: super::ImuErrorModel<T>) -> Result<(), NavError> {
-        let mut old = [T::zero(); N];
-        self.model.for_each_component(&mut |_, _, k, c| {
-            for i in k..k + c.states() {
-                if let Some(v) = old.get_mut(i) {
-                    *v = c.magnitude();
-                }
-            }
-        });
+        let old = self.model.clone();
         self.set_imu_model(imu)?;
-        let mut r = [T::one(); N];
-        self.model.for_each_component(&mut |_, _, k, c| {
-            for i in k..k + c.states() {
-                if let (Some(v), Some(o)) = (r.get_mut(i), old.get(i)) {
-                    let ratio = c.magnitude() / *o;
-                    if ratio.is_finite() && ratio > T::one() {
-                        *v = ratio;
-                    }
-                }
-            }
-        });
-        for (row, ri) in self.kf.P.iter_mut().zip(r.iter()) {
-            for (p, rj) in row.iter_mut().zip(r.iter()) {
-                *p = *p * *ri * *rj;
-            }
-        }
+        old.retune_covariance(&self.model, &mut self.kf.P);
         Ok(())
     }
 
@@ -314,53 +347,8 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         if let Some(v) = vel {
             self.ins.set_velocity(v)?;
         }
-        let k = nav_idx::ATT + 2;
-        let s = self.scale.get(k).copied().unwrap_or_else(T::one);
-        for (i, row) in self.kf.P.iter_mut().enumerate() {
-            if let Some(v) = row.get_mut(k) {
-                *v = if i == k {
-                    (sd / s) * (sd / s)
-                } else {
-                    T::zero()
-                };
-            }
-        }
-        if let Some(row) = self.kf.P.get_mut(k) {
-            for (j, v) in row.iter_mut().enumerate() {
-                if j != k {
-                    *v = T::zero();
-                }
-            }
-        }
-        if vel.is_some() {
-            // The velocity error of the new velocity is not correlated with the rest either.
-            for i in nav_idx::VEL..nav_idx::VEL + 3 {
-                let sv = self.scale.get(i).copied().unwrap_or_else(T::one);
-                let keep = self
-                    .kf
-                    .P
-                    .get(i)
-                    .and_then(|r| r.get(i))
-                    .copied()
-                    .unwrap_or_else(T::zero);
-                for (r, row) in self.kf.P.iter_mut().enumerate() {
-                    if let Some(v) = row.get_mut(i) {
-                        *v = if r == i {
-                            keep.max(T::lit(0.01) / (sv * sv))
-                        } else {
-                            T::zero()
-                        };
-                    }
-                }
-                if let Some(row) = self.kf.P.get_mut(i) {
-                    for (j, v) in row.iter_mut().enumerate() {
-                        if j != i {
-                            *v = T::zero();
-                        }
-                    }
-                }
-            }
-        }
+        restart_heading(&mut self.kf, &self.scale, sd, vel.is_some());
+        self.obs.heading_restarted(&self.scale, sd, vel.is_some());
         Ok(())
     }
 
@@ -389,6 +377,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
                 *d = true;
             }
         });
+        self.obs.sensors_seeded(&self.kf.x);
         self.refresh_compensation();
         Ok(())
     }
@@ -447,6 +436,8 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         let sys =
             <StrapdownErrorModel<T> as ErrorModel<T, N, NAV_Z>>::system(&self.model, &self.scale)?;
         let (Phi, Qd) = discretise_block(&sys.A, &sys.Qc, self.model.dt, sys.n)?;
+        self.obs
+            .propagated(&self.model, &self.scale, &self.kf.x, &self.p0);
         self.kf.predict(&Phi, &Qd);
         for v in self.kf.x.iter_mut().take(nav_idx::SENSOR) {
             *v = T::zero();
@@ -480,6 +471,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         let v3 = |k: usize| Vector3::new(x[k], x[k + 1], x[k + 2]);
         let (phi, dv, dp) = (v3(nav_idx::ATT), v3(nav_idx::VEL), v3(nav_idx::POS));
         self.ins.correct(&phi, &dv, &dp)?;
+        self.obs.corrected(&self.kf.x, &self.p0);
         for v in self.kf.x.iter_mut().take(nav_idx::SENSOR) {
             *v = T::zero();
         }
@@ -509,6 +501,73 @@ impl<T: Real, const N: usize> Navigator<T, N> {
     }
 }
 
+/// The covariance of a heading restarted with standard deviation `sd` [rad] (and, with `vel`,
+/// of a velocity replaced by a measured one): `phi_D` (and the velocity errors) uncorrelated
+/// with the other states, their estimates zero ([`Navigator::set_heading`]; also applied to
+/// an observer's shadow filters, whose estimates of the old heading's error no longer apply).
+pub fn restart_heading<T: Real, const N: usize>(
+    kf: &mut Kalman<T, N>,
+    scale: &[T; N],
+    sd: T,
+    vel: bool,
+) {
+    let k = nav_idx::ATT + 2;
+    let s = scale.get(k).copied().unwrap_or_else(T::one);
+    for (i, row) in kf.P.iter_mut().enumerate() {
+        if let Some(v) = row.get_mut(k) {
+            *v = if i == k {
+                (sd / s) * (sd / s)
+            } else {
+                T::zero()
+            };
+        }
+    }
+    if let Some(row) = kf.P.get_mut(k) {
+        for (j, v) in row.iter_mut().enumerate() {
+            if j != k {
+                *v = T::zero();
+            }
+        }
+    }
+    if vel {
+        // The velocity error of the new velocity is not correlated with the rest either.
+        for i in nav_idx::VEL..nav_idx::VEL + 3 {
+            let sv = scale.get(i).copied().unwrap_or_else(T::one);
+            let keep =
+                kf.P.get(i)
+                    .and_then(|r| r.get(i))
+                    .copied()
+                    .unwrap_or_else(T::zero);
+            for (r, row) in kf.P.iter_mut().enumerate() {
+                if let Some(v) = row.get_mut(i) {
+                    *v = if r == i {
+                        keep.max(T::lit(0.01) / (sv * sv))
+                    } else {
+                        T::zero()
+                    };
+                }
+            }
+            if let Some(row) = kf.P.get_mut(i) {
+                for (j, v) in row.iter_mut().enumerate() {
+                    if j != i {
+                        *v = T::zero();
+                    }
+                }
+            }
+        }
+    }
+    if let Some(x) = kf.x.get_mut(nav_idx::ATT + 2) {
+        *x = T::zero();
+    }
+    if vel {
+        for x in kf.x.iter_mut().skip(nav_idx::VEL).take(3) {
+            *x = T::zero();
+        }
+    }
+}
+
 mod aiding;
+mod observer;
+pub use observer::{NavObserver, ObservationKind};
 #[cfg(test)]
 mod tests;

@@ -3,11 +3,11 @@
 //! the order the host driver processes them. The loop that consumes it is
 //! [`NavReplay`](super::run::NavReplay).
 //!
-//! # Format (version 3, all integers and floats little-endian)
+//! # Format (version 4, all integers and floats little-endian)
 //!
 //! ```text
-//! header     magic "IMUN" | version u16 = 3 | reserved u16 = 0 | record count u32      12 bytes
-//! setup      44 f64, in this order:                                                   360 bytes
+//! header     magic "IMUN" | version u16 = 4 | reserved u16 = 0 | record count u32      12 bytes
+//! setup      51 f64, in this order:                                                   416 bytes
 //!              t0 [s] | lat, lon [rad], h [m] | q_b^n w, x, y, z | v N, E, D [m/s]
 //!              | gyro bias x, y, z [rad/s] (NaN: none) | lever arm x, y, z [m, body FRD]
 //!              | sd_att N, E, D [rad] | sd_vel [m/s] | sd_pos [m] | obs_sd x 6
@@ -15,6 +15,8 @@
 //!              | heading sd [rad] | scale-factor sd gyro, accel (NaN: none)
 //!              | NHC sd [m/s] (NaN: none) | NHC lever x, y, z [m, body FRD]
 //!              | ZUPT sd [m/s] (NaN: none) | ZUPT rate, specific-force, speed bounds
+//!              | online identification: first decision [s] (NaN: none) | interval [s]
+//!              | offset, smallest offset, bound [decades] | least gain [nats] | fixes
 //!            then max_rejections u8 | components per axis u8 x 6 (gyro x, y, z, accel x, y, z)
 //!            | setup flags u8
 //! components per component, axes in the order above: kind u8 | a, b, c f64             25 bytes
@@ -35,8 +37,16 @@
 //! With zero-velocity updates (ZUPT) on, the loop applies them after every filter step found
 //! at rest ([`Zupt::after_step`](super::rest::Zupt::after_step)), as the host does.
 //!
+//! With the online identification on ([`OnlineConfig`], setup flags
+//! [`setup_flags::ONLINE_PER_AXIS`], [`setup_flags::ONLINE_TAUS`] and
+//! [`setup_flags::ONLINE_CONSERVATIVE`]), the loop runs the bank of
+//! shadow filters ([`crate::nav::online`]) and, after every filter step, takes its decision
+//! ([`NavReplay::imu`](super::run::NavReplay::imu)), as the host does (`nav --adapt
+//! --adapt-method bank`).
+//!
 //! Version 2 added the NHC (sd and lever arm) and the setup flags (the byte that was zero
-//! padding in version 1); version 3 the ZUPT (sd and the rest detector's three bounds). Older
+//! padding in version 1); version 3 the ZUPT (sd and the rest detector's three bounds); version 4
+//! the online identification (seven values and three flags). Older
 //! replays are rejected ([`NavReplayError::BadVersion`]), not read with the new aiding off:
 //! the replay is an intermediate file that `hal_sim::nav_qemu` writes afresh for every run, so there is nothing to migrate, and one layout keeps the
 //! firmware's decoder to one panic-free path.
@@ -55,6 +65,7 @@
 //! known at the end: a consumer must call [`Decoder::finish`].
 
 use super::imu_model::ImuErrorModel;
+use super::online::OnlineConfig;
 use super::rest::Zupt;
 use super::NavInit;
 use crate::crc::Crc32;
@@ -62,14 +73,14 @@ use crate::strapdown::{Geodetic, Quat};
 
 /// First four bytes.
 pub const MAGIC: [u8; 4] = *b"IMUN";
-/// Format version (3: the zero-velocity updates; module docs).
-pub const VERSION: u16 = 3;
+/// Format version (4: the online identification; module docs).
+pub const VERSION: u16 = 4;
 /// Header length.
 pub const HEADER_LEN: usize = 12;
-/// Setup block length (44 `f64`, then `max_rejections`, six counts and the setup flags).
+/// Setup block length (51 `f64`, then `max_rejections`, six counts and the setup flags).
 pub const SETUP_LEN: usize = SETUP_F64 * 8 + 8;
 /// `f64` fields of the setup block.
-const SETUP_F64: usize = 44;
+const SETUP_F64: usize = 51;
 /// One component.
 pub const COMPONENT_LEN: usize = 25;
 /// IMU record payload (after the tag).
@@ -87,8 +98,21 @@ pub const TAG_GNSS: u8 = 2;
 pub mod setup_flags {
     /// The heading is known from the start ([`NavSetup::heading_known`](super::NavSetup)).
     pub const HEADING_KNOWN: u8 = 1;
+    /// The online identification has one coordinate per axis ([`OnlineConfig::per_axis`]).
+    ///
+    /// [`OnlineConfig::per_axis`]: crate::nav::OnlineConfig::per_axis
+    pub const ONLINE_PER_AXIS: u8 = 2;
+    /// The online identification identifies the correlation times ([`OnlineConfig::taus`]).
+    ///
+    /// [`OnlineConfig::taus`]: crate::nav::OnlineConfig::taus
+    pub const ONLINE_TAUS: u8 = 4;
+    /// The online identification's running model is conservative
+    /// ([`OnlineConfig::conservative`]).
+    ///
+    /// [`OnlineConfig::conservative`]: crate::nav::OnlineConfig::conservative
+    pub const ONLINE_CONSERVATIVE: u8 = 8;
     /// Every defined bit.
-    pub const ALL: u8 = HEADING_KNOWN;
+    pub const ALL: u8 = HEADING_KNOWN | ONLINE_PER_AXIS | ONLINE_TAUS | ONLINE_CONSERVATIVE;
 }
 
 /// Bits of [`GnssRecord::flags`].
@@ -150,6 +174,9 @@ pub struct NavSetup {
     pub nhc_lever: [f64; 3],
     /// Zero-velocity updates after every filter step at rest (none: not applied).
     pub zupt: Option<Zupt<f64>>,
+    /// Online identification of the noise model by the bank of shadow filters (none: the
+    /// model is fixed).
+    pub online: Option<OnlineConfig>,
     /// The heading is known from the start (given), not first set by a fix flagged
     /// [`gnss_flags::HEADING`]: the constraint waits for a known heading.
     pub heading_known: bool,
@@ -276,7 +303,18 @@ pub fn encode(
     let zupt = s.zupt.map_or([f64::NAN; 4], |z| {
         [z.sd, z.gyro_max, z.accel_max, z.speed_max]
     });
-    let parts: [&[f64]; 15] = [
+    let online = s.online.map_or([f64::NAN; 7], |o| {
+        [
+            o.first,
+            o.every,
+            o.offset,
+            o.min_offset,
+            o.bound,
+            o.min_gain,
+            f64::from(o.min_fixes),
+        ]
+    });
+    let parts: [&[f64]; 16] = [
         &[s.t0, s.pos.lat, s.pos.lon, s.pos.h],
         &[q.w, q.x, q.y, q.z],
         &s.vel,
@@ -292,6 +330,7 @@ pub fn encode(
         &[s.nhc_sd.unwrap_or(f64::NAN)],
         &s.nhc_lever,
         &zupt,
+        &online,
     ];
     for v in parts.iter().flat_map(|p| p.iter()) {
         put(&v.to_le_bytes());
@@ -302,11 +341,17 @@ pub fn encode(
     }
     put(&[s.max_rejections]);
     put(&counts);
-    put(&[if s.heading_known {
-        setup_flags::HEADING_KNOWN
-    } else {
-        0
-    }]);
+    let flag = |on: bool, bit: u8| if on { bit } else { 0 };
+    put(&[flag(s.heading_known, setup_flags::HEADING_KNOWN)
+        | flag(
+            s.online.is_some_and(|o| o.per_axis),
+            setup_flags::ONLINE_PER_AXIS,
+        )
+        | flag(s.online.is_some_and(|o| o.taus), setup_flags::ONLINE_TAUS)
+        | flag(
+            s.online.is_some_and(|o| o.conservative),
+            setup_flags::ONLINE_CONSERVATIVE,
+        )]);
     for c in axes(&s.imu).into_iter().flat_map(|a| a.iter()) {
         let kind = c.kind();
         put(&[kind.code()]);

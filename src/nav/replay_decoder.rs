@@ -109,6 +109,7 @@ impl Decoder {
                 nhc_sd: None,
                 nhc_lever: [0.0; 3],
                 zupt: None,
+                online: None,
                 heading_known: false,
             },
         }
@@ -240,10 +241,29 @@ impl Decoder {
             accel_max: z[2],
             speed_max: z[3],
         });
+        let o = [(); 7].map(|()| r.f64());
         s.max_rejections = r.u8();
         let counts: [u8; 6] = r.take();
         let flags = r.u8();
         s.heading_known = flags & setup_flags::HEADING_KNOWN != 0;
+        // The fix count is a small whole number on the wire (f64 like the rest of the block).
+        let fixes = o[6];
+        let fixes_ok = (0.0..=f64::from(u32::MAX)).contains(&fixes) && fixes == libm::trunc(fixes);
+        if !o[0].is_nan() && !fixes_ok {
+            return self.fail(NavReplayError::BadField);
+        }
+        s.online = (!o[0].is_nan()).then_some(crate::nav::OnlineConfig {
+            first: o[0],
+            every: o[1],
+            offset: o[2],
+            min_offset: o[3],
+            bound: o[4],
+            min_gain: o[5],
+            min_fixes: if fixes_ok { fixes as u32 } else { 0 },
+            conservative: flags & setup_flags::ONLINE_CONSERVATIVE != 0,
+            per_axis: flags & setup_flags::ONLINE_PER_AXIS != 0,
+            taus: flags & setup_flags::ONLINE_TAUS != 0,
+        });
         s.imu = ImuErrorModel::default();
         let too_many = counts.iter().any(|&c| usize::from(c) > MAX_AXIS_COMPONENTS);
         if too_many || flags & !setup_flags::ALL != 0 {

@@ -54,6 +54,18 @@ fn setup() -> NavSetup {
             accel_max: 0.6,
             speed_max: 0.5,
         }),
+        online: Some(crate::nav::OnlineConfig {
+            first: 300.0,
+            every: 900.0,
+            offset: 0.25,
+            min_offset: 0.03125,
+            bound: 1.5,
+            min_gain: 2.0,
+            min_fixes: 30,
+            conservative: false,
+            per_axis: true,
+            taus: true,
+        }),
         heading_known: true,
     }
 }
@@ -154,6 +166,7 @@ fn no_gate_no_bias_no_constraint_and_no_records_round_trip() {
     // Without the constraint its lever arm is kept, and the heading flag is off.
     s.nhc_sd = None;
     s.zupt = None;
+    s.online = None;
     s.heading_known = false;
     let (back, recs) = decoded(&encoded(&s, &[])).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(back, Some(s));
@@ -189,23 +202,24 @@ fn header_errors_are_specific() {
     bad[HEADER_LEN + SETUP_LEN - 7] = 9; // gyro x: 9 components
     assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
     let mut bad = good;
-    bad[HEADER_LEN + SETUP_LEN - 1] = 2; // an undefined setup flag
+    bad[HEADER_LEN + SETUP_LEN - 1] = 16; // an undefined setup flag
     assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
 }
 
-/// Version-1 and version-2 replays (shorter setups: no constraint, no zero-velocity update)
+/// Version-1 to version-3 replays (shorter setups: no constraint, zero-velocity update or
+/// online identification)
 /// are refused at their header with the version they have, before their setup could be
 /// misread; the message says which one is read.
 #[test]
 fn older_versions_are_refused_with_their_number() {
-    for v in [1u16, 2] {
+    for v in [1u16, 2, 3] {
         let mut old = encoded(&setup(), &records(2));
         old[4..6].copy_from_slice(&v.to_le_bytes());
         let e = decoded(&old).err();
         assert_eq!(e, Some(NavReplayError::BadVersion(v)));
         let msg = std::format!("{}", NavReplayError::BadVersion(v));
         assert!(
-            msg.contains(&std::format!("version {v}")) && msg.contains("version 3"),
+            msg.contains(&std::format!("version {v}")) && msg.contains("version 4"),
             "{msg}"
         );
         let mut dec = Decoder::new();
@@ -214,18 +228,18 @@ fn older_versions_are_refused_with_their_number() {
     }
 }
 
-/// Every setup field lands at its documented offset: the constraint's sd and lever arm, then
-/// the zero-velocity update's sd and bounds are the last eight `f64` of the block, the setup
-/// flags its last byte.
+/// Every setup field lands at its documented offset: the constraint's sd and lever arm, the
+/// zero-velocity update's sd and bounds, then the online identification's seven values are
+/// the last fifteen `f64` of the block, the setup flags its last byte.
 #[test]
-fn version_3_fields_are_at_their_documented_offsets() {
+fn version_4_fields_are_at_their_documented_offsets() {
     let s = setup();
     let bytes = encoded(&s, &[]);
     let f64_at = |k: usize| {
         let o = HEADER_LEN + 8 * k;
         f64::from_le_bytes(bytes[o..o + 8].try_into().unwrap_or([0; 8]))
     };
-    assert_eq!(SETUP_LEN, 44 * 8 + 8);
+    assert_eq!(SETUP_LEN, 51 * 8 + 8);
     assert_eq!(f64_at(36), 0.05);
     assert_eq!([f64_at(37), f64_at(38), f64_at(39)], s.nhc_lever);
     assert_eq!(
@@ -233,14 +247,19 @@ fn version_3_fields_are_at_their_documented_offsets() {
         [0.02, 0.15, 0.6, 0.5]
     );
     assert_eq!(
+        (44..51).map(f64_at).collect::<Vec<_>>(),
+        [300.0, 900.0, 0.25, 0.03125, 1.5, 2.0, 30.0]
+    );
+    assert_eq!(
         bytes[HEADER_LEN + SETUP_LEN - 1],
-        setup_flags::HEADING_KNOWN
+        setup_flags::HEADING_KNOWN | setup_flags::ONLINE_PER_AXIS | setup_flags::ONLINE_TAUS
     );
     let mut off = s.clone();
     off.nhc_sd = None;
     off.zupt = None;
+    off.online = None;
     let bytes = encoded(&off, &[]);
-    for k in [36, 40] {
+    for k in [36, 40, 44] {
         let o = HEADER_LEN + 8 * k;
         assert!(f64::from_le_bytes(bytes[o..o + 8].try_into().unwrap_or([0; 8])).is_nan());
     }

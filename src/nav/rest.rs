@@ -31,7 +31,7 @@
 //! assert!(!d.take()); // no sample since the last step
 //! ```
 
-use super::navigator::{NavError, Navigator};
+use super::navigator::{NavError, NavObserver, Navigator};
 use crate::filter::Fused;
 use crate::model::ModelError;
 use crate::strapdown::earth;
@@ -85,9 +85,9 @@ impl<T: Real> Zupt<T> {
     /// the next step either way, with normal gravity at the solution's position (once per
     /// step: it changes by 3e-6 m/s^2 per metre of height). Returns the fusion result when
     /// applied.
-    pub fn after_step<const N: usize>(
+    pub fn after_step<const N: usize, O: NavObserver<T, N>>(
         &self,
-        nav: &mut Navigator<T, N>,
+        nav: &mut Navigator<T, N, O>,
         detector: &mut RestDetector<T>,
     ) -> Result<Option<Fused<T, 3>>, NavError> {
         let still = detector.take();
@@ -121,7 +121,7 @@ impl<T: Real> RestDetector<T> {
     }
 
     /// Normal gravity at the solution of `nav` [m/s^2].
-    pub fn gravity_at<const N: usize>(nav: &Navigator<T, N>) -> T {
+    pub fn gravity_at<const N: usize, O: NavObserver<T, N>>(nav: &Navigator<T, N, O>) -> T {
         let p = nav.ins().position();
         earth::normal_gravity(T::lit(p.lat), T::lit(p.h))
     }

@@ -7,7 +7,7 @@
 //! the solution), so it cannot be recorded in the replay like the GNSS flags: it is taken here,
 //! by [`Nhc::after_step`], which the host driver calls too.
 
-use super::navigator::{GnssFix, NavConfig, NavError, Navigator, NHC_Z};
+use super::navigator::{GnssFix, NavConfig, NavError, NavObserver, Navigator, NHC_Z};
 use super::replay::{gnss_flags, GnssRecord, ImuRecord, NavSetup};
 use super::rest::{RestDetector, Zupt};
 use super::{NavInit, NavPoint, StrapdownErrorModel, NAV_Z};
@@ -92,9 +92,9 @@ impl<T: Real> Nhc<T> {
     /// aiding). Not applied before the heading is known (`heading_known`: it would pull the
     /// velocity onto a wrong body axis), nor while the solution is slower than
     /// [`NHC_MIN_SPEED`]. Returns the fusion result when applied.
-    pub fn after_step<const N: usize>(
+    pub fn after_step<const N: usize, O: NavObserver<T, N>>(
         &self,
-        nav: &mut Navigator<T, N>,
+        nav: &mut Navigator<T, N, O>,
         heading_known: bool,
     ) -> Result<Option<Fused<T, NHC_Z>>, NavError> {
         // The speed in f64 whatever T (as the host driver has always computed it), so the
@@ -116,6 +116,8 @@ pub struct ImuStep<T> {
     pub nhc: Option<Fused<T, NHC_Z>>,
     /// The zero-velocity update after the step, when it was applied.
     pub zupt: Option<Fused<T, 3>>,
+    /// The online identification moved the running filter's noise model after the step.
+    pub retuned: bool,
 }
 
 /// The solution at a GNSS epoch.
@@ -148,10 +150,11 @@ pub fn move_by(p: &Geodetic, d: &Vector3<f64>) -> Geodetic {
     }
 }
 
-/// A run over replay records.
+/// A run over replay records, its navigator reporting to the observer `O` (the online
+/// identification's bank, [`with_observer`](NavReplay::with_observer); none by default).
 #[derive(Debug, Clone)]
-pub struct NavReplay<T: Real, const N: usize> {
-    nav: Navigator<T, N>,
+pub struct NavReplay<T: Real, const N: usize, O = ()> {
+    nav: Navigator<T, N, O>,
     /// Time of the last IMU sample [s].
     t: f64,
     sd_factor: [T; 2],
@@ -184,8 +187,26 @@ impl<T: Real, const N: usize> NavReplay<T, N> {
         })
     }
 
+    /// The same run with its navigator reporting to `obs` from now on (for the bank of
+    /// [`crate::nav::online`], started on [`navigator`](Self::navigator) with the setup's
+    /// [`NavSetup::online`]).
+    pub fn with_observer<O: NavObserver<T, N>>(self, obs: O) -> NavReplay<T, N, O> {
+        NavReplay {
+            nav: self.nav.with_observer(obs),
+            t: self.t,
+            sd_factor: self.sd_factor,
+            heading_sd: self.heading_sd,
+            nhc: self.nhc,
+            zupt: self.zupt,
+            rest: self.rest,
+            heading_known: self.heading_known,
+        }
+    }
+}
+
+impl<T: Real, const N: usize, O: NavObserver<T, N>> NavReplay<T, N, O> {
     /// The navigator.
-    pub fn navigator(&self) -> &Navigator<T, N> {
+    pub fn navigator(&self) -> &Navigator<T, N, O> {
         &self.nav
     }
 
@@ -226,7 +247,21 @@ impl<T: Real, const N: usize> NavReplay<T, N> {
             (Some(z), true) => z.after_step(&mut self.nav, &mut self.rest)?,
             _ => None,
         };
-        Ok(ImuStep { stepped, nhc, zupt })
+        // The online identification's decision after the step's aiding (the host driver's
+        // order), before the fixes this sample reaches.
+        let mut retuned = false;
+        if stepped {
+            if let Some(m) = self.nav.observer_mut().decide(r.t) {
+                self.nav.retune_imu_model(m)?;
+                retuned = true;
+            }
+        }
+        Ok(ImuStep {
+            stepped,
+            nhc,
+            zupt,
+            retuned,
+        })
     }
 
     /// One GNSS fix: the heading is set and the fix fused as its flags say. Returns the fusion

@@ -8,6 +8,7 @@
 
 use super::records::{self, EpochRecord};
 use super::setup::{self, FixPlanner};
+use super::shadows::Shadows;
 use super::{to_core_fix, NavArgs};
 use crate::nav_io::{GnssFix, ImuSample};
 use anyhow::{bail, Result};
@@ -21,8 +22,8 @@ use nalgebra::Vector3;
 /// The state of a replay between two IMU samples.
 #[derive(Debug, Clone)]
 pub struct NavLoop<T: Real> {
-    /// The navigator.
-    pub nav: Navigator<T, NAV_N>,
+    /// The navigator, with the online identification's shadow filters when it has them.
+    pub nav: NavOf<T>,
     /// The per-fix decisions.
     pub planner: FixPlanner,
     nhc_core: Option<Nhc<T>>,
@@ -45,21 +46,24 @@ pub struct NavLoop<T: Real> {
     pub fused: usize,
 }
 
+/// The loop's navigator.
+pub type NavOf<T> = Navigator<T, NAV_N, Shadows<T>>;
+
 /// What one advance produced for each fix it met.
 pub trait EpochSink<T: Real> {
     /// A fix at `f.t`, met after the IMU sample at `t_imu`; `rec` has the fusion filled in.
-    fn epoch(&mut self, rec: EpochRecord, nav: &Navigator<T, NAV_N>, t_imu: f64);
+    fn epoch(&mut self, rec: EpochRecord, nav: &NavOf<T>, t_imu: f64);
 }
 
 /// Keeps nothing (window replays).
 pub struct Discard;
 
 impl<T: Real> EpochSink<T> for Discard {
-    fn epoch(&mut self, _: EpochRecord, _: &Navigator<T, NAV_N>, _: f64) {}
+    fn epoch(&mut self, _: EpochRecord, _: &NavOf<T>, _: f64) {}
 }
 
 impl<T: Real> EpochSink<T> for Vec<EpochRecord> {
-    fn epoch(&mut self, mut rec: EpochRecord, nav: &Navigator<T, NAV_N>, t_imu: f64) {
+    fn epoch(&mut self, mut rec: EpochRecord, nav: &NavOf<T>, t_imu: f64) {
         rec.fill_solution(nav, rec.t, t_imu);
         self.push(rec);
     }
@@ -74,9 +78,10 @@ impl<T: Real> NavLoop<T> {
         fixes: &[GnssFix],
     ) -> Result<(Self, Vec<crate::nav_io::outages::Outage>)> {
         let setup::Start { setup, k, outages } = setup::start(args, imu, fixes)?;
-        let nav = setup.navigator::<T, NAV_N>().map_err(|e| {
-            anyhow::anyhow!("nav: {e:?} (the model needs more than {NAV_N} states?)")
-        })?;
+        let nav = setup
+            .navigator::<T, NAV_N>()
+            .map_err(|e| anyhow::anyhow!("nav: {e:?} (the model needs more than {NAV_N} states?)"))?
+            .with_observer(Shadows::default());
         // The constraint from the setup, applied by the core's `Nhc::after_step`: the same code
         // and the same values as the firmware's replay loop (`NavReplay::imu`).
         let nhc_core = setup
@@ -178,6 +183,14 @@ impl<T: Real> NavLoop<T> {
                         .map(|i| f.innovation[i].as_f64().powi(2) / f.variance[i].as_f64())
                         .sum();
                     sum.add(nis, f.gated, self.planner.withheld_at(b.t));
+                }
+            }
+            // The bank's decision (with `--adapt-method bank`), after the step's aiding.
+            if stepped {
+                if let Some(m) = self.nav.observer_mut().decide(b.t) {
+                    self.nav
+                        .retune_imu_model(m)
+                        .map_err(|e| anyhow::anyhow!("nav: online model at t = {}: {e:?}", b.t))?;
                 }
             }
             while self.fix_k < fixes.len() && fixes[self.fix_k].t <= b.t {

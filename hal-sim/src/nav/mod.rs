@@ -23,6 +23,7 @@ pub mod plot;
 pub mod records;
 pub mod report;
 pub mod setup;
+pub mod shadows;
 pub mod track;
 pub mod truth;
 
@@ -100,6 +101,20 @@ pub struct NavArgs {
 pub use imu_ident::nav::NHC_MIN_SPEED;
 
 impl NavArgs {
+    /// The core's online identification (`--adapt --adapt-method bank`): the bank's settings
+    /// with the per-axis and correlation-time choices of `--adapt`; the same on the host and
+    /// in the firmware's replay.
+    pub fn online(&self) -> Option<imu_ident::nav::OnlineConfig> {
+        let c = self
+            .adapt
+            .filter(|c| c.method == adapt::AdaptMethod::Bank)?;
+        Some(imu_ident::nav::OnlineConfig {
+            per_axis: c.per_axis,
+            taus: c.taus != adapt::TauMode::Held,
+            ..c.bank
+        })
+    }
+
     /// A run of `imu` and `gnss` with `model` and the command's defaults (`hal-sim nav --help`):
     /// 1-s step, every GNSS fix fused, 20-s levelling, heading from the course above 2 m/s,
     /// gyro biases seeded at rest, initial sd 2/2/10 deg, 0.1 m/s, 1 m, gate 1, velocity
@@ -280,8 +295,13 @@ pub fn run_observed<T: Real>(
     bar.reset();
     let name = args.imu.display().to_string();
     let t_start = lp.time(imu);
+    let bank = args.adapt.filter(|c| c.method == adapt::AdaptMethod::Bank);
+    if let Some(online) = args.online() {
+        adapt::start_bank(online, &mut lp.nav, t_start)?;
+    }
     let mut adapter = args
         .adapt
+        .filter(|c| c.method == adapt::AdaptMethod::Replay)
         .map(|c| adapt::Adapter::new(args, c, &lp, t_start));
     loop {
         let t_end = adapter.as_ref().map_or(f64::INFINITY, |a| a.next_time());
@@ -314,7 +334,9 @@ pub fn run_observed<T: Real>(
         outages: scores,
         fixes: fixes.to_vec(),
         summary,
-        adapt: adapter.map(adapt::Adapter::finish),
+        adapt: adapter
+            .map(adapt::Adapter::finish)
+            .or_else(|| bank.and_then(|c| adapt::bank_log(lp.nav.observer(), c.bank.every))),
     })
 }
 

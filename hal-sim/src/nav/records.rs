@@ -125,9 +125,9 @@ impl EpochRecord {
     }
 
     /// Fills the solution from the navigator at `t_now`, moved back to the epoch `t`.
-    pub fn fill_solution<T: Real, const N: usize>(
+    pub fn fill_solution<T: Real, const N: usize, O: imu_ident::nav::NavObserver<T, N>>(
         &mut self,
-        nav: &Navigator<T, N>,
+        nav: &Navigator<T, N, O>,
         t: f64,
         t_now: f64,
     ) {

@@ -117,6 +117,7 @@ pub fn start(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<Sta
         nhc_sd: args.nhc,
         nhc_lever: args.nhc_lever,
         zupt: args.zupt,
+        online: args.online(),
         // The planner's start (`FixPlanner::new`): a given yaw.
         heading_known: args.yaw_deg.is_some(),
     };

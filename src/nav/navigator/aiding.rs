@@ -3,7 +3,7 @@
 //! passes the vector chi-square gate with its own count of consecutive rejections, fuses the
 //! axes one by one ([`fuse`]) and closes the loop (module docs of [`super`]).
 
-use super::{GnssFix, NavError, Navigator, CHI2_9999, NHC_Z};
+use super::{GnssFix, NavError, NavObserver, Navigator, ObservationKind, CHI2_9999, NHC_Z};
 use crate::filter::{fuse, Fused};
 use crate::model::ModelError;
 use crate::nav::error_model::{nav_idx, NAV_Z};
@@ -11,7 +11,7 @@ use crate::strapdown::earth;
 use crate::Real;
 use nalgebra::Vector3;
 
-impl<T: Real, const N: usize> Navigator<T, N> {
+impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
     /// Fuses a GNSS fix (its time must not be after the solution's). Returns the per-axis
     /// fusion result (position N, E, D, velocity N, E, D).
     pub fn gnss(&mut self, fix: &GnssFix<T>) -> Result<Fused<T, NAV_Z>, NavError> {
@@ -60,7 +60,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
                 r[3 + i] = sv * sv;
             }
         }
-        let fused = self.fuse_gated(&z, &h, &r);
+        let fused = self.fuse_gated(ObservationKind::Gnss, &z, &h, &r);
         self.close_loop()?;
         Ok(fused)
     }
@@ -83,7 +83,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         let z = [v.x, v.y, v.z];
         let r = [sd * sd; 3];
         let mut rejected = self.rejected_zupt;
-        let fused = self.fuse_counted(&z, &h, &r, &mut rejected);
+        let fused = self.fuse_counted(ObservationKind::Zupt, &z, &h, &r, &mut rejected);
         self.rejected_zupt = rejected;
         self.close_loop()?;
         Ok(fused)
@@ -104,7 +104,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
         let (z, h) = self.nhc_observation(lever);
         let r = [sd * sd; NHC_Z];
         let mut rejected = self.rejected_nhc;
-        let fused = self.fuse_counted(&z, &h, &r, &mut rejected);
+        let fused = self.fuse_counted(ObservationKind::Nhc, &z, &h, &r, &mut rejected);
         self.rejected_nhc = rejected;
         self.close_loop()?;
         Ok(fused)
@@ -168,12 +168,13 @@ impl<T: Real, const N: usize> Navigator<T, N> {
     #[allow(non_snake_case)]
     fn fuse_gated<const Z: usize>(
         &mut self,
+        kind: ObservationKind,
         z: &[T; Z],
         H: &[[T; N]; Z],
         r: &[T; Z],
     ) -> Fused<T, Z> {
         let mut rejected = self.rejected;
-        let fused = self.fuse_counted(z, H, r, &mut rejected);
+        let fused = self.fuse_counted(kind, z, H, r, &mut rejected);
         self.rejected = rejected;
         fused
     }
@@ -183,11 +184,13 @@ impl<T: Real, const N: usize> Navigator<T, N> {
     #[allow(non_snake_case)]
     fn fuse_counted<const Z: usize>(
         &mut self,
+        kind: ObservationKind,
         z: &[T; Z],
         H: &[[T; N]; Z],
         r: &[T; Z],
         rejected: &mut u8,
     ) -> Fused<T, Z> {
+        self.obs.observed(kind, z, H, r);
         let gate = if *rejected >= self.cfg.max_rejections {
             None
         } else {

@@ -31,8 +31,11 @@
 //! Nothing after `t` is read at `t`: the test `nav_adapt` checks that a log cut at `t` gives
 //! the same decisions up to `t`.
 
+mod bank;
 mod information;
 mod record;
+
+pub use bank::{bank_log, start_bank};
 
 pub use information::cramer_rao_sd;
 pub use record::value;
@@ -64,6 +67,22 @@ pub struct AdaptConfig {
     /// Move intensities along flat directions to the upper end of their one-sigma interval
     /// ([`FLAT_NATS`]).
     pub conservative: bool,
+    /// How the likelihood is maximised: window replays (the host's search) or the core's bank
+    /// of shadow filters ([`imu_ident::nav::online`], the MCU's method).
+    pub method: AdaptMethod,
+    /// The bank's settings ([`AdaptMethod::Bank`]; its `per_axis` and `taus` are taken from
+    /// this configuration).
+    pub bank: imu_ident::nav::OnlineConfig,
+}
+
+/// How the online identification maximises the likelihood.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum AdaptMethod {
+    /// A pattern search over replays of a buffered window (host only: the window is ~1.3 MB).
+    Replay,
+    /// The core's bank of shadow filters and recursive Gauss-Newton (what the MCU runs).
+    Bank,
 }
 
 impl AdaptConfig {
@@ -76,6 +95,8 @@ impl AdaptConfig {
         per_axis: false,
         taus: TauMode::Free,
         conservative: true,
+        method: AdaptMethod::Replay,
+        bank: imu_ident::nav::OnlineConfig::DEFAULT,
     };
 }
 

@@ -1,0 +1,66 @@
+//! `nav --adapt --adapt-method bank`: the core's shadow-filter bank started in the loop, and
+//! its decisions written as the window search's records ([`AdaptLog`]), so that `adapt.json`,
+//! `adapt.csv` and the report show either method the same way.
+
+use super::{AdaptLog, Coordinate, Search, IDENTIFIABLE_SD};
+use crate::nav::drive::NavOf;
+use crate::nav::shadows::{Ident, Shadows};
+use anyhow::Result;
+use imu_ident::nav::OnlineConfig;
+use imu_ident::Real;
+
+/// Starts the bank `online` ([`crate::nav::NavArgs::online`]) on the loop's navigator `nav`
+/// at time `t`.
+pub fn start_bank<T: Real>(online: OnlineConfig, nav: &mut NavOf<T>, t: f64) -> Result<()> {
+    let id = Ident::<T>::new(online, nav, t).map_err(|e| {
+        anyhow::anyhow!(
+            "nav --adapt-method bank: {e} (more than {} coordinates?)",
+            crate::nav::shadows::BANK_M / 2
+        )
+    })?;
+    nav.observer_mut().ident = Some(Box::new(id));
+    Ok(())
+}
+
+/// The record of a run identified by the bank.
+pub fn bank_log<T: Real>(shadows: &Shadows<T>, window: f64) -> Option<AdaptLog> {
+    let id = shadows.ident.as_ref()?;
+    let coordinates = id
+        .coordinates()
+        .iter()
+        .map(|c| Coordinate {
+            sensor: c.sensor.name(),
+            axes: c.axes().collect(),
+            component: usize::from(c.component),
+            kind: c.kind.name(),
+            quantity: c.quantity.name(),
+            q: c.quantity,
+            s: c.sensor,
+        })
+        .collect();
+    let nan = f64::NAN;
+    let searches = shadows
+        .log
+        .iter()
+        .map(|d| Search {
+            t: d.t,
+            window_start: d.t - window,
+            fixes: d.fixes as usize,
+            loglik_before: nan,
+            loglik: nan,
+            loglik_max: nan,
+            evaluations: 0,
+            tau_test: None,
+            ml_log10_factors: d.log10_factors.clone(),
+            identifiable: d.cr_sd.iter().map(|sd| *sd <= IDENTIFIABLE_SD).collect(),
+            cr_sd_log10: d.cr_sd.clone(),
+            log10_factors: d.log10_factors.clone(),
+        })
+        .collect();
+    Some(AdaptLog {
+        coordinates,
+        searches,
+        model: id.model().cast(),
+        base: id.base().cast(),
+    })
+}

@@ -1,0 +1,140 @@
+//! The core's online identification by a bank of shadow filters (`imu_ident::nav::online`,
+//! `hal-sim nav --adapt --adapt-method bank`) on a 25-min simulated figure-eight drive (MEMS
+//! IMU, 100 Hz, GNSS 1 Hz, seed 12).
+//!
+//! What is asserted, and why:
+//! - **The shadows are exact.** A shadow under the running filter's own model is that filter:
+//!   the same predictions (its navigation block less the drive the mechanisation already
+//!   removed), the same fixes, the same corrections. With the gate off, the centre shadow's
+//!   summed innovation log-likelihood equals the running filter's to rounding (1e-9
+//!   relative), over every fix of the drive; the shadows at `+-d` differ from it.
+//! - **It moves the right way from a wrong start.** Started with every standard deviation 10x
+//!   too large (log10 factor +1 on the intensities, the truth at -1), the decisions at 10 and
+//!   20 min lower every intensity coordinate by more than 0.3 decade: each decision moves
+//!   only when its parabola promises at least `min_gain` = 1 nat over the centre (a
+//!   likelihood ratio), so a move is the data's, not noise's, at that level.
+
+use hal_sim::nav::adapt::{start_bank, AdaptConfig, AdaptMethod, TauMode};
+use hal_sim::nav::drive::NavLoop;
+use hal_sim::nav::model::scaled_sd;
+use hal_sim::nav::setup::shifted_imu;
+use hal_sim::nav::{run_with, NavArgs};
+use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, read_truth_csv};
+use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
+use hal_sim::trajectory::write::simulate_drive_files;
+use imu_ident::model::Quantity;
+use imu_ident::nav::OnlineConfig;
+
+/// The test drive (`simulate_drive_files`: the figure-eight course, MEMS IMU at 100 Hz, GNSS
+/// 1 Hz): its directory, the yaw at the start, and the samples and fixes.
+fn drive() -> (
+    tempfile::TempDir,
+    f64,
+    Vec<hal_sim::nav_io::ImuSample>,
+    Vec<hal_sim::nav_io::GnssFix>,
+) {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    simulate_drive_files(25.0 / 60.0, 100.0, 12, vec![], dir.path())
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    let read = |name: &str| dir.path().join(name);
+    let imu = read_imu_csv(&read("imu.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+    let fixes = read_gnss_csv(&read("gnss.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+    let truth = read_truth_csv(&read("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+    let yaw = truth[0].rpy_deg[2];
+    (dir, yaw, imu, fixes)
+}
+
+fn args(dir: &tempfile::TempDir, yaw: f64, scale: f64, adapt: AdaptConfig) -> NavArgs {
+    let truth = SimModel::mems()
+        .to_core()
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    NavArgs {
+        adapt: Some(adapt),
+        ..NavArgs::simulated(
+            dir.path().join("imu.csv"),
+            dir.path().join("gnss.csv"),
+            scaled_sd(&truth, scale),
+            "test",
+            yaw,
+        )
+    }
+}
+
+fn bank(first: f64, every: f64) -> AdaptConfig {
+    AdaptConfig {
+        method: AdaptMethod::Bank,
+        taus: TauMode::Free,
+        bank: OnlineConfig {
+            first,
+            every,
+            ..OnlineConfig::DEFAULT
+        },
+        ..AdaptConfig::DEFAULT
+    }
+}
+
+#[test]
+fn the_centre_shadow_reproduces_the_running_filter() {
+    let (dir, yaw, imu, fixes) = drive();
+    // No decision within the drive: every shadow keeps its model, the sums cover every fix.
+    let mut a = args(&dir, yaw, 1.0, bank(1e6, 1e6));
+    a.gate = None;
+    let shifted = shifted_imu(&a, &imu);
+    let (mut lp, _) =
+        NavLoop::<f64>::start(&a, &shifted, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let t0 = lp.time(&shifted);
+    let online = a.online().expect("the bank's settings");
+    start_bank(online, &mut lp.nav, t0).unwrap_or_else(|e| panic!("{e:#}"));
+    let mut epochs = Vec::new();
+    lp.advance(
+        &shifted,
+        &fixes,
+        f64::INFINITY,
+        &mut epochs,
+        "imu.csv",
+        &|| {},
+    )
+    .unwrap_or_else(|e| panic!("{e:#}"));
+    let id = lp.nav.observer().ident.as_ref().expect("the bank");
+    let p = id.coordinates().len();
+    let sums = id.window_sums();
+    let centre = sums[2 * p];
+    assert!(lp.fused > 1000, "{} fixes", lp.fused);
+    assert_eq!(id.fixes() as usize, lp.fused);
+    assert!(
+        (centre - lp.loglik).abs() <= 1e-9 * lp.loglik.abs(),
+        "centre {centre} against the running filter {}",
+        lp.loglik
+    );
+    for (k, s) in sums.iter().enumerate().take(2 * p) {
+        assert!(
+            (s - centre).abs() > 1e-3,
+            "shadow {k}: {s} = centre {centre}"
+        );
+    }
+    assert_eq!(id.faults(), 0);
+}
+
+#[test]
+fn from_ten_times_too_large_the_bank_lowers_every_intensity() {
+    let (dir, yaw, imu, fixes) = drive();
+    let a = args(&dir, yaw, 10.0, bank(600.0, 600.0));
+    let run = run_with::<f64>(&a, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let log = run.adapt.as_ref().expect("an adapt log");
+    assert!(log.searches.len() >= 2, "{:?}", log.searches);
+    let last = log.searches.last().expect("a decision");
+    let mut intensities = 0;
+    for (c, x) in log.coordinates.iter().zip(&last.log10_factors) {
+        assert!(
+            x.abs() <= 2.0 + 1e-12,
+            "{} outside the bound: {x}",
+            c.label()
+        );
+        if c.quantity != Quantity::Tau.name() {
+            intensities += 1;
+            assert!(*x < -0.3, "{} at {x:+.2} decades (truth -1)", c.label());
+        }
+    }
+    assert_eq!(intensities, 4, "{:?}", log.coordinates);
+    assert!(last.cr_sd_log10.iter().any(|sd| sd.is_finite()));
+}

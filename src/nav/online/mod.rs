@@ -1,0 +1,490 @@
+//! Online identification of the navigator's sensor noise with the MCU's memory: a bank of
+//! shadow error-state filters that follow the running filter ([`NavObserver`]), scored by the
+//! exact innovation likelihood of the fixes, and a pattern search whose steps are Newton steps
+//! on the parabolas the shadows measure.
+//!
+//! # Why a bank, not a window replay
+//! `hal-sim nav --adapt` (its default method) replays a buffered 2-h window under each
+//! candidate model. The window's linearisation points, observations and corrections are ~190
+//! bytes per 1-Hz step, 1.3 MB for 2 h: more than the MCU's RAM. The bank keeps instead, for
+//! each coordinate `i` of the model ([`coords`]: tied per sensor by default), two shadow
+//! filters at `10^(+-d)` times that quantity of the current model, one at the current model
+//! (the centre), and for each pair of one component's quantities (a Gauss-Markov sigma and
+//! tau) one at `(+d, +d)`. Each shadow is the running filter's error-state filter under its own
+//! model:
+//! - **prediction** with its own `Phi, Qd` at the running filter's linearisation point and
+//!   step. The mechanisation removes the *running* filter's sensor-error estimate, so the
+//!   navigation errors a shadow predicts are driven by its own sensor errors less that: its
+//!   navigation block gets `-[Phi x^]_nav` (the term the running filter drops, navigator
+//!   docs);
+//! - **the same observations**, fused ungated (a gate would make the likelihood
+//!   discontinuous in the parameters);
+//! - **the same corrections**: when the loop is closed by `dx^`, a shadow's navigation errors
+//!   become `dx_s - dx^`.
+//!
+//! A shadow's innovations are then those of a filter under its model on the running
+//! solution, and their summed log-likelihood is the exact innovation likelihood of the fixes
+//! under that model (to the linearisation, which all share). A shadow under the running
+//! model reproduces the running filter's likelihood to rounding (test `nav_bank`).
+//!
+//! # The decisions
+//! Every [`OnlineConfig::every`] seconds from [`OnlineConfig::first`], from the sums since the
+//! last move ([`newton`]): each coordinate's parabola through its shadows at `-d, 0, +d` gives
+//! its gradient and curvature; a pair's `(+d, +d)` shadow gives the cross curvature, and a
+//! pair moves by the 2x2 Newton step. A move goes to the vertex, at most `2 d` (a pattern
+//! search's extension), or `2 d` up the slope where the parabola is not concave, and only when
+//! it promises [`OnlineConfig::min_gain`] nats. The offset `d` doubles when a move reached
+//! `2 d` and halves when the largest move stayed under `d / 2`. Nothing moved: the sums keep
+//! accumulating (the window grows and the parabolas sharpen). Something moved: the shadows
+//! take their models about the new point (their covariance retuned as the running filter's,
+//! [`StrapdownErrorModel::retune_covariance`]), the sums restart, and
+//! [`OnlineIdent::decide`] hands the new model to the caller for the running filter
+//! ([`Navigator::retune_imu_model`]). Each coordinate's Cramér-Rao sd at a decision is
+//! `1 / sqrt(curvature)`; above [`IDENTIFIABLE_SD`] it is flagged "not identifiable from these
+//! data yet".
+//!
+//! # Cost (p coordinates, q pairs, N filter states)
+//! RAM: `2p + 1 + q` filters of `N^2 + N` scalars each (p = 6, q = 2 for a white noise and a
+//! Gauss-Markov on each sensor, tied: 15 filters, 35 kB in f32 at N = 24). Per 1-Hz step:
+//! `2p + 1 + q` discretisations and predictions, O((2p + q) N^3): linear in p. Per fix: as
+//! many fusions, O((2p + q) Z N^2).
+//!
+//! [`Navigator::retune_imu_model`]: crate::nav::Navigator::retune_imu_model
+
+pub mod coords;
+mod newton;
+mod shadow;
+#[cfg(test)]
+mod tests;
+
+use crate::linalg::Arr;
+use crate::model::{ModelError, Quantity};
+use crate::nav::error_model::StrapdownErrorModel;
+use crate::nav::navigator::{NavObserver, Navigator, ObservationKind};
+use crate::nav::ImuErrorModel;
+use crate::Real;
+use coords::{Coordinate, MAX_COORDS};
+use heapless::Vec;
+use newton::Quad;
+use shadow::Shadow;
+
+/// Cramér-Rao standard deviation [decades] above which a coordinate is "not identifiable from
+/// these data yet" (a factor of 3 either way at one sigma), and is held.
+pub const IDENTIFIABLE_SD: f64 = 0.5;
+
+/// Settings of the online identification.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OnlineConfig {
+    /// First decision, seconds after the start.
+    pub first: f64,
+    /// Interval between decisions [s]: each scores the fixes since the last one.
+    pub every: f64,
+    /// Starting offset `d` of the shadow filters from the current model [decades].
+    pub offset: f64,
+    /// Smallest offset [decades].
+    pub min_offset: f64,
+    /// Largest distance of a coordinate from the starting model [decades].
+    pub bound: f64,
+    /// Likelihood gain [nats] a coordinate's move must promise.
+    pub min_gain: f64,
+    /// GNSS fixes needed for a decision.
+    pub min_fixes: u32,
+    /// The running filter takes each intensity at the upper end of its one-sigma interval
+    /// ([`OnlineIdent::running_model`]), not at the bank's point. Off by default: on the
+    /// development seeds it kept every run within 2 % outside 3 sigma but passed fewer runs
+    /// (BENCHMARKS.md "Online identification on the MCU").
+    pub conservative: bool,
+    /// One coordinate per axis instead of per sensor.
+    pub per_axis: bool,
+    /// Identify the correlation times too.
+    pub taus: bool,
+}
+
+impl OnlineConfig {
+    /// The defaults.
+    pub const DEFAULT: Self = Self {
+        first: 600.0,
+        every: 1200.0,
+        offset: 0.5,
+        min_offset: 0.0625,
+        bound: 2.0,
+        min_gain: 1.0,
+        min_fixes: 60,
+        conservative: false,
+        per_axis: false,
+        taus: true,
+    };
+}
+
+impl OnlineConfig {
+    /// This configuration when every value is usable ([`ModelError::BadDt`] for a time,
+    /// [`ModelError::BadSigma`] for an offset, bound or gain that is not).
+    pub fn checked(self) -> Result<Self, ModelError> {
+        let time = |v: f64| v.is_finite() && v >= 0.0;
+        if !(time(self.first) && time(self.every) && self.every > 0.0) {
+            return Err(ModelError::BadDt);
+        }
+        let ok = self.offset.is_finite()
+            && self.offset > 0.0
+            && self.min_offset > 0.0
+            && self.min_offset <= self.offset
+            && self.bound.is_finite()
+            && self.bound > 0.0
+            && self.min_gain.is_finite()
+            && self.min_gain >= 0.0;
+        if ok {
+            Ok(self)
+        } else {
+            Err(ModelError::BadSigma)
+        }
+    }
+}
+
+impl Default for OnlineConfig {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// The online identification with a bank of at most `M` shadow filters of `N` states
+/// (`M >= 2 p` for `p` coordinates).
+#[derive(Debug, Clone)]
+pub struct OnlineIdent<T: Real, const N: usize, const M: usize> {
+    cfg: OnlineConfig,
+    coords: Vec<Coordinate, MAX_COORDS>,
+    /// The coordinate pairs of one component (a Gauss-Markov sigma and tau), each with a
+    /// shadow at `(+d, +d)` for their cross curvature.
+    pairs: Vec<(usize, usize), MAX_COORDS>,
+    base: ImuErrorModel<T>,
+    x: [f64; MAX_COORDS],
+    shadows: Vec<Shadow<T, N>, M>,
+    /// Each shadow's summed log-likelihood of the GNSS fixes since the last decision [nats].
+    sums: [f64; M],
+    /// The offset of the shadows [decades].
+    d: f64,
+
+    cr_sd: [f64; MAX_COORDS],
+    next: f64,
+    fixes: u32,
+    decisions: u32,
+    faults: u32,
+}
+
+impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
+    /// An empty bank, all zeros (a static on the firmware, started in place by
+    /// [`start`](Self::start)).
+    pub const BLANK: Self = Self {
+        cfg: OnlineConfig {
+            first: 0.0,
+            every: 0.0,
+            offset: 0.0,
+            min_offset: 0.0,
+            bound: 0.0,
+            min_gain: 0.0,
+            min_fixes: 0,
+            conservative: false,
+            per_axis: false,
+            taus: false,
+        },
+        coords: Vec::new(),
+        pairs: Vec::new(),
+        base: ImuErrorModel::EMPTY,
+        x: [0.0; MAX_COORDS],
+        shadows: Vec::new(),
+        sums: [0.0; M],
+        d: 0.0,
+        cr_sd: [0.0; MAX_COORDS],
+        next: 0.0,
+        fixes: 0,
+        decisions: 0,
+        faults: 0,
+    };
+
+    /// The identification of `nav`'s noise model from now (time `t` [s]): the shadows start
+    /// from its filter's `x, P`, about its model tied ([`coords::tie`]).
+    /// [`ModelError::TooManyStates`] when the bank needs more than `M` filters.
+    pub fn new<O: NavObserver<T, N>>(
+        cfg: OnlineConfig,
+        nav: &Navigator<T, N, O>,
+        t: f64,
+    ) -> Result<Self, ModelError> {
+        let mut s = Self::BLANK;
+        s.start(cfg, nav, t)?;
+        Ok(s)
+    }
+
+    /// [`new`](Self::new) in place (the bank is tens of kB in `f32`: the firmware must not
+    /// build it on its stack).
+    pub fn start<O: NavObserver<T, N>>(
+        &mut self,
+        cfg: OnlineConfig,
+        nav: &Navigator<T, N, O>,
+        t: f64,
+    ) -> Result<(), ModelError> {
+        let cfg = cfg.checked()?;
+        let start = &nav.model().imu;
+        let coords = coords::coordinates(start, cfg.per_axis, cfg.taus)?;
+        let pairs = newton::pairs(&coords);
+        if 2 * coords.len() + 1 + pairs.len() > M {
+            return Err(ModelError::TooManyStates);
+        }
+        self.base = coords::tie(start, &coords);
+        self.cfg = cfg;
+        self.coords = coords;
+        self.pairs = pairs;
+        self.x = [0.0; MAX_COORDS];
+        self.sums = [0.0; M];
+        self.d = cfg.offset;
+        self.cr_sd = [f64::INFINITY; MAX_COORDS];
+        self.next = t + cfg.first;
+        self.fixes = 0;
+        self.decisions = 0;
+        self.faults = 0;
+        self.shadows.clear();
+        for k in 0..=2 * self.coords.len() + self.pairs.len() {
+            let mut model = nav.model().clone();
+            model.imu = self.shadow_imu(k);
+            self.shadows
+                .push(Shadow::new(model, nav.kalman().clone()))
+                .map_err(|_| ModelError::TooManyStates)?;
+        }
+        Ok(())
+    }
+
+    /// The starting model, tied: the factors' reference.
+    pub fn base(&self) -> &ImuErrorModel<T> {
+        &self.base
+    }
+
+    /// The coordinates.
+    pub fn coordinates(&self) -> &[Coordinate] {
+        &self.coords
+    }
+
+    /// The current log10 factors on the starting model (tied), one per coordinate.
+    pub fn log10_factors(&self) -> &[f64] {
+        self.x.get(..self.coords.len()).unwrap_or(&[])
+    }
+
+    /// The Cramér-Rao standard deviation of each coordinate [decades] at the last decision
+    /// (infinite before the first, or where the data do not bound it).
+    pub fn cr_sd(&self) -> &[f64] {
+        self.cr_sd.get(..self.coords.len()).unwrap_or(&[])
+    }
+
+    /// Coordinate `i` is identifiable from the data so far (its Cramér-Rao sd is at most
+    /// [`IDENTIFIABLE_SD`]).
+    pub fn identifiable(&self, i: usize) -> bool {
+        self.cr_sd.get(i).is_some_and(|sd| *sd <= IDENTIFIABLE_SD)
+    }
+
+    /// The current model (the starting model tied, times the factors).
+    pub fn model(&self) -> ImuErrorModel<T> {
+        coords::apply(&self.base, &self.coords, &self.factors(None))
+    }
+
+    /// Each shadow's log-likelihood of the last observation [nats], shadow `2i` at `+d` and
+    /// `2i + 1` at `-d` on coordinate `i`.
+    pub fn last_logliks(&self) -> impl Iterator<Item = f64> + '_ {
+        self.shadows.iter().map(|s| s.loglik)
+    }
+
+    /// Each shadow's summed log-likelihood of the GNSS fixes since the last move [nats]:
+    /// shadow `2i` at `+d` and `2i + 1` at `-d` on coordinate `i`, `2p` the centre, then one
+    /// per pair of a component's quantities at `(+d, +d)`.
+    pub fn window_sums(&self) -> &[f64] {
+        self.sums.get(..self.shadows.len()).unwrap_or(&[])
+    }
+
+    /// GNSS fixes scored since the last move.
+    pub fn fixes(&self) -> u32 {
+        self.fixes
+    }
+
+    /// Decisions taken so far.
+    pub fn decisions(&self) -> u32 {
+        self.decisions
+    }
+
+    /// Shadow operations that failed (a model that could not be discretised, a non-finite
+    /// likelihood) and were skipped.
+    pub fn faults(&self) -> u32 {
+        self.faults
+    }
+
+    /// The factors of shadow `k` (`None`, or `k = 2p`: the centre): for `k < 2p` coordinate
+    /// `k / 2` offset by `+d` for even `k`, `-d` for odd; for `k > 2p` both coordinates of
+    /// pair `k - 2p - 1` offset by `+d`.
+    fn factors(&self, k: Option<usize>) -> [T; MAX_COORDS] {
+        let p2 = 2 * self.coords.len();
+        let mut f = [T::zero(); MAX_COORDS];
+        for (fi, xi) in f.iter_mut().zip(self.x.iter()) {
+            *fi = T::lit(*xi);
+        }
+        if let Some(&(i, j)) = k
+            .and_then(|k| k.checked_sub(p2 + 1))
+            .and_then(|q| self.pairs.get(q))
+        {
+            for c in [i, j] {
+                if let (Some(fi), Some(xi)) = (f.get_mut(c), self.x.get(c)) {
+                    *fi = T::lit(*xi + self.d);
+                }
+            }
+            return f;
+        }
+        if let Some(k) = k.filter(|k| *k < p2) {
+            let d = if k % 2 == 0 { self.d } else { -self.d };
+            if let (Some(fi), Some(xi)) = (f.get_mut(k / 2), self.x.get(k / 2)) {
+                *fi = T::lit(*xi + d);
+            }
+        }
+        f
+    }
+
+    fn shadow_imu(&self, k: usize) -> ImuErrorModel<T> {
+        coords::apply(&self.base, &self.coords, &self.factors(Some(k)))
+    }
+
+    /// At time `t` [s], after a filter step or a fix: when a decision is due, moves the
+    /// coordinates (module docs) and returns the new model for the running filter
+    /// ([`Navigator::retune_imu_model`](crate::nav::Navigator::retune_imu_model)); `None`
+    /// when no decision is due or nothing moved.
+    pub fn decide(&mut self, t: f64) -> Option<ImuErrorModel<T>> {
+        // A non-finite time decides nothing.
+        if !t.is_finite() || t < self.next {
+            return None;
+        }
+        // The next decision after t, in one step (no loop over a long gap).
+        let every = self.cfg.every.max(1.0);
+        self.next += (libm::floor((t - self.next) / every) + 1.0) * every;
+        if self.fixes < self.cfg.min_fixes {
+            return None;
+        }
+        self.decisions = self.decisions.saturating_add(1);
+        let p = self.coords.len();
+        let q = Quad::from_sums(self.d, p, &self.pairs, &self.sums);
+        let step = newton::step(
+            &self.cfg,
+            self.d,
+            p,
+            &self.pairs,
+            &q,
+            &self.x,
+            &mut self.cr_sd,
+        );
+        let big = step
+            .iter()
+            .take(p)
+            .fold(0.0f64, |m, v| m.max(libm::fabs(*v)));
+        if big == 0.0 {
+            // Nothing moved: the shadows keep scoring about the same point, the window grows
+            // and the parabolas sharpen.
+            return self.cfg.conservative.then(|| self.running_model());
+        }
+        // The pattern search's offset: doubled (up to the start's) when a move reached its
+        // end, halved when the largest move stayed within half of it.
+        if big >= 2.0 * self.d - 1e-12 {
+            self.d = (self.d * 2.0).min(self.cfg.offset);
+        } else if big < 0.5 * self.d {
+            self.d = (self.d / 2.0).max(self.cfg.min_offset);
+        }
+        for (x, s) in self.x.iter_mut().zip(step.iter()).take(p) {
+            *x += s;
+        }
+        self.sums = [0.0; M];
+        self.fixes = 0;
+        for k in 0..self.shadows.len() {
+            let imu = self.shadow_imu(k);
+            if let Some(sh) = self.shadows.get_mut(k) {
+                sh.retune(imu);
+            }
+        }
+        Some(self.running_model())
+    }
+
+    /// The running filter's model: the bank's point, with [`OnlineConfig::conservative`] each
+    /// intensity (not a correlation time) raised to the upper end of its one-sigma interval,
+    /// by its Cramér-Rao sd, at most the current offset `d` (the same offset where the
+    /// likelihood is not concave or not bounded). The bank keeps searching about its point.
+    pub fn running_model(&self) -> ImuErrorModel<T> {
+        let mut f = [T::zero(); MAX_COORDS];
+        for (i, (fi, xi)) in f.iter_mut().zip(self.x.iter()).enumerate() {
+            let up = match (self.coords.get(i), self.cr_sd.get(i)) {
+                (Some(c), Some(sd)) if self.cfg.conservative && c.quantity != Quantity::Tau => {
+                    sd.min(self.d)
+                }
+                _ => 0.0,
+            };
+            *fi = T::lit(*xi + up);
+        }
+        coords::apply(&self.base, &self.coords, &f)
+    }
+
+    /// Scores one GNSS fix: adds each shadow's log-likelihood to its sum.
+    fn score(&mut self) {
+        if self.shadows.iter().any(|s| !s.loglik.is_finite()) {
+            self.faults = self.faults.saturating_add(1);
+            return;
+        }
+        for (sum, sh) in self.sums.iter_mut().zip(self.shadows.iter()) {
+            *sum += sh.loglik;
+        }
+        self.fixes = self.fixes.saturating_add(1);
+    }
+}
+
+#[allow(non_snake_case)]
+impl<T: Real, const N: usize, const M: usize> NavObserver<T, N> for OnlineIdent<T, N, M> {
+    fn propagated(
+        &mut self,
+        model: &StrapdownErrorModel<T>,
+        scale: &[T; N],
+        x: &[T; N],
+        p0: &Arr<T, N>,
+    ) {
+        for sh in self.shadows.iter_mut() {
+            if sh.propagate(model, scale, x, p0).is_err() {
+                self.faults = self.faults.saturating_add(1);
+            }
+        }
+    }
+
+    fn observed<const Z: usize>(
+        &mut self,
+        kind: ObservationKind,
+        z: &[T; Z],
+        H: &[[T; N]; Z],
+        R: &[T; Z],
+    ) {
+        for sh in self.shadows.iter_mut() {
+            sh.fuse(z, H, R);
+        }
+        // Only measured data score the models: the pseudo-observations' standard deviations
+        // are the user's assumptions, not the sensors'.
+        if kind == ObservationKind::Gnss {
+            self.score();
+        }
+    }
+
+    fn corrected(&mut self, x: &[T; N], p0: &Arr<T, N>) {
+        for sh in self.shadows.iter_mut() {
+            sh.correct(x, p0);
+        }
+    }
+
+    fn heading_restarted(&mut self, scale: &[T; N], sd: T, vel: bool) {
+        for sh in self.shadows.iter_mut() {
+            crate::nav::navigator::restart_heading(&mut sh.kf, scale, sd, vel);
+        }
+    }
+
+    fn sensors_seeded(&mut self, x: &[T; N]) {
+        for sh in self.shadows.iter_mut() {
+            sh.seed_sensors(x);
+        }
+    }
+
+    fn decide(&mut self, t: f64) -> Option<ImuErrorModel<T>> {
+        OnlineIdent::decide(self, t)
+    }
+}

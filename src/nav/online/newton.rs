@@ -1,0 +1,162 @@
+//! The move at a decision ([`super`] module docs): for each coordinate, a parabola through
+//! the window's summed log-likelihoods of its shadows at `-d`, `0`, `+d`.
+//!
+//! The coordinates move together, except the quantities of one component: a Gauss-Markov
+//! `sigma` and `tau` both lower `sigma^2 / tau` (what short windows see), so two parabolas
+//! that each reach the vertex alone overshoot it twice over together. Such a pair has a
+//! shadow at `(+d, +d)` too, which gives the cross curvature
+//! `c_ij = -(S(+,+) - S(+,0) - S(0,+) + S(0,0)) / d^2`, and moves by the 2x2 Newton step when
+//! that curvature matrix is positive definite; otherwise only its move that promises most is
+//! taken.
+
+use super::coords::{Coordinate, MAX_COORDS};
+use super::OnlineConfig;
+use heapless::Vec;
+
+/// The pairs of coordinates that are quantities of one component (on the same axes).
+pub(super) fn pairs(coords: &[Coordinate]) -> Vec<(usize, usize), MAX_COORDS> {
+    let mut out = Vec::new();
+    for (i, a) in coords.iter().enumerate() {
+        for (j, b) in coords.iter().enumerate().skip(i + 1) {
+            if a.sensor == b.sensor && a.axis == b.axis && a.component == b.component {
+                // At most MAX_COORDS / 2 disjoint pairs of MAX_COORDS coordinates... but a
+                // component has at most two identified quantities with `beta` held.
+                let _ = out.push((i, j));
+            }
+        }
+    }
+    out
+}
+
+/// A quadratic model of a summed log-likelihood about the current point: gradient `g`
+/// [nats/decade], curvatures `c` (positive where concave) [nats/decade^2] and the cross
+/// curvature `cx` of each pair.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Quad {
+    pub g: [f64; MAX_COORDS],
+    pub c: [f64; MAX_COORDS],
+    pub cx: [f64; MAX_COORDS],
+}
+
+impl Quad {
+    /// No information.
+    pub const ZERO: Self = Self {
+        g: [0.0; MAX_COORDS],
+        c: [0.0; MAX_COORDS],
+        cx: [0.0; MAX_COORDS],
+    };
+
+    /// The model of the shadows' window sums `sums` (shadow `2i` at `+d`, `2i + 1` at `-d` on
+    /// coordinate `i`, `2p` the centre, `2p + 1 + q` pair `q` at `(+d, +d)`).
+    pub fn from_sums<const M: usize>(
+        d: f64,
+        p: usize,
+        pairs: &[(usize, usize)],
+        sums: &[f64; M],
+    ) -> Self {
+        let sum = |k: usize| sums.get(k).copied().unwrap_or(f64::NAN);
+        let centre = sum(2 * p);
+        let mut q = Self::ZERO;
+        for (i, (g, c)) in q.g.iter_mut().zip(q.c.iter_mut()).enumerate().take(p) {
+            let (plus, minus) = (sum(2 * i), sum(2 * i + 1));
+            *g += (plus - minus) / (2.0 * d);
+            *c += -(plus + minus - 2.0 * centre) / (d * d);
+        }
+        for (k, (&(i, j), cx)) in pairs.iter().zip(q.cx.iter_mut()).enumerate() {
+            let both = sum(2 * p + 1 + k);
+            *cx += -(both - sum(2 * i) - sum(2 * j) + centre) / (d * d);
+        }
+        q
+    }
+}
+
+/// The step of the `p` coordinates at `x` from the quadratic model `q`: each to its
+/// parabola's vertex when it is concave, at most `2 d` away (a pattern search's extension), or
+/// `2 d` up the slope when it is not; only when that promises [`OnlineConfig::min_gain`] nats;
+/// within [`OnlineConfig::bound`] of the start; the pairs by their 2x2 Newton step (module
+/// docs). Writes each coordinate's Cramér-Rao sd `1 / sqrt(c)` into `cr_sd` (infinite where
+/// not concave).
+pub(super) fn step(
+    cfg: &OnlineConfig,
+    d: f64,
+    p: usize,
+    pairs: &[(usize, usize)],
+    q: &Quad,
+    x: &[f64; MAX_COORDS],
+    cr_sd: &mut [f64; MAX_COORDS],
+) -> [f64; MAX_COORDS] {
+    let p = p.min(MAX_COORDS);
+    *cr_sd = [f64::INFINITY; MAX_COORDS];
+    let at = |a: &[f64; MAX_COORDS], i: usize| a.get(i).copied().unwrap_or(0.0);
+    let mut out = [0.0; MAX_COORDS];
+    let mut gains = [0.0; MAX_COORDS];
+    let clamp = |s: f64, i: usize| {
+        let xi = at(x, i);
+        within(s, -cfg.bound - xi, cfg.bound - xi)
+    };
+    for i in 0..p {
+        let (g, c) = (at(&q.g, i), at(&q.c, i));
+        let s = if c > 0.0 {
+            g / c
+        } else if g >= 0.0 {
+            2.0 * d
+        } else {
+            -2.0 * d
+        };
+        let s = within(s, -2.0 * d, 2.0 * d);
+        let gain = g * s - 0.5 * c * s * s;
+        if let Some(sd) = cr_sd.get_mut(i) {
+            *sd = if c > 0.0 {
+                1.0 / libm::sqrt(c)
+            } else {
+                f64::INFINITY
+            };
+        }
+        if s.is_finite() && gain.is_finite() && gain >= cfg.min_gain {
+            if let (Some(o), Some(gv)) = (out.get_mut(i), gains.get_mut(i)) {
+                *o = clamp(s, i);
+                *gv = gain;
+            }
+        }
+    }
+    // The pairs: the 2x2 Newton step when the curvature matrix is positive definite, else
+    // the one move that promises most.
+    for (k, &(i, j)) in pairs.iter().enumerate() {
+        let (gi, gj) = (at(&q.g, i), at(&q.g, j));
+        let (cii, cjj, cij) = (at(&q.c, i), at(&q.c, j), at(&q.cx, k));
+        let det = cii * cjj - cij * cij;
+        if cii > 0.0 && det > 0.0 && det.is_finite() {
+            let (mut si, mut sj) = ((cjj * gi - cij * gj) / det, (cii * gj - cij * gi) / det);
+            let big = libm::fabs(si).max(libm::fabs(sj));
+            if big > 2.0 * d {
+                si *= 2.0 * d / big;
+                sj *= 2.0 * d / big;
+            }
+            let gain =
+                gi * si + gj * sj - 0.5 * (cii * si * si + 2.0 * cij * si * sj + cjj * sj * sj);
+            let ok = gain.is_finite() && gain >= cfg.min_gain;
+            for (m, sm) in [(i, si), (j, sj)] {
+                let v = if ok && sm.is_finite() {
+                    clamp(sm, m)
+                } else {
+                    0.0
+                };
+                if let Some(o) = out.get_mut(m) {
+                    *o = v;
+                }
+            }
+        } else {
+            let drop = if at(&gains, j) > at(&gains, i) { i } else { j };
+            if let Some(o) = out.get_mut(drop) {
+                *o = 0.0;
+            }
+        }
+    }
+    out
+}
+
+/// `v` limited to `[lo, hi]` (`max` then `min`: unlike `f64::clamp`, no panic path when the
+/// bounds are NaN or crossed, for the firmware's link-time no-panic proof).
+fn within(v: f64, lo: f64, hi: f64) -> f64 {
+    v.max(lo).min(hi)
+}

@@ -1,0 +1,96 @@
+//! One shadow filter of the online identification: the running filter's error-state filter
+//! under another noise model, following its predictions, observations and corrections
+//! ([`super`] module docs).
+
+use crate::filter::{fuse, Kalman};
+use crate::linalg::Arr;
+use crate::model::discretise::discretise_block;
+use crate::model::{ErrorModel, ModelError};
+use crate::nav::error_model::{nav_idx, StrapdownErrorModel, NAV_Z};
+use crate::nav::ImuErrorModel;
+use crate::Real;
+
+/// A shadow filter.
+#[derive(Debug, Clone)]
+pub(super) struct Shadow<T: Real, const N: usize> {
+    model: StrapdownErrorModel<T>,
+    pub(super) kf: Kalman<T, N>,
+    /// Log-likelihood of the last observation fused [nats].
+    pub(super) loglik: f64,
+}
+
+impl<T: Real, const N: usize> Shadow<T, N> {
+    pub(super) fn new(model: StrapdownErrorModel<T>, kf: Kalman<T, N>) -> Self {
+        Self {
+            model,
+            kf,
+            loglik: 0.0,
+        }
+    }
+
+    /// Predicts over `run.dt` at `run.point` under this shadow's noise model, less the drive
+    /// of the sensor errors `x_run` that the mechanisation already removes (module docs).
+    #[allow(non_snake_case)]
+    pub(super) fn propagate(
+        &mut self,
+        run: &StrapdownErrorModel<T>,
+        scale: &[T; N],
+        x_run: &[T; N],
+        p0: &Arr<T, N>,
+    ) -> Result<(), ModelError> {
+        self.model.point = run.point;
+        self.model.dt = run.dt;
+        let sys = <StrapdownErrorModel<T> as ErrorModel<T, N, NAV_Z>>::system(&self.model, scale)?;
+        let (Phi, Qd) = discretise_block(&sys.A, &sys.Qc, self.model.dt, sys.n)?;
+        // The navigation rows of Phi x_run: the part of the prediction the running filter's
+        // compensation has already taken out of the mechanisation.
+        let mut u = [T::zero(); nav_idx::SENSOR];
+        for (ui, row) in u.iter_mut().zip(Phi.iter()) {
+            for (a, b) in row.iter().zip(x_run.iter()) {
+                *ui += *a * *b;
+            }
+        }
+        self.kf.predict(&Phi, &Qd);
+        for (x, ui) in self.kf.x.iter_mut().zip(u.iter()) {
+            *x -= *ui;
+        }
+        if !self.kf.diagonal_healthy() {
+            self.kf.repair(p0);
+        }
+        Ok(())
+    }
+
+    /// Fuses `z = H x + v` ungated; keeps its log-likelihood.
+    #[allow(non_snake_case)]
+    pub(super) fn fuse<const Z: usize>(&mut self, z: &[T; Z], H: &[[T; N]; Z], R: &[T; Z]) {
+        let f = fuse(&mut self.kf, z, H, R, None);
+        self.loglik = f.loglik.as_f64();
+    }
+
+    /// The running filter closed its loop with its estimate `x_run`: the navigation errors of
+    /// the corrected solution are this shadow's less the correction.
+    pub(super) fn correct(&mut self, x_run: &[T; N], p0: &Arr<T, N>) {
+        for (x, c) in self.kf.x.iter_mut().zip(x_run.iter()).take(nav_idx::SENSOR) {
+            *x -= *c;
+        }
+        if !self.kf.diagonal_healthy() {
+            self.kf.repair(p0);
+        }
+    }
+
+    /// Takes the running filter's sensor-error estimates.
+    pub(super) fn seed_sensors(&mut self, x_run: &[T; N]) {
+        for (x, c) in self.kf.x.iter_mut().zip(x_run.iter()).skip(nav_idx::SENSOR) {
+            *x = *c;
+        }
+    }
+
+    /// Takes the noise model `imu` (same layout), its covariance retuned
+    /// ([`StrapdownErrorModel::retune_covariance`]).
+    pub(super) fn retune(&mut self, imu: ImuErrorModel<T>) {
+        let mut new = self.model.clone();
+        new.imu = imu;
+        self.model.retune_covariance(&new, &mut self.kf.P);
+        self.model = new;
+    }
+}

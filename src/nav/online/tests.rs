@@ -1,0 +1,149 @@
+//! Unit tests of the decision rule ([`super::newton`]) on exact quadratic log-likelihoods.
+
+use super::coords::{coordinates, MAX_COORDS};
+use super::newton::{pairs, step, Quad};
+use super::OnlineConfig;
+use crate::model::{Component, GaussMarkov};
+use crate::nav::ImuErrorModel;
+
+/// One Gauss-Markov gyro component: coordinates sigma (0) and tau (1), one pair.
+fn gm_model() -> ImuErrorModel<f64> {
+    let mut m = ImuErrorModel::default();
+    m.set_all_gyro(&[Component::GaussMarkov(GaussMarkov {
+        sigma: 1e-4,
+        tau: 600.0,
+    })])
+    .unwrap_or_else(|e| panic!("{e:?}"));
+    m
+}
+
+/// The shadows' sums of `L(y) = -1/2 (y - top)^T H (y - top)` about `x = 0` with offset `d`:
+/// `+d, -d` on each coordinate, the centre, then each pair at `(+d, +d)`.
+fn sums(h: [[f64; 2]; 2], top: [f64; 2], d: f64) -> [f64; 6] {
+    let l = |y: [f64; 2]| {
+        let e = [y[0] - top[0], y[1] - top[1]];
+        -0.5 * (e[0] * (h[0][0] * e[0] + h[0][1] * e[1]) + e[1] * (h[1][0] * e[0] + h[1][1] * e[1]))
+    };
+    [
+        l([d, 0.0]),
+        l([-d, 0.0]),
+        l([0.0, d]),
+        l([0.0, -d]),
+        l([0.0, 0.0]),
+        l([d, d]),
+    ]
+}
+
+#[test]
+fn a_coupled_pair_moves_to_the_vertex_of_an_exact_quadratic() {
+    let m = gm_model();
+    let c = coordinates(&m, false, true).unwrap_or_else(|e| panic!("{e:?}"));
+    let pr = pairs(&c);
+    assert_eq!((c.len(), pr.len()), (2, 1));
+    // sigma and tau strongly coupled (correlation 0.9): each coordinate alone would move to
+    // its conditional vertex, and together they would overshoot.
+    let h = [[400.0, 360.0], [360.0, 400.0]];
+    let top = [0.3, -0.2];
+    let s = sums(h, top, 0.5);
+    let mut sd = [0.0; MAX_COORDS];
+    let q = Quad::from_sums(0.5, 2, &pr, &s);
+    let out = step(
+        &OnlineConfig::DEFAULT,
+        0.5,
+        2,
+        &pr,
+        &q,
+        &[0.0; MAX_COORDS],
+        &mut sd,
+    );
+    for i in 0..2 {
+        assert!((out[i] - top[i]).abs() < 1e-9, "{out:?} against {top:?}");
+    }
+    // The Cramér-Rao sds reported are the coordinates' own parabolas', 1/sqrt(H_ii).
+    assert!((sd[0] - 0.05).abs() < 1e-12, "{sd:?}");
+}
+
+#[test]
+fn a_flat_likelihood_holds_and_a_bound_clamps() {
+    let m = gm_model();
+    let c = coordinates(&m, false, true).unwrap_or_else(|e| panic!("{e:?}"));
+    let pr = pairs(&c);
+    let cfg = OnlineConfig::DEFAULT;
+    // A maximum 0.4 decade away along a likelihood this flat gains under 1 nat: held.
+    let flat = sums([[2.0, 0.0], [0.0, 2.0]], [0.4, 0.0], 0.5);
+    let mut sd = [0.0; MAX_COORDS];
+    let q = Quad::from_sums(0.5, 2, &pr, &flat);
+    let out = step(&cfg, 0.5, 2, &pr, &q, &[0.0; MAX_COORDS], &mut sd);
+    assert_eq!(&out[..2], &[0.0, 0.0]);
+    // A steep one far away: the step is at most 2d, and stops at the bound.
+    let steep = sums([[100.0, 0.0], [0.0, 100.0]], [5.0, 0.0], 0.5);
+    let q = Quad::from_sums(0.5, 2, &pr, &steep);
+    let mut x = [0.0; MAX_COORDS];
+    let out = step(&cfg, 0.5, 2, &pr, &q, &x, &mut sd);
+    assert!((out[0] - 1.0).abs() < 1e-12, "{out:?}");
+    x[0] = 1.6;
+    let out = step(&cfg, 0.5, 2, &pr, &q, &x, &mut sd);
+    assert!((out[0] - 0.4).abs() < 1e-12, "{out:?}");
+}
+
+/// A bank on a navigator at rest with a Gauss-Markov and a white noise on every gyro axis:
+/// non-finite times decide nothing (and return: no loop over an infinite gap), the bank has
+/// `2p + 1 + q` shadows, and a bad configuration is refused.
+#[test]
+fn a_bank_refuses_bad_settings_and_non_finite_times() {
+    use super::OnlineIdent;
+    use crate::model::{ModelError, WhiteNoise};
+    use crate::nav::{NavConfig, NavInit, NavPoint, Navigator, StrapdownErrorModel, NAV_Z};
+    use crate::strapdown::{Geodetic, Quat, Strapdown};
+    use nalgebra::Vector3;
+    let mut imu = gm_model();
+    imu.set_all_gyro(&[
+        Component::White(WhiteNoise { density: 1e-4 }),
+        Component::GaussMarkov(GaussMarkov {
+            sigma: 1e-4,
+            tau: 600.0,
+        }),
+    ])
+    .unwrap_or_else(|e| panic!("{e:?}"));
+    let pos = Geodetic {
+        lat: 0.6,
+        lon: 2.0,
+        h: 100.0,
+    };
+    let ins =
+        Strapdown::new(pos, Vector3::zeros(), Quat::identity()).unwrap_or_else(|e| panic!("{e:?}"));
+    let model = StrapdownErrorModel {
+        imu,
+        init: NavInit {
+            sd_att: Vector3::repeat(0.01),
+            sd_vel: 0.1,
+            sd_pos: 1.0,
+        },
+        lever_arm: Vector3::zeros(),
+        obs_sd: [1.0; NAV_Z],
+        point: NavPoint::at_rest(0.6, 100.0),
+        dt: 1.0,
+        scale_factor_sd: None,
+    };
+    let nav: Navigator<f64, 24> =
+        Navigator::new(ins, 0.0, model, NavConfig::default()).unwrap_or_else(|e| panic!("{e:?}"));
+    let mut id = OnlineIdent::<f64, 24, 8>::new(OnlineConfig::DEFAULT, &nav, 0.0)
+        .unwrap_or_else(|e| panic!("{e:?}"));
+    // Three coordinates (density, sigma, tau), one pair: 2 * 3 + 1 + 1 shadows.
+    assert_eq!((id.coordinates().len(), id.window_sums().len()), (3, 8));
+    assert!(id.decide(f64::NAN).is_none());
+    assert!(id.decide(f64::INFINITY).is_none());
+    // Before any fix, a due decision does nothing either.
+    assert!(id.decide(1e9).is_none());
+    assert_eq!(id.decisions(), 0);
+    let too_small = OnlineIdent::<f64, 24, 7>::new(OnlineConfig::DEFAULT, &nav, 0.0);
+    assert_eq!(too_small.err(), Some(ModelError::TooManyStates));
+    let bad = OnlineConfig {
+        min_offset: 1.0,
+        ..OnlineConfig::DEFAULT
+    };
+    assert_eq!(
+        OnlineIdent::<f64, 24, 8>::new(bad, &nav, 0.0).err(),
+        Some(ModelError::BadSigma)
+    );
+}
