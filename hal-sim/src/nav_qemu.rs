@@ -47,6 +47,24 @@ pub const NAV_ELF_ENV: &str = "IMU_IDENT_NAV_FIRMWARE_ELF";
 /// Name of the replay inside QEMU's working directory.
 const REPLAY_NAME: &str = "nav.bin";
 /// Fields of the firmware's per-epoch frame.
+/// The fields of a firmware `online` frame (one coordinate at one decision of the bank).
+const ONLINE_FIELDS: [&str; 5] = ["t", "i", "x", "sd", "ok"];
+
+/// One coordinate at one decision of the firmware's online identification.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct OnlineReport {
+    /// Time of the decision [s].
+    pub t: f64,
+    /// Coordinate index.
+    pub i: u8,
+    /// log10 factor on the starting model after the decision.
+    pub x: f64,
+    /// Cramér-Rao sd [decades] (infinite: not bounded).
+    pub sd: f64,
+    /// Identifiable from the data so far (sd at most `IDENTIFIABLE_SD`).
+    pub identifiable: bool,
+}
+
 const NAV_FIELDS: [&str; 11] = [
     "t", "lat", "lon", "h", "vn", "ve", "vd", "sdn", "sde", "sdd", "flags",
 ];
@@ -150,6 +168,8 @@ pub struct NavFirmwareRun {
     pub icount: Vec<Icount>,
     /// Stack high-water marks: `init` (building the navigator) and `run`.
     pub stack: Vec<Stack>,
+    /// The online identification's decisions (with `--adapt-method bank`), per coordinate.
+    pub online: Vec<OnlineReport>,
     /// Every other frame, formatted (`LEVEL message`).
     pub messages: Vec<String>,
     /// QEMU's exit status: the firmware's.
@@ -201,6 +221,7 @@ fn decode_nav(elf_bytes: &[u8], stream: &[u8]) -> Result<NavFirmwareRun> {
         epochs: vec![],
         icount: vec![],
         stack: vec![],
+        online: vec![],
         messages: vec![],
         status: std::process::ExitStatus::default(),
         stderr: String::new(),
@@ -234,6 +255,15 @@ fn decode_nav(elf_bytes: &[u8], stream: &[u8]) -> Result<NavFirmwareRun> {
                 mean: field("mean", &mean)?,
                 worst: field("worst", &worst)?,
                 worst_k: field("worst_k", &worst_k)?,
+            });
+        } else if let Some(v) = tagged(&frame, "online", &ONLINE_FIELDS)? {
+            let [t, i, x, sd, ok] = v;
+            run.online.push(OnlineReport {
+                t: field("t", &t)?,
+                i: field("i", &i)?,
+                x: field("x", &x)?,
+                sd: field("sd", &sd)?,
+                identifiable: field("ok", &ok)?,
             });
         } else if let Some(v) = tagged(&frame, "stack", &STACK_FIELDS)? {
             let [phase, h, e, top] = v;

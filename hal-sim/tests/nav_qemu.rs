@@ -267,13 +267,38 @@ fn qemu_firmware_nav_with_the_online_identification_matches_the_host_navigator()
     let Some(elf) = firmware_elf() else { return };
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let args = drive_online(dir.path());
-    let (_, h32) = parity_under_qemu(&elf, &args);
+    let (fw, h32) = parity_under_qemu(&elf, &args);
     let log = h32.adapt.as_ref().unwrap_or_else(|| panic!("no adapt log"));
     eprintln!(
         "online identification: {} decisions, final log10 factors {:?}",
         log.searches.len(),
         log.searches.last().map(|s| &s.log10_factors)
     );
+    // The firmware's telemetry of every decision: the same decisions at the same times, the
+    // same factors and the same "identifiable" flags as the host's f32 run. The platforms
+    // differ only in `libm`'s last bits: each fix's f32 log-likelihood by ~1e-7 relative, a
+    // window's sums of ~300 of them by ~1e-4 nat, a Newton step (gradient over a curvature of
+    // tens of nats per decade^2) by ~1e-5 decade. Bound 1e-4 decade, 600x below the smallest
+    // offset (1/16 decade); the sds likewise within 1e-3 relative.
+    let p = log.coordinates.len();
+    assert_eq!(fw.online.len(), p * log.searches.len(), "{:?}", fw.online);
+    for (k, s) in log.searches.iter().enumerate() {
+        for i in 0..p {
+            let r = &fw.online[k * p + i];
+            assert_eq!((r.t, usize::from(r.i)), (s.t, i), "{r:?}");
+            assert!(
+                (r.x - s.log10_factors[i]).abs() <= 1e-4,
+                "{r:?} against {}",
+                s.log10_factors[i]
+            );
+            assert_eq!(r.identifiable, s.identifiable[i], "{r:?}");
+            let (a, b) = (r.sd, s.cr_sd_log10[i]);
+            assert!(
+                a == b || (a - b).abs() <= 1e-3 * b.abs(),
+                "{r:?} against {b}"
+            );
+        }
+    }
 }
 
 /// Runs `args` through the firmware under QEMU and the host (f32 and f64), prints the parity

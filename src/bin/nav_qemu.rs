@@ -121,6 +121,33 @@ mod firmware {
         Ok(slot.write(run))
     }
 
+    /// Decisions the online identification's bank has taken (0 without a bank).
+    fn decisions_of(run: &Run) -> u32 {
+        run.navigator()
+            .observer()
+            .as_deref()
+            .map_or(0, |b| b.decisions())
+    }
+
+    /// Telemetry of a decision: per coordinate its log10 factor on the starting model, its
+    /// Cramér-Rao sd [decades] and the flag "identifiable from these data" (sd at most
+    /// `IDENTIFIABLE_SD`; issue 13's flag, sent rather than letting a flat coordinate wander).
+    fn report_decision(run: &Run, t: f64) {
+        let Some(bank) = run.navigator().observer().as_deref() else {
+            return;
+        };
+        for (i, (x, sd)) in bank.log10_factors().iter().zip(bank.cr_sd()).enumerate() {
+            defmt::info!(
+                "online t={=f64} i={=u8} x={=f64} sd={=f64} ok={=bool}",
+                t,
+                i as u8,
+                *x,
+                *sd,
+                bank.identifiable(i)
+            );
+        }
+    }
+
     /// Starts the online identification's bank in [`BANK_STATE`] when the setup asks for it
     /// (its own frame: the shadows' construction is not part of `init`'s).
     #[inline(never)]
@@ -171,9 +198,13 @@ mod firmware {
                     }
                     Some(Event::Record(Record::Imu(r))) => {
                         let run = nav.as_deref_mut().ok_or(FirmwareError::NoSetup)?;
+                        let decisions = decisions_of(run);
                         let t0 = SYST::get_current();
                         let done = run.imu(&r).map_err(FirmwareError::Nav)?;
                         let t1 = SYST::get_current();
+                        if decisions_of(run) != decisions {
+                            report_decision(run, r.t);
+                        }
                         let class = match (done.stepped, done.nhc.is_some()) {
                             (_, true) => &mut nhc,
                             (true, false) => &mut step,
