@@ -44,8 +44,9 @@
 //! data yet".
 //!
 //! # Cost (p coordinates, q pairs, N filter states)
-//! RAM: `2p + 1 + q` filters of `N^2 + N` scalars each (p = 6, q = 2 for a white noise and a
-//! Gauss-Markov on each sensor, tied: 15 filters, 35 kB in f32 at N = 24). Per 1-Hz step:
+//! RAM: `2p + 1 + q` filters of `N^2 + N` scalars each, plus each one's model (p = 6, q = 2
+//! for a white noise and a Gauss-Markov on each sensor, tied: 15 filters, about 3 kB each in
+//! f32 at N = 24; the firmware's 17-filter static is 52 kB). Per 1-Hz step:
 //! `2p + 1 + q` discretisations and predictions, O((2p + q) N^3): linear in p. Per fix: as
 //! many fusions, O((2p + q) Z N^2).
 //!
@@ -68,8 +69,10 @@ use heapless::Vec;
 use newton::Quad;
 use shadow::Shadow;
 
-/// Cramér-Rao standard deviation [decades] above which a coordinate is "not identifiable from
-/// these data yet" (a factor of 3 either way at one sigma), and is held.
+/// Cramér-Rao standard deviation [decades] above which a coordinate is flagged "not
+/// identifiable from these data yet" (a factor of 3 either way at one sigma). The flag is
+/// reported; what moves a coordinate is the likelihood gain its parabola promises
+/// ([`OnlineConfig::min_gain`]).
 pub const IDENTIFIABLE_SD: f64 = 0.5;
 
 /// Settings of the online identification.
@@ -77,7 +80,7 @@ pub const IDENTIFIABLE_SD: f64 = 0.5;
 pub struct OnlineConfig {
     /// First decision, seconds after the start.
     pub first: f64,
-    /// Interval between decisions [s]: each scores the fixes since the last one.
+    /// Interval between decisions [s]: each scores the fixes since the last move.
     pub every: f64,
     /// Starting offset `d` of the shadow filters from the current model [decades].
     pub offset: f64,
