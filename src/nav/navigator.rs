@@ -37,7 +37,7 @@ use crate::model::discretise::discretise_block;
 use crate::model::{ErrorModel, ModelError};
 use crate::strapdown::{Geodetic, Increment, Strapdown, StrapdownError};
 use crate::Real;
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 /// Axes of the non-holonomic constraint ([`Navigator::nhc`]): body y (right) and z (down).
 pub const NHC_Z: usize = 2;
@@ -134,6 +134,8 @@ pub struct Navigator<T: Real, const N: usize, O = ()> {
     sum_dtheta: Vector3<T>,
     sum_dv: Vector3<T>,
     w_b: Vector3<T>,
+    /// Attitude `C_b^n` at the start of the last IMU sample.
+    c_sample: Matrix3<T>,
     s_g: Vector3<T>,
     s_a: Vector3<T>,
     b_g: Vector3<T>,
@@ -181,6 +183,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             sum_dtheta: Vector3::zeros(),
             sum_dv: Vector3::zeros(),
             w_b: Vector3::zeros(),
+            c_sample: Matrix3::identity(),
             s_g: Vector3::zeros(),
             s_a: Vector3::zeros(),
             b_g: Vector3::zeros(),
@@ -211,6 +214,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             sum_dtheta: self.sum_dtheta,
             sum_dv: self.sum_dv,
             w_b: self.w_b,
+            c_sample: self.c_sample,
             s_g: self.s_g,
             s_a: self.s_a,
             b_g: self.b_g,
@@ -235,16 +239,6 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
         &mut self.obs
     }
 
-    /// The scaling of the filter's states (`x = S x'`, fixed at the start).
-    pub fn scale(&self) -> &[T; N] {
-        &self.scale
-    }
-
-    /// The initial covariance (scaled), the filter's repair value.
-    pub fn p0(&self) -> &Arr<T, N> {
-        &self.p0
-    }
-
     /// The mechanisation (solution at [`time`](Self::time)).
     pub fn ins(&self) -> &Strapdown<T> {
         &self.ins
@@ -258,6 +252,13 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
     /// The Kalman filter, in scaled states.
     pub fn kalman(&self) -> &Kalman<T, N> {
         &self.kf
+    }
+
+    /// The attitude `C_b^n` at the start of the last IMU sample (the one that resolved its
+    /// specific force): a raw sample's specific force in NED is `sample_attitude() * f_b`,
+    /// without computing the direction cosines again (the rest detector, `rest`).
+    pub fn sample_attitude(&self) -> &Matrix3<T> {
+        &self.c_sample
     }
 
     /// Time of the solution [s].
@@ -337,6 +338,17 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
         Ok(())
     }
 
+    /// Asks the observer for its decision at time `t` [s] ([`NavObserver::decide`]: the
+    /// replay loops call this after every filter step and its aiding) and takes the model it
+    /// decided, if any ([`retune_imu_model`](Self::retune_imu_model)). Returns whether the
+    /// model changed.
+    pub fn take_observer_model(&mut self, t: f64) -> Result<bool, NavError> {
+        match self.obs.decide(t) {
+            Some(m) => self.retune_imu_model(m).map(|()| true),
+            None => Ok(false),
+        }
+    }
+
     /// Heading alignment (for example from the GNSS course once moving): replaces the yaw,
     /// keeping roll and pitch, optionally the velocity (NED, m/s), and restarts the heading
     /// error `phi_D` with standard deviation `sd` [rad], uncorrelated with the other states.
@@ -399,6 +411,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
             dv: inc.dv - self.b_a * dt - self.s_a.component_mul(&inc.dv),
         };
         let c = self.ins.dcm();
+        self.c_sample = c;
         self.ins.step(&comp, dt)?;
         self.t = t;
         self.sum_fn += c * comp.dv;

@@ -231,13 +231,14 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> NavReplay<T, N, O> {
         }
         let gyro = Vector3::from(r.gyro).map(|v| T::lit(f64::from(v)));
         let accel = Vector3::from(r.accel).map(|v| T::lit(f64::from(v)));
-        if let Some(z) = &self.zupt {
-            // The sample with the attitude before it (the host driver's order).
-            let f_n = self.nav.ins().dcm() * accel;
-            self.rest.sample(z, &gyro, &f_n);
-        }
         let inc = Increment::from_rates(&gyro, &accel, T::lit(dt));
         let stepped = self.nav.imu(r.t, &inc)?;
+        if let Some(z) = &self.zupt {
+            // The raw sample resolved with the attitude before it (`rest` module docs; the
+            // host driver's order), before the step's update below.
+            let f_n = self.nav.sample_attitude() * accel;
+            self.rest.sample(z, &gyro, &f_n);
+        }
         self.t = r.t;
         let nhc = match (&self.nhc, stepped) {
             (Some(c), true) => c.after_step(&mut self.nav, self.heading_known)?,
@@ -249,13 +250,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> NavReplay<T, N, O> {
         };
         // The online identification's decision after the step's aiding (the host driver's
         // order), before the fixes this sample reaches.
-        let mut retuned = false;
-        if stepped {
-            if let Some(m) = self.nav.observer_mut().decide(r.t) {
-                self.nav.retune_imu_model(m)?;
-                retuned = true;
-            }
-        }
+        let retuned = stepped && self.nav.take_observer_model(r.t)?;
         Ok(ImuStep {
             stepped,
             nhc,

@@ -143,22 +143,19 @@ impl<T: Real> NavLoop<T> {
             if dt.is_nan() || dt <= 0.0 {
                 bail!("{imu_name}: IMU time does not increase at t = {}", b.t);
             }
-            let inc = Increment::from_rates(
-                &Vector3::from(b.gyro).map(T::lit),
-                &Vector3::from(b.accel).map(T::lit),
-                T::lit(dt),
-            );
-            if let Some(z) = self.zupt_core.as_ref() {
-                // The raw sample, its specific force in NED with the solution's attitude
-                // (`rest` module docs).
-                let f_n = self.nav.ins().dcm() * Vector3::from(b.accel).map(T::lit);
-                self.rest
-                    .sample(z, &Vector3::from(b.gyro).map(T::lit), &f_n);
-            }
+            let gyro = Vector3::from(b.gyro).map(T::lit);
+            let accel = Vector3::from(b.accel).map(T::lit);
+            let inc = Increment::from_rates(&gyro, &accel, T::lit(dt));
             let stepped = self
                 .nav
                 .imu(b.t, &inc)
                 .map_err(|e| anyhow::anyhow!("nav: IMU sample at t = {}: {e:?}", b.t))?;
+            if let Some(z) = self.zupt_core.as_ref() {
+                // The raw sample, its specific force in NED with the attitude before it
+                // (`rest` module docs), before the step's update below.
+                let f_n = self.nav.sample_attitude() * accel;
+                self.rest.sample(z, &gyro, &f_n);
+            }
             // The non-holonomic constraint once per filter step, with or without GNSS, once
             // the heading is known and above NHC_MIN_SPEED (the core decides:
             // `Nhc::after_step`).
@@ -187,11 +184,9 @@ impl<T: Real> NavLoop<T> {
             }
             // The bank's decision (with `--adapt-method bank`), after the step's aiding.
             if stepped {
-                if let Some(m) = self.nav.observer_mut().decide(b.t) {
-                    self.nav
-                        .retune_imu_model(m)
-                        .map_err(|e| anyhow::anyhow!("nav: online model at t = {}: {e:?}", b.t))?;
-                }
+                self.nav
+                    .take_observer_model(b.t)
+                    .map_err(|e| anyhow::anyhow!("nav: online model at t = {}: {e:?}", b.t))?;
             }
             while self.fix_k < fixes.len() && fixes[self.fix_k].t <= b.t {
                 let f = fixes[self.fix_k];

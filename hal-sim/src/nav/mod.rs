@@ -295,7 +295,6 @@ pub fn run_observed<T: Real>(
     bar.reset();
     let name = args.imu.display().to_string();
     let t_start = lp.time(imu);
-    let bank = args.adapt.filter(|c| c.method == adapt::AdaptMethod::Bank);
     if let Some(online) = args.online() {
         adapt::start_bank(online, &mut lp.nav, t_start)?;
     }
@@ -336,7 +335,7 @@ pub fn run_observed<T: Real>(
         summary,
         adapt: adapter
             .map(adapt::Adapter::finish)
-            .or_else(|| bank.and_then(|c| adapt::bank_log(lp.nav.observer(), c.bank.every))),
+            .or_else(|| adapt::bank_log(lp.nav.observer())),
     })
 }
 

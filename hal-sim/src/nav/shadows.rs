@@ -5,11 +5,11 @@
 
 use imu_ident::linalg::Arr;
 use imu_ident::nav::error_model::StrapdownErrorModel;
-use imu_ident::nav::{NavObserver, ObservationKind, OnlineIdent, NAV_N};
+use imu_ident::nav::{ImuErrorModel, NavObserver, ObservationKind, OnlineIdent, NAV_N};
 use imu_ident::Real;
 
-/// Shadow filters in the host's bank: two per coordinate and the centre, up to 18 coordinates (three
-/// quantities on each of the six axes, per axis).
+/// Shadow filters in the host's bank: two per coordinate, the centre and one per pair of a
+/// component's quantities (18 coordinates per axis with 6 pairs: 43).
 pub const BANK_M: usize = 48;
 
 /// The core's identification, boxed (a bank is ~170 kB in f64; the loop is a value that the
@@ -21,7 +21,9 @@ pub type Ident<T> = OnlineIdent<T, NAV_N, BANK_M>;
 pub struct Decision {
     /// Time [s].
     pub t: f64,
-    /// GNSS fixes scored so far.
+    /// Start of the fixes the decision scored: the last move, or the start [s].
+    pub window_start: f64,
+    /// GNSS fixes the decision scored.
     pub fixes: u32,
     /// log10 factors on the starting model (tied) after the decision.
     pub log10_factors: Vec<f64>,
@@ -38,25 +40,8 @@ pub struct Shadows<T: Real> {
     pub log: Vec<Decision>,
 }
 
-impl<T: Real> Shadows<T> {
-    /// At time `t`, after a filter step: a decision when one is due; returns the model the
-    /// running filter must take, if it moved.
-    pub fn decide(&mut self, t: f64) -> Option<imu_ident::nav::ImuErrorModel<T>> {
-        let id = self.ident.as_mut()?;
-        let before = id.decisions();
-        let m = id.decide(t);
-        if id.decisions() != before {
-            self.log.push(Decision {
-                t,
-                fixes: id.fixes(),
-                log10_factors: id.log10_factors().to_vec(),
-                cr_sd: id.cr_sd().to_vec(),
-            });
-        }
-        m
-    }
-}
-
+/// Every hook goes to the bank when there is one (through the core's `Option<&mut O>`
+/// observer); `decide` also records the decision.
 #[allow(non_snake_case)]
 impl<T: Real> NavObserver<T, NAV_N> for Shadows<T> {
     fn propagated(
@@ -66,9 +51,7 @@ impl<T: Real> NavObserver<T, NAV_N> for Shadows<T> {
         x: &[T; NAV_N],
         p0: &Arr<T, NAV_N>,
     ) {
-        if let Some(id) = self.ident.as_mut() {
-            id.propagated(model, scale, x, p0);
-        }
+        self.ident.as_deref_mut().propagated(model, scale, x, p0);
     }
 
     fn observed<const Z: usize>(
@@ -78,30 +61,34 @@ impl<T: Real> NavObserver<T, NAV_N> for Shadows<T> {
         H: &[[T; NAV_N]; Z],
         R: &[T; Z],
     ) {
-        if let Some(id) = self.ident.as_mut() {
-            id.observed(kind, z, H, R);
-        }
+        self.ident.as_deref_mut().observed(kind, z, H, R);
     }
 
     fn corrected(&mut self, x: &[T; NAV_N], p0: &Arr<T, NAV_N>) {
-        if let Some(id) = self.ident.as_mut() {
-            id.corrected(x, p0);
-        }
+        self.ident.as_deref_mut().corrected(x, p0);
     }
 
     fn heading_restarted(&mut self, scale: &[T; NAV_N], sd: T, vel: bool) {
-        if let Some(id) = self.ident.as_mut() {
-            id.heading_restarted(scale, sd, vel);
-        }
+        self.ident.as_deref_mut().heading_restarted(scale, sd, vel);
     }
 
     fn sensors_seeded(&mut self, x: &[T; NAV_N]) {
-        if let Some(id) = self.ident.as_mut() {
-            id.sensors_seeded(x);
-        }
+        self.ident.as_deref_mut().sensors_seeded(x);
     }
 
-    fn decide(&mut self, t: f64) -> Option<imu_ident::nav::ImuErrorModel<T>> {
-        Shadows::decide(self, t)
+    fn decide(&mut self, t: f64) -> Option<ImuErrorModel<T>> {
+        let id = self.ident.as_deref_mut()?;
+        let (before, window_start, fixes) = (id.decisions(), id.window_start(), id.fixes());
+        let m = id.decide(t);
+        if id.decisions() != before {
+            self.log.push(Decision {
+                t,
+                window_start,
+                fixes,
+                log10_factors: id.log10_factors().to_vec(),
+                cr_sd: id.cr_sd().to_vec(),
+            });
+        }
+        m
     }
 }

@@ -150,7 +150,7 @@ impl Default for OnlineConfig {
 }
 
 /// The online identification with a bank of at most `M` shadow filters of `N` states
-/// (`M >= 2 p` for `p` coordinates).
+/// (`M >= 2 p + 1 + q` for `p` coordinates and `q` pairs).
 #[derive(Debug, Clone)]
 pub struct OnlineIdent<T: Real, const N: usize, const M: usize> {
     cfg: OnlineConfig,
@@ -161,11 +161,12 @@ pub struct OnlineIdent<T: Real, const N: usize, const M: usize> {
     base: ImuErrorModel<T>,
     x: [f64; MAX_COORDS],
     shadows: Vec<Shadow<T, N>, M>,
-    /// Each shadow's summed log-likelihood of the GNSS fixes since the last decision [nats].
+    /// Each shadow's summed log-likelihood of the GNSS fixes since the last move [nats].
     sums: [f64; M],
+    /// Time of the last move (or the start) [s]: where the sums begin.
+    since: f64,
     /// The offset of the shadows [decades].
     d: f64,
-
     cr_sd: [f64; MAX_COORDS],
     next: f64,
     fixes: u32,
@@ -195,6 +196,7 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         x: [0.0; MAX_COORDS],
         shadows: Vec::new(),
         sums: [0.0; M],
+        since: 0.0,
         d: 0.0,
         cr_sd: [0.0; MAX_COORDS],
         next: 0.0,
@@ -237,6 +239,7 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         self.pairs = pairs;
         self.x = [0.0; MAX_COORDS];
         self.sums = [0.0; M];
+        self.since = t;
         self.d = cfg.offset;
         self.cr_sd = [f64::INFINITY; MAX_COORDS];
         self.next = t + cfg.first;
@@ -281,22 +284,17 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         self.cr_sd.get(i).is_some_and(|sd| *sd <= IDENTIFIABLE_SD)
     }
 
-    /// The current model (the starting model tied, times the factors).
-    pub fn model(&self) -> ImuErrorModel<T> {
-        coords::apply(&self.base, &self.coords, &self.factors(None))
-    }
-
-    /// Each shadow's log-likelihood of the last observation [nats], shadow `2i` at `+d` and
-    /// `2i + 1` at `-d` on coordinate `i`.
-    pub fn last_logliks(&self) -> impl Iterator<Item = f64> + '_ {
-        self.shadows.iter().map(|s| s.loglik)
-    }
-
     /// Each shadow's summed log-likelihood of the GNSS fixes since the last move [nats]:
     /// shadow `2i` at `+d` and `2i + 1` at `-d` on coordinate `i`, `2p` the centre, then one
     /// per pair of a component's quantities at `(+d, +d)`.
     pub fn window_sums(&self) -> &[f64] {
         self.sums.get(..self.shadows.len()).unwrap_or(&[])
+    }
+
+    /// Time of the last move, or of the start [s]: where [`window_sums`](Self::window_sums)
+    /// begin.
+    pub fn window_start(&self) -> f64 {
+        self.since
     }
 
     /// GNSS fixes scored since the last move.
@@ -315,19 +313,16 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         self.faults
     }
 
-    /// The factors of shadow `k` (`None`, or `k = 2p`: the centre): for `k < 2p` coordinate
-    /// `k / 2` offset by `+d` for even `k`, `-d` for odd; for `k > 2p` both coordinates of
-    /// pair `k - 2p - 1` offset by `+d`.
-    fn factors(&self, k: Option<usize>) -> [T; MAX_COORDS] {
+    /// The factors of shadow `k`: for `k < 2p` coordinate `k / 2` offset by `+d` for even `k`,
+    /// `-d` for odd; `k = 2p` the centre; for `k > 2p` both coordinates of pair `k - 2p - 1`
+    /// offset by `+d`.
+    fn factors(&self, k: usize) -> [T; MAX_COORDS] {
         let p2 = 2 * self.coords.len();
         let mut f = [T::zero(); MAX_COORDS];
         for (fi, xi) in f.iter_mut().zip(self.x.iter()) {
             *fi = T::lit(*xi);
         }
-        if let Some(&(i, j)) = k
-            .and_then(|k| k.checked_sub(p2 + 1))
-            .and_then(|q| self.pairs.get(q))
-        {
+        if let Some(&(i, j)) = k.checked_sub(p2 + 1).and_then(|q| self.pairs.get(q)) {
             for c in [i, j] {
                 if let (Some(fi), Some(xi)) = (f.get_mut(c), self.x.get(c)) {
                     *fi = T::lit(*xi + self.d);
@@ -335,7 +330,7 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
             }
             return f;
         }
-        if let Some(k) = k.filter(|k| *k < p2) {
+        if k < p2 {
             let d = if k % 2 == 0 { self.d } else { -self.d };
             if let (Some(fi), Some(xi)) = (f.get_mut(k / 2), self.x.get(k / 2)) {
                 *fi = T::lit(*xi + d);
@@ -345,7 +340,7 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
     }
 
     fn shadow_imu(&self, k: usize) -> ImuErrorModel<T> {
-        coords::apply(&self.base, &self.coords, &self.factors(Some(k)))
+        coords::apply(&self.base, &self.coords, &self.factors(k))
     }
 
     /// At time `t` [s], after a filter step or a fix: when a decision is due, moves the
@@ -395,6 +390,7 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
             *x += s;
         }
         self.sums = [0.0; M];
+        self.since = t;
         self.fixes = 0;
         for k in 0..self.shadows.len() {
             let imu = self.shadow_imu(k);

@@ -19,8 +19,8 @@ pub(super) fn pairs(coords: &[Coordinate]) -> Vec<(usize, usize), MAX_COORDS> {
     for (i, a) in coords.iter().enumerate() {
         for (j, b) in coords.iter().enumerate().skip(i + 1) {
             if a.sensor == b.sensor && a.axis == b.axis && a.component == b.component {
-                // At most MAX_COORDS / 2 disjoint pairs of MAX_COORDS coordinates... but a
-                // component has at most two identified quantities with `beta` held.
+                // Cannot overflow: with `beta` held a component has at most two identified
+                // quantities, so the pairs are disjoint, at most MAX_COORDS / 2 of them.
                 let _ = out.push((i, j));
             }
         }
@@ -59,12 +59,12 @@ impl Quad {
         let mut q = Self::ZERO;
         for (i, (g, c)) in q.g.iter_mut().zip(q.c.iter_mut()).enumerate().take(p) {
             let (plus, minus) = (sum(2 * i), sum(2 * i + 1));
-            *g += (plus - minus) / (2.0 * d);
-            *c += -(plus + minus - 2.0 * centre) / (d * d);
+            *g = (plus - minus) / (2.0 * d);
+            *c = -(plus + minus - 2.0 * centre) / (d * d);
         }
         for (k, (&(i, j), cx)) in pairs.iter().zip(q.cx.iter_mut()).enumerate() {
             let both = sum(2 * p + 1 + k);
-            *cx += -(both - sum(2 * i) - sum(2 * j) + centre) / (d * d);
+            *cx = -(both - sum(2 * i) - sum(2 * j) + centre) / (d * d);
         }
         q
     }

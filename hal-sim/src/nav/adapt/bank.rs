@@ -14,8 +14,8 @@ use imu_ident::Real;
 pub fn start_bank<T: Real>(online: OnlineConfig, nav: &mut NavOf<T>, t: f64) -> Result<()> {
     let id = Ident::<T>::new(online, nav, t).map_err(|e| {
         anyhow::anyhow!(
-            "nav --adapt-method bank: {e} (more than {} coordinates?)",
-            crate::nav::shadows::BANK_M / 2
+            "nav --adapt-method bank: {e} (the bank needs more than {} shadow filters?)",
+            crate::nav::shadows::BANK_M
         )
     })?;
     nav.observer_mut().ident = Some(Box::new(id));
@@ -23,7 +23,7 @@ pub fn start_bank<T: Real>(online: OnlineConfig, nav: &mut NavOf<T>, t: f64) -> 
 }
 
 /// The record of a run identified by the bank.
-pub fn bank_log<T: Real>(shadows: &Shadows<T>, window: f64) -> Option<AdaptLog> {
+pub fn bank_log<T: Real>(shadows: &Shadows<T>) -> Option<AdaptLog> {
     let id = shadows.ident.as_ref()?;
     let coordinates = id
         .coordinates()
@@ -44,7 +44,7 @@ pub fn bank_log<T: Real>(shadows: &Shadows<T>, window: f64) -> Option<AdaptLog> 
         .iter()
         .map(|d| Search {
             t: d.t,
-            window_start: d.t - window,
+            window_start: d.window_start,
             fixes: d.fixes as usize,
             loglik_before: nan,
             loglik: nan,
@@ -60,7 +60,7 @@ pub fn bank_log<T: Real>(shadows: &Shadows<T>, window: f64) -> Option<AdaptLog> 
     Some(AdaptLog {
         coordinates,
         searches,
-        model: id.model().cast(),
+        model: id.running_model().cast(),
         base: id.base().cast(),
     })
 }
