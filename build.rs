@@ -37,6 +37,11 @@ fn main() -> Result<(), Box<dyn Error>> {
     let out = PathBuf::from(env::var("OUT_DIR")?);
     fs::write(out.join("memory.x"), &map)?;
     fs::write(out.join("imu-ident-board.x"), &map)?;
+    // Both maps include the shared `.ccmram` section.
+    fs::copy(
+        manifest.join("memory").join("ccmram.x"),
+        out.join("ccmram.x"),
+    )?;
     println!("cargo:rustc-link-search={}", out.display());
     Ok(())
 }

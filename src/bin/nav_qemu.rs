@@ -89,8 +89,11 @@ mod firmware {
     /// setup has been read.
     static mut RUN: MaybeUninit<Run> = MaybeUninit::uninit();
 
-    /// The online identification's bank (about 45 KB), all zeros until started in place.
-    static mut BANK_STATE: Bank = Bank::BLANK;
+    /// The online identification's bank (about 52 KB), in the core-coupled memory
+    /// (`memory/ccmram.x`: the F405's 128 KiB SRAM holds the other statics and the stack).
+    /// That section is not zeroed at reset: [`start_bank`] writes it before any read.
+    #[link_section = ".ccmram.bank"]
+    static mut BANK_STATE: MaybeUninit<Bank> = MaybeUninit::uninit();
 
     #[entry]
     fn main() -> ! {
@@ -159,7 +162,8 @@ mod firmware {
             return Ok(None);
         };
         // SAFETY: called once, before any other reference to BANK_STATE exists.
-        let bank = unsafe { &mut *core::ptr::addr_of_mut!(BANK_STATE) };
+        let slot = unsafe { &mut *core::ptr::addr_of_mut!(BANK_STATE) };
+        let bank = slot.write(Bank::BLANK);
         bank.start(cfg, plain.navigator(), setup.t0)
             .map_err(|e| FirmwareError::Nav(NavError::Model(e)))?;
         Ok(Some(bank))
