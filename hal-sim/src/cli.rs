@@ -153,12 +153,12 @@ pub enum Command {
         #[arg(long, conflicts_with_all = ["identify", "qemu_elf"])]
         adapt: bool,
         /// First online search and interval between searches FIRST,EVERY [s] (default 600,1200;
-        /// the bank's `OnlineConfig::DEFAULT` with `--adapt-method bank`).
+        /// with `--adapt-method bank` the bank's `OnlineConfig::DEFAULT`, 600,600).
         #[arg(long, value_delimiter = ',')]
         adapt_every: Option<Vec<f64>>,
         /// How the online identification maximises the likelihood: a pattern search over
-        /// replays of the window (host only), or the core's bank of shadow filters with a
-        /// recursive Gauss-Newton (what the MCU runs; docs/ADAPTATION.md §11).
+        /// replays of the window (host only), or the core's bank of shadow filters and
+        /// parabola steps (what the MCU runs; docs/ADAPTATION.md §9).
         #[arg(long, value_enum, default_value_t = ADAPT.method)]
         adapt_method: crate::nav::adapt::AdaptMethod,
         /// Window of the online searches [s] (from the start while the run is shorter).

@@ -86,13 +86,9 @@ fn a_flat_likelihood_holds_and_a_bound_clamps() {
     assert!((out[0] - 0.4).abs() < 1e-12, "{out:?}");
 }
 
-/// A bank on a navigator at rest with a Gauss-Markov and a white noise on every gyro axis:
-/// non-finite times decide nothing (and return: no loop over an infinite gap), the bank has
-/// `2p + 1 + q` shadows, and a bad configuration is refused.
-#[test]
-fn a_bank_refuses_bad_settings_and_non_finite_times() {
-    use super::OnlineIdent;
-    use crate::model::{ModelError, WhiteNoise};
+/// A navigator at rest with a white noise and a Gauss-Markov on every gyro axis.
+fn navigator() -> crate::nav::Navigator<f64, 24> {
+    use crate::model::WhiteNoise;
     use crate::nav::{NavConfig, NavInit, NavPoint, Navigator, StrapdownErrorModel, NAV_Z};
     use crate::strapdown::{Geodetic, Quat, Strapdown};
     use nalgebra::Vector3;
@@ -125,8 +121,16 @@ fn a_bank_refuses_bad_settings_and_non_finite_times() {
         dt: 1.0,
         scale_factor_sd: None,
     };
-    let nav: Navigator<f64, 24> =
-        Navigator::new(ins, 0.0, model, NavConfig::default()).unwrap_or_else(|e| panic!("{e:?}"));
+    Navigator::new(ins, 0.0, model, NavConfig::default()).unwrap_or_else(|e| panic!("{e:?}"))
+}
+
+/// On [`navigator`]'s bank: non-finite times decide nothing (and return: no loop over an
+/// infinite gap), the bank has `2p + 1 + q` shadows, and a bad configuration is refused.
+#[test]
+fn a_bank_refuses_bad_settings_and_non_finite_times() {
+    use super::OnlineIdent;
+    use crate::model::ModelError;
+    let nav = navigator();
     let mut id = OnlineIdent::<f64, 24, 8>::new(OnlineConfig::DEFAULT, &nav, 0.0)
         .unwrap_or_else(|e| panic!("{e:?}"));
     // Three coordinates (density, sigma, tau), one pair: 2 * 3 + 1 + 1 shadows.
@@ -146,4 +150,58 @@ fn a_bank_refuses_bad_settings_and_non_finite_times() {
         OnlineIdent::<f64, 24, 8>::new(bad, &nav, 0.0).err(),
         Some(ModelError::BadSigma)
     );
+}
+
+/// The grid rule on [`navigator`]'s bank (coordinates density, sigma, tau; shadows `+d, -d`
+/// on each, the centre, the pair at `(+d, +d)`), with sums of an exact quadratic written in:
+/// an estimate inside the grid moves the running point and keeps the shadows and their sums;
+/// one outside moves the shadows there and restarts the sums.
+#[test]
+fn an_estimate_inside_the_grid_keeps_the_window_and_one_outside_moves_it() {
+    use super::OnlineIdent;
+    let nav = navigator();
+    let mut id = OnlineIdent::<f64, 24, 8>::new(OnlineConfig::DEFAULT, &nav, 0.0)
+        .unwrap_or_else(|e| panic!("{e:?}"));
+    let d = id.d;
+    // L(y) = -50 |y - top|^2 at each shadow's offset from the centre.
+    let fill = |id: &mut OnlineIdent<f64, 24, 8>, top: [f64; 3]| {
+        let l = |y: [f64; 3]| -50.0 * (0..3).map(|i| (y[i] - top[i]).powi(2)).sum::<f64>();
+        let at = [
+            [d, 0.0, 0.0],
+            [-d, 0.0, 0.0],
+            [0.0, d, 0.0],
+            [0.0, -d, 0.0],
+            [0.0, 0.0, d],
+            [0.0, 0.0, -d],
+            [0.0; 3],
+            [0.0, d, d],
+        ];
+        for (s, y) in id.sums.iter_mut().zip(at) {
+            *s = l(y);
+        }
+        id.fixes = 100;
+    };
+    let top = [0.3, -0.2, 0.1];
+    fill(&mut id, top);
+    let before = id.window_sums().to_vec();
+    assert!(id.decide(600.0).is_some(), "the running model moves");
+    for (e, t) in id.log10_factors().iter().zip(top) {
+        assert!((e - t).abs() < 1e-9, "estimate {e} against the vertex {t}");
+    }
+    assert_eq!(id.centre(), [0.0; 3], "the shadows stay");
+    assert_eq!(
+        id.window_sums(),
+        before.as_slice(),
+        "the sums keep accumulating"
+    );
+    assert_eq!((id.window_start(), id.fixes()), (0.0, 100));
+    // The same data again: the estimate does not move, nothing to hand over.
+    assert!(id.decide(1800.0).is_none());
+    // A vertex beyond the grid: a step of 2d, the shadows move, the sums restart.
+    fill(&mut id, [1.2, 0.0, 0.0]);
+    assert!(id.decide(3000.0).is_some());
+    assert_eq!(id.centre(), [2.0 * d, 0.0, 0.0]);
+    assert_eq!(id.log10_factors(), id.centre());
+    assert!(id.window_sums().iter().all(|s| *s == 0.0));
+    assert_eq!((id.window_start(), id.fixes()), (3000.0, 0));
 }
