@@ -107,7 +107,8 @@ pub enum Command {
         scale_factors: Option<Vec<f64>>,
         /// Also run the navigation firmware ELF (imu-ident-nav-qemu) on QEMU with the same
         /// inputs and options; writes firmware.json (parity with the host, instruction counts,
-        /// stack). Not with --identify: pass the identified model and options instead.
+        /// stack; with --adapt --adapt-method bank, the firmware's online decisions against
+        /// the host's). Not with --identify: pass the identified model and options instead.
         #[arg(long, conflicts_with = "identify")]
         qemu_elf: Option<PathBuf>,
         /// Added to every IMU time [s] (a residual logging delay).
@@ -150,7 +151,7 @@ pub enum Command {
         /// data up to its time): every --adapt-every seconds, the window's innovation
         /// likelihood is maximised over factors on the model's intensities and correlation
         /// times; writes adapt.json and adapt.csv.
-        #[arg(long, conflicts_with_all = ["identify", "qemu_elf"])]
+        #[arg(long, conflicts_with = "identify")]
         adapt: bool,
         /// First online search and interval between searches FIRST,EVERY [s] (default 600,1200;
         /// with `--adapt-method bank` the bank's `OnlineConfig::DEFAULT`, 600,600).

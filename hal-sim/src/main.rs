@@ -143,6 +143,12 @@ fn main() -> Result<()> {
                     if !(first > 0.0 && every > 0.0 && adapt_window > 0.0) {
                         anyhow::bail!("--adapt-every, --adapt-window: expected positive seconds");
                     }
+                    if qemu_elf.is_some() && !bank {
+                        anyhow::bail!(
+                            "--adapt with --qemu-elf: the firmware runs the core's bank, not the \
+                             host's window replay; add --adapt-method bank"
+                        );
+                    }
                     Some(hal_sim::nav::adapt::AdaptConfig {
                         first,
                         every,
@@ -197,6 +203,12 @@ fn main() -> Result<()> {
                     fw.epochs[0],
                     fw.worst_position_diff_sigma
                 );
+                if let Some(o) = &fw.online {
+                    eprintln!(
+                        "firmware: {} online decisions (host {}), worst factor difference {:.2e} decade, {} identifiable flags differ",
+                        o.decisions[0], o.decisions[1], o.worst_factor_diff_decades, o.flags_differ
+                    );
+                }
                 if !fw.exit_success {
                     anyhow::bail!(
                         "the navigation firmware failed (see {})",

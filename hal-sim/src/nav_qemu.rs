@@ -297,6 +297,48 @@ pub struct FirmwareComparison {
     pub icount: Vec<Icount>,
     /// Stack high-water marks.
     pub stack: Vec<Stack>,
+    /// With the online identification (`--adapt --adapt-method bank`): the firmware's
+    /// decisions (its `online` telemetry) against the host's.
+    pub online: Option<OnlineComparison>,
+}
+
+/// The firmware's online decisions against the host's (same times, same coordinates).
+#[derive(Debug, Clone, Serialize)]
+pub struct OnlineComparison {
+    /// Decisions reported by the firmware and by the host.
+    pub decisions: [usize; 2],
+    /// Worst difference of a coordinate's log10 factor [decades] over the decisions both
+    /// reported.
+    pub worst_factor_diff_decades: f64,
+    /// Coordinates of those decisions whose "identifiable" flags differ.
+    pub flags_differ: usize,
+}
+
+/// The firmware's decision telemetry `fw` (one report per coordinate per decision) set
+/// against the host's decision log.
+pub fn compare_online(fw: &[OnlineReport], host: &crate::nav::adapt::AdaptLog) -> OnlineComparison {
+    let p = host.coordinates.len().max(1);
+    let mut worst = 0.0f64;
+    let mut flags_differ = 0;
+    for s in &host.searches {
+        for r in fw.iter().filter(|r| r.t == s.t) {
+            let i = usize::from(r.i);
+            if let Some(x) = s.log10_factors.get(i) {
+                worst = worst.max((r.x - x).abs());
+            }
+            if s.identifiable
+                .get(i)
+                .is_some_and(|ok| *ok != r.identifiable)
+            {
+                flags_differ += 1;
+            }
+        }
+    }
+    OnlineComparison {
+        decisions: [fw.len() / p, host.searches.len()],
+        worst_factor_diff_decades: worst,
+        flags_differ,
+    }
 }
 
 /// Runs `elf` on the log of `host` (same `args`, same samples and fixes) and compares.
@@ -331,6 +373,11 @@ pub fn compare_with_host(
         exit_success: fw.success(),
         epochs: [fw.epochs.len(), host.epochs.len()],
         worst_position_diff_sigma: worst,
+        online: host
+            .adapt
+            .as_ref()
+            .filter(|_| args.online().is_some())
+            .map(|log| compare_online(&fw.online, log)),
         icount: fw.icount,
         stack: fw.stack,
     })

@@ -28,7 +28,8 @@ use std::path::PathBuf;
 use hal_sim::nav::{run_with, NavArgs, NavRun};
 use hal_sim::nav_io::{read_gnss_csv, read_imu_csv};
 use hal_sim::nav_qemu::{
-    encode_replay, run_nav_firmware, run_nav_firmware_bytes, NavEpoch, NavFirmwareRun, NAV_ELF_ENV,
+    compare_online, encode_replay, run_nav_firmware, run_nav_firmware_bytes, NavEpoch,
+    NavFirmwareRun, NAV_ELF_ENV,
 };
 use hal_sim::qemu::QemuConfig;
 use imu_ident::nav::replay::{gnss_flags, Decoder, Event, Record};
@@ -318,6 +319,12 @@ fn qemu_firmware_nav_with_the_online_identification_matches_the_host_navigator()
             );
         }
     }
+    // The same comparison as `hal-sim nav --adapt --adapt-method bank --qemu-elf` writes to
+    // `firmware.json`: every decision matched, within the bound above.
+    let online = compare_online(&fw.online, log);
+    assert_eq!(online.decisions, [log.searches.len(); 2]);
+    assert!(online.worst_factor_diff_decades <= 1e-4, "{online:?}");
+    assert_eq!(online.flags_differ, 0);
 }
 
 /// Runs `args` through the firmware under QEMU and the host (f32 and f64), prints the parity

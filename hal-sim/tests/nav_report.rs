@@ -434,3 +434,25 @@ fn bad_input_names_the_file_line_and_field() {
         }
     }
 }
+
+/// `--adapt --qemu-elf` needs the bank (`--adapt-method bank`): the firmware cannot run the
+/// host's window replay, and says so before reading anything.
+#[test]
+fn the_firmware_comparison_of_an_online_run_needs_the_bank() {
+    let e = fails(&[
+        "nav",
+        "--imu",
+        "missing-imu.csv",
+        "--gnss",
+        "missing-gnss.csv",
+        "--model",
+        "drive-datasheet",
+        "--adapt",
+        "--qemu-elf",
+        "missing.elf",
+        "--out",
+        "never-written",
+    ]);
+    assert!(e.contains("--adapt-method bank"), "{e}");
+    assert!(!Path::new("never-written").exists());
+}
