@@ -38,15 +38,15 @@
 //! at rest ([`Zupt::after_step`](super::rest::Zupt::after_step)), as the host does.
 //!
 //! With the online identification on ([`OnlineConfig`], setup flags
-//! [`setup_flags::ONLINE_PER_AXIS`], [`setup_flags::ONLINE_TAUS`] and
-//! [`setup_flags::ONLINE_CONSERVATIVE`]), the loop runs the bank of
-//! shadow filters ([`crate::nav::online`]) and, after every filter step, takes its decision
+//! [`setup_flags::ONLINE_PER_AXIS`], [`setup_flags::ONLINE_TAUS`],
+//! [`setup_flags::ONLINE_CONSERVATIVE`] and [`setup_flags::ONLINE_HOLD_FLAT_TAUS`]), the loop
+//! runs the bank of shadow filters ([`crate::nav::online`]) and, after every filter step, takes its decision
 //! ([`NavReplay::imu`](super::run::NavReplay::imu)), as the host does (`nav --adapt
 //! --adapt-method bank`).
 //!
 //! Version 2 added the NHC (sd and lever arm) and the setup flags (the byte that was zero
 //! padding in version 1); version 3 the ZUPT (sd and the rest detector's three bounds); version 4
-//! the online identification (seven values and three flags). Older
+//! the online identification (seven values and four flags). Older
 //! replays are rejected ([`NavReplayError::BadVersion`]), not read with the new aiding off:
 //! the replay is an intermediate file that `hal_sim::nav_qemu` writes afresh for every run, so there is nothing to migrate, and one layout keeps the
 //! firmware's decoder to one panic-free path.
@@ -111,8 +111,14 @@ pub mod setup_flags {
     ///
     /// [`OnlineConfig::conservative`]: crate::nav::OnlineConfig::conservative
     pub const ONLINE_CONSERVATIVE: u8 = 8;
+    /// The online identification holds the correlation times the data do not bound
+    /// ([`OnlineConfig::hold_flat_taus`]).
+    ///
+    /// [`OnlineConfig::hold_flat_taus`]: crate::nav::OnlineConfig::hold_flat_taus
+    pub const ONLINE_HOLD_FLAT_TAUS: u8 = 16;
     /// Every defined bit.
-    pub const ALL: u8 = HEADING_KNOWN | ONLINE_PER_AXIS | ONLINE_TAUS | ONLINE_CONSERVATIVE;
+    pub const ALL: u8 =
+        HEADING_KNOWN | ONLINE_PER_AXIS | ONLINE_TAUS | ONLINE_CONSERVATIVE | ONLINE_HOLD_FLAT_TAUS;
 }
 
 /// Bits of [`GnssRecord::flags`].
@@ -351,6 +357,10 @@ pub fn encode(
         | flag(
             s.online.is_some_and(|o| o.conservative),
             setup_flags::ONLINE_CONSERVATIVE,
+        )
+        | flag(
+            s.online.is_some_and(|o| o.hold_flat_taus),
+            setup_flags::ONLINE_HOLD_FLAT_TAUS,
         )]);
     for c in axes(&s.imu).into_iter().flat_map(|a| a.iter()) {
         let kind = c.kind();

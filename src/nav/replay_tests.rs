@@ -65,6 +65,7 @@ fn setup() -> NavSetup {
             conservative: false,
             per_axis: true,
             taus: true,
+            hold_flat_taus: true,
         }),
         heading_known: true,
     }
@@ -202,7 +203,7 @@ fn header_errors_are_specific() {
     bad[HEADER_LEN + SETUP_LEN - 7] = 9; // gyro x: 9 components
     assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
     let mut bad = good;
-    bad[HEADER_LEN + SETUP_LEN - 1] = 16; // an undefined setup flag
+    bad[HEADER_LEN + SETUP_LEN - 1] = 32; // an undefined setup flag
     assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
 }
 
@@ -252,7 +253,10 @@ fn version_4_fields_are_at_their_documented_offsets() {
     );
     assert_eq!(
         bytes[HEADER_LEN + SETUP_LEN - 1],
-        setup_flags::HEADING_KNOWN | setup_flags::ONLINE_PER_AXIS | setup_flags::ONLINE_TAUS
+        setup_flags::HEADING_KNOWN
+            | setup_flags::ONLINE_PER_AXIS
+            | setup_flags::ONLINE_TAUS
+            | setup_flags::ONLINE_HOLD_FLAT_TAUS
     );
     let mut off = s.clone();
     off.nhc_sd = None;

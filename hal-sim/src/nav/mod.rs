@@ -111,6 +111,7 @@ impl NavArgs {
         Some(imu_ident::nav::OnlineConfig {
             per_axis: c.per_axis,
             taus: c.taus != adapt::TauMode::Held,
+            hold_flat_taus: c.taus == adapt::TauMode::Tested,
             ..c.bank
         })
     }

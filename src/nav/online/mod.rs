@@ -52,7 +52,9 @@
 //! every decision, and with the defaults (decisions every 10 min, the conservative running
 //! model) 74 of 96 runs on other seeds against 50 (BENCHMARKS.md "Online identification on
 //! the MCU"). Each coordinate's Cramér-Rao sd at a decision is `1 / sqrt(curvature)`; above
-//! [`IDENTIFIABLE_SD`] it is flagged "not identifiable from these data yet".
+//! [`IDENTIFIABLE_SD`] it is flagged "not identifiable from these data yet". With
+//! [`OnlineConfig::hold_flat_taus`] a pair's sds are the marginal ones and a correlation
+//! time so flagged is held ([`newton`]).
 //!
 //! # Cost (p coordinates, q pairs, N filter states)
 //! RAM: `2p + 1 + q` filters of `N^2 + N` scalars each, plus each one's model (p = 6, q = 2
@@ -82,7 +84,8 @@ use shadow::Shadow;
 
 /// Cramér-Rao standard deviation [decades] above which a coordinate is flagged "not
 /// identifiable from these data yet" (a factor of 3 either way at one sigma). The flag is
-/// reported; what moves a coordinate is the likelihood gain its parabola promises
+/// reported (and with [`OnlineConfig::hold_flat_taus`] a correlation time so flagged is
+/// held); what moves a coordinate is the likelihood gain its parabola promises
 /// ([`OnlineConfig::min_gain`]).
 pub const IDENTIFIABLE_SD: f64 = 0.5;
 
@@ -112,6 +115,12 @@ pub struct OnlineConfig {
     pub per_axis: bool,
     /// Identify the correlation times too.
     pub taus: bool,
+    /// Hold a correlation time whose marginal Cramér-Rao sd in its pair is above
+    /// [`IDENTIFIABLE_SD`] ([`newton`]: the sigma then takes its own step). Off by default:
+    /// it cut the tactical attitude tail (worst 1.23x against 1.59x the true-model filter on
+    /// seeds 9701-9706) but passed fewer runs, 96 of 144 against 102 (BENCHMARKS.md "Online
+    /// identification on the MCU"). `hal-sim nav --adapt-taus tested` with the bank.
+    pub hold_flat_taus: bool,
 }
 
 impl OnlineConfig {
@@ -127,6 +136,7 @@ impl OnlineConfig {
         conservative: true,
         per_axis: false,
         taus: true,
+        hold_flat_taus: false,
     };
 }
 
@@ -203,6 +213,7 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
             conservative: false,
             per_axis: false,
             taus: false,
+            hold_flat_taus: false,
         },
         coords: Vec::new(),
         pairs: Vec::new(),
@@ -385,7 +396,7 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         let step = newton::step(
             &self.cfg,
             self.d,
-            p,
+            &self.coords,
             &self.pairs,
             &q,
             &self.x,

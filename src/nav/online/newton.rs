@@ -8,9 +8,17 @@
 //! `c_ij = -(S(+,+) - S(+,0) - S(0,+) + S(0,0)) / d^2`, and moves by the 2x2 Newton step when
 //! that curvature matrix is positive definite; otherwise only its move that promises most is
 //! taken.
+//!
+//! With [`OnlineConfig::hold_flat_taus`] a correlation time the data do not bound is held
+//! (issue 13: a flat direction is flagged, not left to wander): in a pair whose tau has a marginal Cramér-Rao sd (from the inverse of
+//! the 2x2 curvature matrix) above [`IDENTIFIABLE_SD`], or whose curvature matrix is not
+//! positive definite, the tau stays and the sigma takes its own parabola's step. Along the
+//! ridge `sigma^2 / tau` = const that short windows leave, tau otherwise drifted to the bound
+//! (seed 9701, tactical: +1.96 decades, attitude 1.59x the true-model filter).
 
 use super::coords::{Coordinate, MAX_COORDS};
-use super::OnlineConfig;
+use super::{OnlineConfig, IDENTIFIABLE_SD};
+use crate::model::Quantity;
 use heapless::Vec;
 
 /// The pairs of coordinates that are quantities of one component (on the same axes).
@@ -74,18 +82,20 @@ impl Quad {
 /// parabola's vertex when it is concave, at most `2 d` away (a pattern search's extension), or
 /// `2 d` up the slope when it is not; only when that promises [`OnlineConfig::min_gain`] nats;
 /// within [`OnlineConfig::bound`] of the start; the pairs by their 2x2 Newton step (module
-/// docs). Writes each coordinate's Cramér-Rao sd `1 / sqrt(c)` into `cr_sd` (infinite where
-/// not concave).
+/// docs), with [`OnlineConfig::hold_flat_taus`] a flat pair's tau held. Writes each
+/// coordinate's Cramér-Rao sd into `cr_sd`: `1 / sqrt(c)` (with the option, the marginal sd
+/// for a pair with a positive definite curvature matrix), infinite where not concave.
 pub(super) fn step(
     cfg: &OnlineConfig,
     d: f64,
-    p: usize,
+    coords: &[Coordinate],
     pairs: &[(usize, usize)],
     q: &Quad,
     x: &[f64; MAX_COORDS],
     cr_sd: &mut [f64; MAX_COORDS],
 ) -> [f64; MAX_COORDS] {
-    let p = p.min(MAX_COORDS);
+    let p = coords.len().min(MAX_COORDS);
+    let is_tau = |i: usize| coords.get(i).is_some_and(|c| c.quantity == Quantity::Tau);
     *cr_sd = [f64::INFINITY; MAX_COORDS];
     let at = |a: &[f64; MAX_COORDS], i: usize| a.get(i).copied().unwrap_or(0.0);
     let mut out = [0.0; MAX_COORDS];
@@ -125,7 +135,30 @@ pub(super) fn step(
         let (gi, gj) = (at(&q.g, i), at(&q.g, j));
         let (cii, cjj, cij) = (at(&q.c, i), at(&q.c, j), at(&q.cx, k));
         let det = cii * cjj - cij * cij;
-        if cii > 0.0 && det > 0.0 && det.is_finite() {
+        let pd = cii > 0.0 && det > 0.0 && det.is_finite();
+        let (sd_i, sd_j) = if pd {
+            (libm::sqrt(cjj / det), libm::sqrt(cii / det))
+        } else {
+            (f64::INFINITY, f64::INFINITY)
+        };
+        // The marginal sds are reported with the option; without it each coordinate keeps its
+        // own parabola's (the conservative running model's raise was measured with those).
+        if pd && cfg.hold_flat_taus {
+            for (m, sd) in [(i, sd_i), (j, sd_j)] {
+                if let Some(v) = cr_sd.get_mut(m) {
+                    *v = sd;
+                }
+            }
+        }
+        // A tau of the pair that the data do not bound: held, the other by its own step.
+        let flat = [(i, sd_i), (j, sd_j)].into_iter().find(|&(m, sd)| {
+            cfg.hold_flat_taus && is_tau(m) && (sd.is_nan() || sd > IDENTIFIABLE_SD)
+        });
+        if let Some((tau, _)) = flat {
+            if let Some(o) = out.get_mut(tau) {
+                *o = 0.0;
+            }
+        } else if pd {
             let (mut si, mut sj) = ((cjj * gi - cij * gj) / det, (cii * gj - cij * gi) / det);
             let big = libm::fabs(si).max(libm::fabs(sj));
             if big > 2.0 * d {

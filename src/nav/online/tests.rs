@@ -50,7 +50,7 @@ fn a_coupled_pair_moves_to_the_vertex_of_an_exact_quadratic() {
     let out = step(
         &OnlineConfig::DEFAULT,
         0.5,
-        2,
+        &c,
         &pr,
         &q,
         &[0.0; MAX_COORDS],
@@ -59,8 +59,45 @@ fn a_coupled_pair_moves_to_the_vertex_of_an_exact_quadratic() {
     for i in 0..2 {
         assert!((out[i] - top[i]).abs() < 1e-9, "{out:?} against {top:?}");
     }
-    // The Cramér-Rao sds reported are the coordinates' own parabolas', 1/sqrt(H_ii).
+    // The Cramér-Rao sds reported are the coordinates' own parabolas', 1/sqrt(H_ii)...
     assert!((sd[0] - 0.05).abs() < 1e-12, "{sd:?}");
+    // ... and with `hold_flat_taus` the marginal ones, sqrt((H^-1)_ii).
+    let hold = OnlineConfig {
+        hold_flat_taus: true,
+        ..OnlineConfig::DEFAULT
+    };
+    let _ = step(&hold, 0.5, &c, &pr, &q, &[0.0; MAX_COORDS], &mut sd);
+    assert!(
+        (sd[0] - (400.0f64 / 30_400.0).sqrt()).abs() < 1e-12,
+        "{sd:?}"
+    );
+}
+
+/// Along a ridge (correlation 0.995) the tau's marginal Cramér-Rao sd exceeds
+/// `IDENTIFIABLE_SD`: with `hold_flat_taus` the tau is held and flagged, and the sigma takes
+/// its own parabola's step, `g_0 / H_00`, where the joint Newton step runs along the ridge.
+#[test]
+fn with_the_option_a_tau_the_data_do_not_bound_is_held() {
+    let c = coordinates(&gm_model(), false, true).unwrap_or_else(|e| panic!("{e:?}"));
+    let pr = pairs(&c);
+    let h = [[400.0, 398.0], [398.0, 400.0]];
+    let top = [0.3, 0.3];
+    let q = Quad::from_sums(0.5, 2, &pr, &sums(h, top, 0.5));
+    let mut sd = [0.0; MAX_COORDS];
+    let hold = OnlineConfig {
+        hold_flat_taus: true,
+        ..OnlineConfig::DEFAULT
+    };
+    let out = step(&hold, 0.5, &c, &pr, &q, &[0.0; MAX_COORDS], &mut sd);
+    let g0 = h[0][0] * top[0] + h[0][1] * top[1];
+    assert!((out[0] - g0 / h[0][0]).abs() < 1e-9, "{out:?}");
+    assert_eq!(out[1], 0.0, "the tau moved: {out:?}");
+    assert!(sd[1] > super::IDENTIFIABLE_SD, "{sd:?}");
+    // Without the option the pair takes its joint Newton step (to the vertex, within 2d).
+    let cfg = OnlineConfig::DEFAULT;
+    let out = step(&cfg, 0.5, &c, &pr, &q, &[0.0; MAX_COORDS], &mut sd);
+    assert!((out[0] - top[0]).abs() < 1e-9, "{out:?}");
+    assert!((out[1] - top[1]).abs() < 1e-9, "{out:?}");
 }
 
 #[test]
@@ -73,16 +110,16 @@ fn a_flat_likelihood_holds_and_a_bound_clamps() {
     let flat = sums([[2.0, 0.0], [0.0, 2.0]], [0.4, 0.0], 0.5);
     let mut sd = [0.0; MAX_COORDS];
     let q = Quad::from_sums(0.5, 2, &pr, &flat);
-    let out = step(&cfg, 0.5, 2, &pr, &q, &[0.0; MAX_COORDS], &mut sd);
+    let out = step(&cfg, 0.5, &c, &pr, &q, &[0.0; MAX_COORDS], &mut sd);
     assert_eq!(&out[..2], &[0.0, 0.0]);
     // A steep one far away: the step is at most 2d, and stops at the bound.
     let steep = sums([[100.0, 0.0], [0.0, 100.0]], [5.0, 0.0], 0.5);
     let q = Quad::from_sums(0.5, 2, &pr, &steep);
     let mut x = [0.0; MAX_COORDS];
-    let out = step(&cfg, 0.5, 2, &pr, &q, &x, &mut sd);
+    let out = step(&cfg, 0.5, &c, &pr, &q, &x, &mut sd);
     assert!((out[0] - 1.0).abs() < 1e-12, "{out:?}");
     x[0] = 1.6;
-    let out = step(&cfg, 0.5, 2, &pr, &q, &x, &mut sd);
+    let out = step(&cfg, 0.5, &c, &pr, &q, &x, &mut sd);
     assert!((out[0] - 0.4).abs() < 1e-12, "{out:?}");
 }
 
@@ -160,8 +197,13 @@ fn a_bank_refuses_bad_settings_and_non_finite_times() {
 fn an_estimate_inside_the_grid_keeps_the_window_and_one_outside_moves_it() {
     use super::OnlineIdent;
     let nav = navigator();
-    let mut id = OnlineIdent::<f64, 24, 8>::new(OnlineConfig::DEFAULT, &nav, 0.0)
-        .unwrap_or_else(|e| panic!("{e:?}"));
+    // The estimate itself as the running model: a decision hands over a model only when the
+    // estimate moved.
+    let cfg = OnlineConfig {
+        conservative: false,
+        ..OnlineConfig::DEFAULT
+    };
+    let mut id = OnlineIdent::<f64, 24, 8>::new(cfg, &nav, 0.0).unwrap_or_else(|e| panic!("{e:?}"));
     let d = id.d;
     // L(y) = -50 |y - top|^2 at each shadow's offset from the centre.
     let fill = |id: &mut OnlineIdent<f64, 24, 8>, top: [f64; 3]| {

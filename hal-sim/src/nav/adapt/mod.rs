@@ -116,7 +116,9 @@ pub enum TauMode {
     /// held values: the intensities are searched first with the correlation times held, then
     /// everything from there, and the second answer is taken when it gains more than half the
     /// chi-square(k) 0.99 quantile (`TAU_TEST_LEVEL`), k the number of correlation times: a
-    /// likelihood-ratio test of the held values against the free ones.
+    /// likelihood-ratio test of the held values against the free ones. With the bank
+    /// (`--adapt-method bank`) the correlation times are searched but held while their
+    /// marginal Cramér-Rao sd is above 0.5 decade (`OnlineConfig::hold_flat_taus`).
     Tested,
     /// Searched like the intensities.
     Free,
