@@ -130,7 +130,8 @@ pub(super) fn step(
         }
     }
     // The pairs: the 2x2 Newton step when the curvature matrix is positive definite, else
-    // the one move that promises most.
+    // the one move that promises most; with `hold_flat_taus`, a tau the data do not bound
+    // held and its partner by its own step.
     for (k, &(i, j)) in pairs.iter().enumerate() {
         let (gi, gj) = (at(&q.g, i), at(&q.g, j));
         let (cii, cjj, cij) = (at(&q.c, i), at(&q.c, j), at(&q.cx, k));
