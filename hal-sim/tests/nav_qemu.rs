@@ -22,6 +22,10 @@
 //! (so the constraint starts with the first heading fix, a decision the replay carries), and
 //! with zero-velocity updates (`--zupt`, the core's `Zupt::after_step`) on a stop-and-go drive
 //! whose 120-s stop falls inside a 180-s outage.
+//!
+//! Memory: the QEMU map is the STM32F405's (128 KiB of SRAM, the bank in a 64 KiB region
+//! standing for the CCM), so a static too large does not link, and `fits_the_f405` asserts
+//! that the stack marks the firmware reports stay clear of the statics.
 
 use std::path::PathBuf;
 
