@@ -326,6 +326,7 @@ fn qemu_firmware_nav_with_the_online_identification_matches_the_host_navigator()
     // The same comparison as `hal-sim nav --adapt --adapt-method bank --qemu-elf` writes to
     // `firmware.json`: every decision matched, within the bound above.
     let online = compare_online(&fw.online, log);
+    eprintln!("online decisions, firmware against host: {online:?}");
     assert_eq!(online.decisions, [log.searches.len(); 2]);
     assert!(online.worst_factor_diff_decades <= 1e-4, "{online:?}");
     assert_eq!(online.flags_differ, 0);
