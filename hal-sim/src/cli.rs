@@ -171,7 +171,8 @@ pub enum Command {
         /// The correlation times: searched like the intensities (free), held at the model's
         /// values, or tested (moved only when the window's likelihood rejects the held values
         /// at 1 %); chosen by measurement, BENCHMARKS.md "Online identification in the
-        /// navigator".
+        /// navigator". With --adapt-method bank, `tested` holds a correlation time whose
+        /// Cramér-Rao sd is above 0.5 decade (OnlineConfig::hold_flat_taus).
         #[arg(long, value_enum, default_value_t = ADAPT.taus)]
         adapt_taus: crate::nav::adapt::TauMode,
     },
