@@ -583,4 +583,4 @@ mod aiding;
 mod observer;
 pub use observer::{NavObserver, ObservationKind};
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

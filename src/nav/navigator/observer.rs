@@ -22,8 +22,8 @@ pub enum ObservationKind {
 }
 
 /// Hooks called by [`Navigator`](super::Navigator) around its filter operations. All states
-/// are the filter's scaled states ([`Navigator::scale`](super::Navigator::scale)). Every hook
-/// does nothing by default.
+/// are the filter's scaled states (each state divided by the `scale` the hooks receive).
+/// Every hook does nothing by default.
 #[allow(non_snake_case)]
 pub trait NavObserver<T: Real, const N: usize> {
     /// Before the prediction over `model.dt`: `model` is linearised at `model.point`, and `x`

@@ -4,8 +4,13 @@ use super::*;
 use crate::nav::{ImuErrorModel, NavInit};
 use crate::strapdown::{Geodetic, Quat};
 
-/// A navigator with no sensor states at `att`, `v`, with the step's mean rate `w`.
-fn navigator(att: Quat<f64>, v: Vector3<f64>, w: Vector3<f64>) -> Navigator<f64, 9> {
+/// A navigator with the noise model `imu` at `att`, `v`, at rest on the model's linearisation
+/// point (also the online identification's tests, `nav::online::tests`).
+pub(crate) fn navigator_with<const N: usize>(
+    imu: ImuErrorModel<f64>,
+    att: Quat<f64>,
+    v: Vector3<f64>,
+) -> Navigator<f64, N> {
     let pos = Geodetic {
         lat: 0.6,
         lon: 2.0,
@@ -13,7 +18,7 @@ fn navigator(att: Quat<f64>, v: Vector3<f64>, w: Vector3<f64>) -> Navigator<f64,
     };
     let ins = Strapdown::new(pos, v, att).unwrap_or_else(|e| panic!("{e:?}"));
     let model = StrapdownErrorModel {
-        imu: ImuErrorModel::default(),
+        imu,
         init: NavInit {
             sd_att: Vector3::repeat(0.01),
             sd_vel: 0.1,
@@ -25,8 +30,12 @@ fn navigator(att: Quat<f64>, v: Vector3<f64>, w: Vector3<f64>) -> Navigator<f64,
         dt: 1.0,
         scale_factor_sd: None,
     };
-    let mut nav =
-        Navigator::new(ins, 0.0, model, NavConfig::default()).unwrap_or_else(|e| panic!("{e:?}"));
+    Navigator::new(ins, 0.0, model, NavConfig::default()).unwrap_or_else(|e| panic!("{e:?}"))
+}
+
+/// A navigator with no sensor states at `att`, `v`, with the step's mean rate `w`.
+fn navigator(att: Quat<f64>, v: Vector3<f64>, w: Vector3<f64>) -> Navigator<f64, 9> {
+    let mut nav = navigator_with(ImuErrorModel::default(), att, v);
     nav.model.point.mean_w_b = w;
     nav
 }

@@ -29,7 +29,7 @@
 //!
 //! # The decisions
 //! Every [`OnlineConfig::every`] seconds from [`OnlineConfig::first`], from the sums since the
-//! shadows last moved ([`newton`]): each coordinate's parabola through its shadows at
+//! shadows last moved (`newton.rs`): each coordinate's parabola through its shadows at
 //! `-d, 0, +d` gives its gradient and curvature; a pair's `(+d, +d)` shadow gives the cross
 //! curvature, and a pair moves by the 2x2 Newton step. A coordinate's step goes to the vertex,
 //! at most `2 d` (a pattern search's extension), or `2 d` up the slope where the parabola is
@@ -54,7 +54,7 @@
 //! the MCU"). Each coordinate's Cramér-Rao sd at a decision is `1 / sqrt(curvature)`; above
 //! [`IDENTIFIABLE_SD`] it is flagged "not identifiable from these data yet". With
 //! [`OnlineConfig::hold_flat_taus`] a pair's sds are the marginal ones and a correlation
-//! time so flagged is held ([`newton`]).
+//! time so flagged is held (`newton.rs`).
 //!
 //! # Cost (p coordinates, q pairs, N filter states)
 //! RAM: `2p + 1 + q` filters of `N^2 + N` scalars each, plus each one's model (p = 6, q = 2
@@ -116,7 +116,7 @@ pub struct OnlineConfig {
     /// Identify the correlation times too.
     pub taus: bool,
     /// Hold a correlation time whose marginal Cramér-Rao sd in its pair is above
-    /// [`IDENTIFIABLE_SD`] ([`newton`]: the sigma then takes its own step). Off by default:
+    /// [`IDENTIFIABLE_SD`] (`newton.rs`: the sigma then takes its own step). Off by default:
     /// it cut the tactical attitude tail (worst 1.23x against 1.59x the true-model filter on
     /// seeds 9701-9706) but passed fewer runs, 96 of 144 against 102 (BENCHMARKS.md "Online
     /// identification on the MCU"). `hal-sim nav --adapt-taus tested` with the bank.

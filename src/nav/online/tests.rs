@@ -126,9 +126,6 @@ fn a_flat_likelihood_holds_and_a_bound_clamps() {
 /// A navigator at rest with a white noise and a Gauss-Markov on every gyro axis.
 fn navigator() -> crate::nav::Navigator<f64, 24> {
     use crate::model::WhiteNoise;
-    use crate::nav::{NavConfig, NavInit, NavPoint, Navigator, StrapdownErrorModel, NAV_Z};
-    use crate::strapdown::{Geodetic, Quat, Strapdown};
-    use nalgebra::Vector3;
     let mut imu = gm_model();
     imu.set_all_gyro(&[
         Component::White(WhiteNoise { density: 1e-4 }),
@@ -138,27 +135,11 @@ fn navigator() -> crate::nav::Navigator<f64, 24> {
         }),
     ])
     .unwrap_or_else(|e| panic!("{e:?}"));
-    let pos = Geodetic {
-        lat: 0.6,
-        lon: 2.0,
-        h: 100.0,
-    };
-    let ins =
-        Strapdown::new(pos, Vector3::zeros(), Quat::identity()).unwrap_or_else(|e| panic!("{e:?}"));
-    let model = StrapdownErrorModel {
+    crate::nav::navigator::tests::navigator_with(
         imu,
-        init: NavInit {
-            sd_att: Vector3::repeat(0.01),
-            sd_vel: 0.1,
-            sd_pos: 1.0,
-        },
-        lever_arm: Vector3::zeros(),
-        obs_sd: [1.0; NAV_Z],
-        point: NavPoint::at_rest(0.6, 100.0),
-        dt: 1.0,
-        scale_factor_sd: None,
-    };
-    Navigator::new(ins, 0.0, model, NavConfig::default()).unwrap_or_else(|e| panic!("{e:?}"))
+        crate::strapdown::Quat::identity(),
+        nalgebra::Vector3::zeros(),
+    )
 }
 
 /// On [`navigator`]'s bank: non-finite times decide nothing (and return: no loop over an
