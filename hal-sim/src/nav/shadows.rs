@@ -29,6 +29,9 @@ pub struct Decision {
     pub log10_factors: Vec<f64>,
     /// Cramér-Rao sd of each factor [decades] at the decision.
     pub cr_sd: Vec<f64>,
+    /// Each factor identifiable from the data so far (the core's flag,
+    /// [`OnlineIdent::identifiable`]).
+    pub identifiable: Vec<bool>,
 }
 
 /// The navigator's observer in the host loop: the bank, when the run identifies with it.
@@ -87,6 +90,9 @@ impl<T: Real> NavObserver<T, NAV_N> for Shadows<T> {
                 fixes,
                 log10_factors: id.log10_factors().to_vec(),
                 cr_sd: id.cr_sd().to_vec(),
+                identifiable: (0..id.coordinates().len())
+                    .map(|i| id.identifiable(i))
+                    .collect(),
             });
         }
         m

@@ -2,7 +2,7 @@
 //! its decisions written as the window search's records ([`AdaptLog`]), so that `adapt.json`,
 //! `adapt.csv` and the report show either method the same way.
 
-use super::{AdaptLog, Coordinate, Search, IDENTIFIABLE_SD};
+use super::{AdaptLog, Coordinate, Search};
 use crate::nav::drive::NavOf;
 use crate::nav::shadows::{Ident, Shadows};
 use anyhow::Result;
@@ -52,7 +52,7 @@ pub fn bank_log<T: Real>(shadows: &Shadows<T>) -> Option<AdaptLog> {
             evaluations: 0,
             tau_test: None,
             ml_log10_factors: d.log10_factors.clone(),
-            identifiable: d.cr_sd.iter().map(|sd| *sd <= IDENTIFIABLE_SD).collect(),
+            identifiable: d.identifiable.clone(),
             cr_sd_log10: d.cr_sd.clone(),
             log10_factors: d.log10_factors.clone(),
         })

@@ -81,7 +81,7 @@ pub struct AdaptConfig {
 pub enum AdaptMethod {
     /// A pattern search over replays of a buffered window (host only: the window is ~1.3 MB).
     Replay,
-    /// The core's bank of shadow filters and recursive Gauss-Newton (what the MCU runs).
+    /// The core's bank of shadow filters and parabola steps (what the MCU runs).
     Bank,
 }
 
@@ -132,8 +132,9 @@ pub const TAU_TEST_LEVEL: f64 = 0.99;
 pub const FLAT_NATS: f64 = 0.5;
 
 /// Cramér-Rao sd [decades] above which a coordinate is flagged as not identifiable from the
-/// window: its one-sigma interval then spans more than a factor 10.
-pub const IDENTIFIABLE_SD: f64 = 0.5;
+/// window (its one-sigma interval then spans more than a factor 10): the core's, the same
+/// flag for the window search and the bank.
+pub use imu_ident::nav::online::IDENTIFIABLE_SD;
 
 /// Bound on every log10 factor, relative to the starting model.
 pub const MAX_DECADES: f64 = 2.0;
