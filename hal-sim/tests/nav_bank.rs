@@ -84,7 +84,7 @@ fn the_centre_shadow_reproduces_the_running_filter() {
         NavLoop::<f64>::start(&a, &shifted, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let t0 = lp.time(&shifted);
     let online = a.online().expect("the bank's settings");
-    start_bank(online, &mut lp.nav, t0).unwrap_or_else(|e| panic!("{e:#}"));
+    start_bank(online, lp.nav_mut(), t0).unwrap_or_else(|e| panic!("{e:#}"));
     let mut epochs = Vec::new();
     lp.advance(
         &shifted,
@@ -95,7 +95,7 @@ fn the_centre_shadow_reproduces_the_running_filter() {
         &|| {},
     )
     .unwrap_or_else(|e| panic!("{e:#}"));
-    let id = lp.nav.observer().ident.as_ref().expect("the bank");
+    let id = lp.nav().observer().ident.as_ref().expect("the bank");
     let p = id.coordinates().len();
     let sums = id.window_sums();
     let centre = sums[2 * p];

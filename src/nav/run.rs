@@ -210,6 +210,12 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> NavReplay<T, N, O> {
         &self.nav
     }
 
+    /// The navigator, to change (the host's window replays retune its model and open its
+    /// gate; the bank is started on it).
+    pub fn navigator_mut(&mut self) -> &mut Navigator<T, N, O> {
+        &mut self.nav
+    }
+
     /// Time of the last IMU sample [s].
     pub fn time(&self) -> f64 {
         self.t
@@ -225,21 +231,33 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> NavReplay<T, N, O> {
     /// zero-velocity update if the setup has one and the step was at rest
     /// ([`Zupt::after_step`]): the host driver's order, before the fixes this sample reaches.
     pub fn imu(&mut self, r: &ImuRecord) -> Result<ImuStep<T>, NavError> {
-        let dt = r.t - self.t;
+        let gyro = Vector3::from(r.gyro).map(|v| T::lit(f64::from(v)));
+        let accel = Vector3::from(r.accel).map(|v| T::lit(f64::from(v)));
+        self.sample(r.t, gyro, accel)
+    }
+
+    /// [`imu`](Self::imu) for a sample at `t` [s] of mean rates `gyro` [rad/s] and specific
+    /// force `accel` [m/s^2] over `(previous t, t]`, in `T` (the host's driver, whose samples
+    /// are f64, calls this: one driver for the host and the firmware).
+    pub fn sample(
+        &mut self,
+        t: f64,
+        gyro: Vector3<T>,
+        accel: Vector3<T>,
+    ) -> Result<ImuStep<T>, NavError> {
+        let dt = t - self.t;
         if dt.is_nan() || dt <= 0.0 {
             return Err(NavError::BadTime);
         }
-        let gyro = Vector3::from(r.gyro).map(|v| T::lit(f64::from(v)));
-        let accel = Vector3::from(r.accel).map(|v| T::lit(f64::from(v)));
         let inc = Increment::from_rates(&gyro, &accel, T::lit(dt));
-        let stepped = self.nav.imu(r.t, &inc)?;
+        let stepped = self.nav.imu(t, &inc)?;
         if let Some(z) = &self.zupt {
             // The raw sample resolved with the attitude before it (`rest` module docs; the
             // host driver's order), before the step's update below.
             let f_n = self.nav.sample_attitude() * accel;
             self.rest.sample(z, &gyro, &f_n);
         }
-        self.t = r.t;
+        self.t = t;
         let nhc = match (&self.nhc, stepped) {
             (Some(c), true) => c.after_step(&mut self.nav, self.heading_known)?,
             _ => None,
@@ -250,7 +268,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> NavReplay<T, N, O> {
         };
         // The online identification's decision after the step's aiding (the host driver's
         // order), before the fixes this sample reaches.
-        let retuned = stepped && self.nav.take_observer_model(r.t)?;
+        let retuned = stepped && self.nav.take_observer_model(t)?;
         Ok(ImuStep {
             stepped,
             nhc,
@@ -264,9 +282,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> NavReplay<T, N, O> {
     pub fn gnss(&mut self, r: &GnssRecord) -> Result<Option<Fused<T, NAV_Z>>, NavError> {
         let v3 = |a: &[f32; 3]| Vector3::from(*a).map(|v| T::lit(f64::from(v)));
         if r.flags & gnss_flags::HEADING != 0 {
-            self.nav
-                .set_heading(T::lit(r.yaw), self.heading_sd, Some(v3(&r.vel)))?;
-            self.heading_known = true;
+            self.set_heading(T::lit(r.yaw), v3(&r.vel))?;
         }
         if r.flags & gnss_flags::FUSE == 0 {
             return Ok(None);
@@ -276,15 +292,35 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> NavReplay<T, N, O> {
         } else {
             Vector3::repeat(T::lit(f64::NAN))
         };
-        let [fp, fv] = self.sd_factor;
         let fix = GnssFix {
             t: r.t,
             pos: r.pos,
             vel,
-            sd_pos: v3(&r.sd_pos) * fp,
-            sd_vel: v3(&r.sd_vel) * fv,
+            sd_pos: v3(&r.sd_pos),
+            sd_vel: v3(&r.sd_vel),
         };
-        self.nav.gnss(&fix).map(Some)
+        self.fuse(&fix).map(Some)
+    }
+
+    /// The heading from the GNSS course: yaw `yaw` [rad] and the fix's NED velocity `vel`
+    /// [m/s], with the setup's heading deviation ([`Navigator::set_heading`]); the heading is
+    /// known from now on (the non-holonomic constraint may apply).
+    pub fn set_heading(&mut self, yaw: T, vel: Vector3<T>) -> Result<(), NavError> {
+        self.nav.set_heading(yaw, self.heading_sd, Some(vel))?;
+        self.heading_known = true;
+        Ok(())
+    }
+
+    /// Fuses `fix`, its standard deviations multiplied by the setup's factors
+    /// ([`NavSetup::sd_factor`]).
+    pub fn fuse(&mut self, fix: &GnssFix<T>) -> Result<Fused<T, NAV_Z>, NavError> {
+        let [fp, fv] = self.sd_factor;
+        let fix = GnssFix {
+            sd_pos: fix.sd_pos * fp,
+            sd_vel: fix.sd_vel * fv,
+            ..*fix
+        };
+        self.nav.gnss(&fix)
     }
 
     /// The solution at the epoch `r` (after [`gnss`](Self::gnss) for it), moved back from the

@@ -1,10 +1,12 @@
-//! The replay loop of `hal-sim nav` ([`NavLoop`]): IMU samples through the core's navigator,
-//! the non-holonomic constraint once per filter step, and the GNSS fixes at their times with
-//! the planner's decisions (outages, heading from the course, the interval between fused
-//! fixes). The whole run ([`super::run_observed`]) and the online identification's window
-//! replays ([`super::adapt`]) both advance this loop, so the two apply the same rules; a loop
-//! is a value, so a copy taken at a window's start replays that window under another noise
-//! model.
+//! The replay loop of `hal-sim nav` ([`NavLoop`]): each IMU sample through the core's run
+//! driver, [`NavReplay::sample`] (the firmware's own step: mechanisation, the non-holonomic
+//! constraint and the zero-velocity update after a filter step, the online identification's
+//! decision), and the GNSS fixes at their times with the planner's decisions (outages,
+//! heading from the course, the interval between fused fixes), fused through
+//! [`NavReplay::fuse`]. The whole run ([`super::run_observed`]) and the online
+//! identification's window replays ([`super::adapt`]) both advance this loop, so the two apply
+//! the same rules; a loop is a value, so a copy taken at a window's start replays that window
+//! under another noise model.
 
 use super::records::{self, EpochRecord};
 use super::setup::{self, FixPlanner};
@@ -13,32 +15,27 @@ use super::{to_core_fix, NavArgs};
 use crate::nav_io::{GnssFix, ImuSample};
 use anyhow::{bail, Result};
 use imu_ident::filter::AxisStatus;
-use imu_ident::nav::run::Nhc;
-use imu_ident::nav::{Navigator, RestDetector, Zupt, NAV_N};
-use imu_ident::strapdown::Increment;
+use imu_ident::nav::run::NavReplay;
+use imu_ident::nav::{Navigator, NAV_N};
 use imu_ident::Real;
 use nalgebra::Vector3;
 
 /// The state of a replay between two IMU samples.
 #[derive(Debug, Clone)]
 pub struct NavLoop<T: Real> {
-    /// The navigator, with the online identification's shadow filters when it has them.
-    pub nav: NavOf<T>,
+    /// The core's run driver (the firmware's), its navigator with the online
+    /// identification's shadow filters when it has them.
+    run: NavReplay<T, NAV_N, Shadows<T>>,
     /// The per-fix decisions.
     pub planner: FixPlanner,
-    nhc_core: Option<Nhc<T>>,
     /// The constraint's statistics (with `--nhc`).
     pub nhc: Option<records::NhcSummary>,
-    zupt_core: Option<Zupt<T>>,
-    rest: RestDetector<T>,
     /// The zero-velocity updates' statistics (with `--zupt`).
     pub zupt: Option<records::ZuptSummary>,
     /// Index of the last IMU sample mechanised (the next interval is `imu[i]..imu[i + 1]`).
     pub i: usize,
     /// Index of the next fix.
     pub fix_k: usize,
-    heading_sd: f64,
-    gnss_sd_factor: [f64; 2],
     use_velocity: bool,
     /// Sum of the fused fixes' innovation log-likelihoods so far.
     pub loglik: f64,
@@ -78,44 +75,45 @@ impl<T: Real> NavLoop<T> {
         fixes: &[GnssFix],
     ) -> Result<(Self, Vec<crate::nav_io::outages::Outage>)> {
         let setup::Start { setup, k, outages } = setup::start(args, imu, fixes)?;
-        let nav = setup
-            .navigator::<T, NAV_N>()
-            .map_err(|e| anyhow::anyhow!("nav: {e:?} (the model needs more than {NAV_N} states?)"))?
-            .with_observer(Shadows::default());
-        // The constraint from the setup, applied by the core's `Nhc::after_step`: the same code
-        // and the same values as the firmware's replay loop (`NavReplay::imu`).
-        let nhc_core = setup
+        // The constraint and the zero-velocity update are checked first, with the options
+        // named; `NavReplay::new` checks them again, then builds the navigator.
+        setup
             .nhc::<T>()
             .map_err(|e| anyhow::anyhow!("nav: constraint (--nhc, --nhc-lever): {e:?}"))?;
+        if let Some(z) = args.zupt.as_ref() {
+            imu_ident::nav::Zupt::<T>::cast_checked(z)
+                .map_err(|e| anyhow::anyhow!("nav: zero-velocity update (--zupt): {e:?}"))?;
+        }
+        let run = NavReplay::<T, NAV_N>::new(&setup)
+            .map_err(|e| anyhow::anyhow!("nav: {e:?} (the model needs more than {NAV_N} states?)"))?
+            .with_observer(Shadows::default());
         let nhc = args.nhc.map(|sd| records::NhcSummary {
             sd,
             lever: args.nhc_lever,
             ..Default::default()
         });
-        let zupt_core = args
-            .zupt
-            .as_ref()
-            .map(Zupt::cast_checked)
-            .transpose()
-            .map_err(|e| anyhow::anyhow!("nav: zero-velocity update (--zupt): {e:?}"))?;
-        let rest = RestDetector::new(RestDetector::gravity_at(&nav));
         let lp = Self {
-            nav,
+            run,
             planner: FixPlanner::new(args, outages.clone()),
-            nhc_core,
             nhc,
-            zupt_core,
-            rest,
             zupt: args.zupt.map(records::ZuptSummary::new),
             i: k,
             fix_k: fixes.partition_point(|f| f.t < setup.t0),
-            heading_sd: setup.heading_sd,
-            gnss_sd_factor: args.gnss_sd_factor,
             use_velocity: args.use_velocity,
             loglik: 0.0,
             fused: 0,
         };
         Ok((lp, outages))
+    }
+
+    /// The navigator.
+    pub fn nav(&self) -> &NavOf<T> {
+        self.run.navigator()
+    }
+
+    /// The navigator, to change (the bank is started on it; window replays retune it).
+    pub fn nav_mut(&mut self) -> &mut NavOf<T> {
+        self.run.navigator_mut()
     }
 
     /// The time of the last sample mechanised [s].
@@ -145,54 +143,32 @@ impl<T: Real> NavLoop<T> {
             }
             let gyro = Vector3::from(b.gyro).map(T::lit);
             let accel = Vector3::from(b.accel).map(T::lit);
-            let inc = Increment::from_rates(&gyro, &accel, T::lit(dt));
-            let stepped = self
-                .nav
-                .imu(b.t, &inc)
-                .map_err(|e| anyhow::anyhow!("nav: IMU sample at t = {}: {e:?}", b.t))?;
-            if let Some(z) = self.zupt_core.as_ref() {
-                // The raw sample, its specific force in NED with the attitude before it
-                // (`rest` module docs), before the step's update below.
-                let f_n = self.nav.sample_attitude() * accel;
-                self.rest.sample(z, &gyro, &f_n);
+            // The firmware's step: mechanisation; after a filter step the constraint (once the
+            // heading is known and above NHC_MIN_SPEED), the zero-velocity update (when found
+            // at rest; never together with the constraint) and the bank's decision.
+            let step = self.run.sample(b.t, gyro, accel).map_err(|e| {
+                anyhow::anyhow!(
+                    "nav: IMU sample at t = {} (mechanisation, constraint, zero-velocity \
+                     update or online model): {e:?}",
+                    b.t
+                )
+            })?;
+            if let (Some(f), Some(sum)) = (step.nhc, self.nhc.as_mut()) {
+                let nu = f.innovation.map(|v| v.as_f64());
+                let s = f.variance.map(|v| v.as_f64());
+                sum.add(nu, s, f.gated, self.planner.withheld_at(b.t));
             }
-            // The non-holonomic constraint once per filter step, with or without GNSS, once
-            // the heading is known and above NHC_MIN_SPEED (the core decides:
-            // `Nhc::after_step`).
-            if let (true, Some(c)) = (stepped, self.nhc_core.as_ref()) {
-                let fused = c
-                    .after_step(&mut self.nav, self.planner.heading_known())
-                    .map_err(|e| anyhow::anyhow!("nav: constraint at t = {}: {e:?}", b.t))?;
-                if let (Some(f), Some(sum)) = (fused, self.nhc.as_mut()) {
-                    let nu = f.innovation.map(|v| v.as_f64());
-                    let s = f.variance.map(|v| v.as_f64());
-                    sum.add(nu, s, f.gated, self.planner.withheld_at(b.t));
-                }
-            }
-            // A zero-velocity update after a step found at rest (`Zupt::after_step`); below
-            // its speed bound, so never together with the constraint (above NHC_MIN_SPEED).
-            if let (true, Some(z)) = (stepped, self.zupt_core.as_ref()) {
-                let fused = z.after_step(&mut self.nav, &mut self.rest).map_err(|e| {
-                    anyhow::anyhow!("nav: zero-velocity update at t = {}: {e:?}", b.t)
-                })?;
-                if let (Some(f), Some(sum)) = (fused, self.zupt.as_mut()) {
-                    let nis: f64 = (0..3)
-                        .map(|i| f.innovation[i].as_f64().powi(2) / f.variance[i].as_f64())
-                        .sum();
-                    sum.add(nis, f.gated, self.planner.withheld_at(b.t));
-                }
-            }
-            // The bank's decision (with `--adapt-method bank`), after the step's aiding.
-            if stepped {
-                self.nav
-                    .take_observer_model(b.t)
-                    .map_err(|e| anyhow::anyhow!("nav: online model at t = {}: {e:?}", b.t))?;
+            if let (Some(f), Some(sum)) = (step.zupt, self.zupt.as_mut()) {
+                let nis: f64 = (0..3)
+                    .map(|i| f.innovation[i].as_f64().powi(2) / f.variance[i].as_f64())
+                    .sum();
+                sum.add(nis, f.gated, self.planner.withheld_at(b.t));
             }
             while self.fix_k < fixes.len() && fixes[self.fix_k].t <= b.t {
                 let f = fixes[self.fix_k];
                 self.fix_k += 1;
                 let rec = self.fix(&f)?;
-                sink.epoch(rec, &self.nav, b.t);
+                sink.epoch(rec, self.run.navigator(), b.t);
             }
         }
         Ok(())
@@ -202,22 +178,16 @@ impl<T: Real> NavLoop<T> {
     fn fix(&mut self, f: &GnssFix) -> Result<EpochRecord> {
         let plan = self.planner.plan(f)?;
         if let (Some(yaw), Some(v)) = (plan.heading, f.vel_ned) {
-            self.nav
-                .set_heading(
-                    T::lit(yaw),
-                    T::lit(self.heading_sd),
-                    Some(Vector3::from(v).map(T::lit)),
-                )
+            self.run
+                .set_heading(T::lit(yaw), Vector3::from(v).map(T::lit))
                 .map_err(|e| anyhow::anyhow!("nav: {e:?}"))?;
         }
         let mut rec = EpochRecord::blank(f.t, plan.withheld);
         if plan.fuse {
-            let mut core = to_core_fix::<T>(f, self.use_velocity);
-            core.sd_pos *= T::lit(self.gnss_sd_factor[0]);
-            core.sd_vel *= T::lit(self.gnss_sd_factor[1]);
+            let core = to_core_fix::<T>(f, self.use_velocity);
             let fused = self
-                .nav
-                .gnss(&core)
+                .run
+                .fuse(&core)
                 .map_err(|e| anyhow::anyhow!("nav: GNSS fix at t = {}: {e:?}", f.t))?;
             rec.fused = true;
             rec.gated = fused.gated;

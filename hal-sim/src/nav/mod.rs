@@ -297,7 +297,7 @@ pub fn run_observed<T: Real>(
     let name = args.imu.display().to_string();
     let t_start = lp.time(imu);
     if let Some(online) = args.online() {
-        adapt::start_bank(online, &mut lp.nav, t_start)?;
+        adapt::start_bank(online, lp.nav_mut(), t_start)?;
     }
     let mut adapter = args
         .adapt
@@ -323,7 +323,7 @@ pub fn run_observed<T: Real>(
         args,
         &epochs,
         scores.as_ref(),
-        lp.nav.gaps(),
+        lp.nav().gaps(),
         started.elapsed().as_secs_f64(),
         heading_known,
     );
@@ -336,7 +336,7 @@ pub fn run_observed<T: Real>(
         summary,
         adapt: adapter
             .map(adapt::Adapter::finish)
-            .or_else(|| adapt::bank_log(lp.nav.observer())),
+            .or_else(|| adapt::bank_log(lp.nav().observer())),
     })
 }
 

@@ -405,12 +405,12 @@ impl<T: Real> Adapter<T> {
                 }
             } else {
                 let mut w = start.clone();
-                if w.nav.retune_imu_model(model.cast()).is_err() {
+                if w.nav_mut().retune_imu_model(model.cast()).is_err() {
                     return Ok(f64::NEG_INFINITY);
                 }
                 w
             };
-            w.nav.set_gate(None);
+            w.nav_mut().set_gate(None);
             w.loglik = 0.0;
             w.fused = 0;
             w.advance(imu, fixes, t, &mut Discard, imu_name, &|| {})?;
@@ -512,7 +512,7 @@ impl<T: Real> Adapter<T> {
         }
         self.x = x;
         let model = apply(&self.base, &self.coords, &self.x);
-        lp.nav
+        lp.nav_mut()
             .retune_imu_model(model.cast())
             .map_err(|e| anyhow::anyhow!("nav --adapt: model at t = {t}: {e:?}"))?;
         self.checkpoints.push_back(lp.clone());
