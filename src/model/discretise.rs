@@ -74,84 +74,133 @@ pub fn discretise_block<T: Real, const N: usize>(
     dt: T,
     n: usize,
 ) -> Result<(Arr<T, N>, Arr<T, N>), ModelError> {
-    let n = n.min(N);
-    if !(dt.is_finite() && dt > T::zero()) {
-        return Err(ModelError::BadDt);
-    }
-    // Largest absolute column sum of each block (the 1-norm).
-    let mut col = [T::zero(); N];
-    let mut qcol = [T::zero(); N];
-    for (ra, rq) in A.iter().zip(Qc.iter()).take(n) {
-        for (((c, q), x), y) in col.iter_mut().zip(qcol.iter_mut()).zip(ra).zip(rq).take(n) {
-            *c += x.abs();
-            *q += y.abs();
+    let e = Expm::new(A, dt, n)?;
+    e.discretise(A, Qc)
+}
+
+/// The part of the discretisation that depends on `A` and `dt` only (steps 1 and 2's
+/// `Phi_h`): several noise intensities `Qc` over one `A` share it
+/// ([`discretise`](Self::discretise) for each), and `Qd` is linear in `Qc`, so the
+/// identification's shadow filters that differ only in an intensity share their `Phi` and
+/// add a multiple of one `Qd` (`nav::online`).
+#[derive(Debug, Clone)]
+pub struct Expm<T: Real, const N: usize> {
+    /// `Phi_h = exp(A h)` by the Taylor series.
+    phi_h: Arr<T, N>,
+    /// `h = dt / 2^s`.
+    h: T,
+    s: u32,
+    n: usize,
+}
+
+impl<T: Real, const N: usize> Expm<T, N> {
+    /// Steps 1 and 2 (`Phi_h`) for `A` over `dt`, the leading `n` states.
+    #[allow(non_snake_case)]
+    pub fn new(A: &Arr<T, N>, dt: T, n: usize) -> Result<Self, ModelError> {
+        let n = n.min(N);
+        if !(dt.is_finite() && dt > T::zero()) {
+            return Err(ModelError::BadDt);
         }
-    }
-    let norm = col.iter().fold(T::zero(), |m, v| m.max(*v));
-    let qnorm = qcol.iter().fold(T::zero(), |m, v| m.max(*v));
-    let mut scaled = norm * dt;
-    if !(scaled.is_finite() && qnorm.is_finite()) {
-        return Err(ModelError::NonFinite);
-    }
-    let mut s = 0u32;
-    while scaled > T::lit(0.25) {
-        if s >= MAX_SQUARINGS {
+        // Largest absolute column sum (the 1-norm).
+        let mut col = [T::zero(); N];
+        for ra in A.iter().take(n) {
+            for (c, x) in col.iter_mut().zip(ra).take(n) {
+                *c += x.abs();
+            }
+        }
+        let norm = col.iter().fold(T::zero(), |m, v| m.max(*v));
+        let mut scaled = norm * dt;
+        if !scaled.is_finite() {
             return Err(ModelError::NonFinite);
         }
-        scaled *= T::lit(0.5);
-        s += 1;
-    }
-    let h = dt / T::lit(libm::exp2(f64::from(s)));
-    let order = taylor_order::<T>();
-    let mut ah = *A;
-    for row in ah.iter_mut().take(n) {
-        for v in row.iter_mut().take(n) {
-            *v *= h;
+        let mut s = 0u32;
+        while scaled > T::lit(0.25) {
+            if s >= MAX_SQUARINGS {
+                return Err(ModelError::NonFinite);
+            }
+            scaled *= T::lit(0.5);
+            s += 1;
         }
-    }
-    // Phi_h = I + Ah (I + Ah/2 (I + Ah/3 (...))) (Horner).
-    let mut phi = zeros();
-    for (i, row) in phi.iter_mut().enumerate().take(n) {
-        row[i] = T::one();
-    }
-    for k in (1..=order).rev() {
-        let inv_k = T::one() / T::lit(k as f64);
-        let m = mul(&ah, &phi, n);
-        for (i, (pr, mr)) in phi.iter_mut().zip(m.iter()).enumerate().take(n) {
-            for (j, (p, v)) in pr.iter_mut().zip(mr.iter()).enumerate().take(n) {
-                *p = *v * inv_k + if i == j { T::one() } else { T::zero() };
+        let h = dt / T::lit(libm::exp2(f64::from(s)));
+        let order = taylor_order::<T>();
+        let mut ah = *A;
+        for row in ah.iter_mut().take(n) {
+            for v in row.iter_mut().take(n) {
+                *v *= h;
             }
         }
-    }
-    // Q_h = sum_k C_k h^{k+1} / (k+1)!, C_0 = Qc, C_k = A C_{k-1} + (A C_{k-1})^T.
-    let mut c = *Qc;
-    let mut coef = h;
-    let mut q = zeros();
-    add_scaled(&mut q, &c, coef, n);
-    for k in 1..=order {
-        let ac = mul(A, &c, n);
-        let act = transpose(&ac);
-        for ((cr, ar), tr) in c.iter_mut().zip(ac.iter()).zip(act.iter()).take(n) {
-            for ((v, x), y) in cr.iter_mut().zip(ar.iter()).zip(tr.iter()).take(n) {
-                *v = *x + *y;
+        // Phi_h = I + Ah (I + Ah/2 (I + Ah/3 (...))) (Horner).
+        let mut phi = zeros();
+        for (i, row) in phi.iter_mut().enumerate().take(n) {
+            row[i] = T::one();
+        }
+        for k in (1..=order).rev() {
+            let inv_k = T::one() / T::lit(k as f64);
+            let m = mul(&ah, &phi, n);
+            for (i, (pr, mr)) in phi.iter_mut().zip(m.iter()).enumerate().take(n) {
+                for (j, (p, v)) in pr.iter_mut().zip(mr.iter()).enumerate().take(n) {
+                    *p = *v * inv_k + if i == j { T::one() } else { T::zero() };
+                }
             }
         }
-        coef = coef * h / T::lit((k + 1) as f64);
+        Ok(Self {
+            phi_h: phi,
+            h,
+            s,
+            n,
+        })
+    }
+
+    /// `(Phi, Qd)` of `(A, Qc)` over the step, `A` the one given to [`new`](Self::new)
+    /// (steps 2's `Q_h` and 3).
+    #[allow(non_snake_case)]
+    pub fn discretise(
+        &self,
+        A: &Arr<T, N>,
+        Qc: &Arr<T, N>,
+    ) -> Result<(Arr<T, N>, Arr<T, N>), ModelError> {
+        let (n, h) = (self.n, self.h);
+        let mut qcol = [T::zero(); N];
+        for rq in Qc.iter().take(n) {
+            for (q, y) in qcol.iter_mut().zip(rq).take(n) {
+                *q += y.abs();
+            }
+        }
+        if !qcol.iter().fold(T::zero(), |m, v| m.max(*v)).is_finite() {
+            return Err(ModelError::NonFinite);
+        }
+        let order = taylor_order::<T>();
+        let mut phi = self.phi_h;
+        // Q_h = sum_k C_k h^{k+1} / (k+1)!, C_0 = Qc, C_k = A C_{k-1} + (A C_{k-1})^T.
+        let mut c = *Qc;
+        let mut coef = h;
+        let mut q = zeros();
         add_scaled(&mut q, &c, coef, n);
-    }
-    for _ in 0..s {
-        let pq = mul(&phi, &q, n);
-        q = mul_t_sym(&pq, &phi, &q, n);
-        phi = mul(&phi, &phi, n);
-    }
-    // Symmetrise (the series is symmetric term by term; this removes rounding asymmetry).
-    let qt = transpose(&q);
-    for (qr, tr) in q.iter_mut().zip(qt.iter()).take(n) {
-        for (v, t) in qr.iter_mut().zip(tr.iter()).take(n) {
-            *v = (*v + *t) * T::lit(0.5);
+        for k in 1..=order {
+            let ac = mul(A, &c, n);
+            let act = transpose(&ac);
+            for ((cr, ar), tr) in c.iter_mut().zip(ac.iter()).zip(act.iter()).take(n) {
+                for ((v, x), y) in cr.iter_mut().zip(ar.iter()).zip(tr.iter()).take(n) {
+                    *v = *x + *y;
+                }
+            }
+            coef = coef * h / T::lit((k + 1) as f64);
+            add_scaled(&mut q, &c, coef, n);
         }
+        for _ in 0..self.s {
+            let pq = mul(&phi, &q, n);
+            q = mul_t_sym(&pq, &phi, &q, n);
+            phi = mul(&phi, &phi, n);
+        }
+        // Symmetrise (the series is symmetric term by term; this removes rounding asymmetry).
+        let qt = transpose(&q);
+        for (qr, tr) in q.iter_mut().zip(qt.iter()).take(n) {
+            for (v, t) in qr.iter_mut().zip(tr.iter()).take(n) {
+                *v = (*v + *t) * T::lit(0.5);
+            }
+        }
+        Ok((phi, q))
     }
-    Ok((phi, q))
 }
 
 /// `q += k c` over the leading block.

@@ -60,14 +60,19 @@
 //! RAM: `2p + 1 + q` filters of `N^2 + N` scalars each, plus each one's model (p = 6, q = 2
 //! for a white noise and a Gauss-Markov on each sensor, tied: 15 filters, about 3 kB each in
 //! f32 at N = 24; the firmware's 17-filter static is 52 kB). Per 1-Hz step:
-//! `2p + 1 + q` discretisations and predictions, O((2p + q) N^3): linear in p. Per fix: as
-//! many fusions, O((2p + q) Z N^2).
+//! `2p + 1 + q` predictions and, for the `t` correlation-time coordinates, the pairs and the
+//! centre, `2t + q + 1` full discretisations; the `p - t` intensity coordinates share the
+//! centre's `Phi` and add a multiple of one `Q` series each to its `Qd` (`shared.rs`): all
+//! O(N^3), linear in p (p = 6: 12.4M instructions per step on the Cortex-M4 against 16.4M
+//! with every shadow discretised in full, BENCHMARKS.md). Per fix: `2p + 1 + q` fusions,
+//! O((2p + q) Z N^2).
 //!
 //! [`Navigator::retune_imu_model`]: crate::nav::Navigator::retune_imu_model
 
 pub mod coords;
 mod newton;
 mod shadow;
+mod shared;
 #[cfg(test)]
 mod tests;
 
@@ -482,11 +487,36 @@ impl<T: Real, const N: usize, const M: usize> NavObserver<T, N> for OnlineIdent<
         x: &[T; N],
         p0: &Arr<T, N>,
     ) {
-        for sh in self.shadows.iter_mut() {
-            if sh.propagate(model, scale, x, p0).is_err() {
-                self.faults = self.faults.saturating_add(1);
+        let p2 = 2 * self.coords.len();
+        let mut faults = 0u32;
+        // Shadows `0..2p` are the coordinates' `+d, -d`, then the centre and the pairs'.
+        if let Some((coords, rest)) = self.shadows.split_at_mut_checked(p2) {
+            let mut tail = rest.iter_mut();
+            // The centre's discretisation, shared by the shadows that differ from it in one
+            // intensity only (`shared.rs`): their Phi is the centre's, and Qd is linear in Qc.
+            let centre = tail
+                .next()
+                .and_then(|sh| shared::Centre::propagate(sh, model, scale, x, p0));
+            if centre.is_none() {
+                faults += 1;
+            }
+            for two in coords.chunks_exact_mut(2) {
+                let [plus, minus] = two else {
+                    continue;
+                };
+                faults += match &centre {
+                    Some(c) => c.propagate_coordinate(plus, minus, model, scale, x, p0),
+                    None => [plus, minus]
+                        .into_iter()
+                        .map(|sh| u32::from(sh.propagate(model, scale, x, p0).is_err()))
+                        .sum(),
+                };
+            }
+            for sh in tail {
+                faults += u32::from(sh.propagate(model, scale, x, p0).is_err());
             }
         }
+        self.faults = self.faults.saturating_add(faults);
     }
 
     fn observed<const Z: usize>(

@@ -5,7 +5,7 @@
 use crate::filter::{fuse, Kalman};
 use crate::linalg::Arr;
 use crate::model::discretise::discretise_block;
-use crate::model::{ErrorModel, ModelError};
+use crate::model::{ContinuousSystem, ErrorModel, ModelError};
 use crate::nav::error_model::{nav_idx, StrapdownErrorModel, NAV_Z};
 use crate::nav::ImuErrorModel;
 use crate::Real;
@@ -38,10 +38,32 @@ impl<T: Real, const N: usize> Shadow<T, N> {
         x_run: &[T; N],
         p0: &Arr<T, N>,
     ) -> Result<(), ModelError> {
+        let sys = self.system(run, scale)?;
+        let (Phi, Qd) = discretise_block(&sys.A, &sys.Qc, self.model.dt, sys.n)?;
+        self.predict(&Phi, &Qd, x_run, p0);
+        Ok(())
+    }
+
+    /// This shadow's continuous system at the running filter's point and step.
+    pub(super) fn system(
+        &mut self,
+        run: &StrapdownErrorModel<T>,
+        scale: &[T; N],
+    ) -> Result<ContinuousSystem<T, N, NAV_Z>, ModelError> {
         self.model.point = run.point;
         self.model.dt = run.dt;
-        let sys = <StrapdownErrorModel<T> as ErrorModel<T, N, NAV_Z>>::system(&self.model, scale)?;
-        let (Phi, Qd) = discretise_block(&sys.A, &sys.Qc, self.model.dt, sys.n)?;
+        <StrapdownErrorModel<T> as ErrorModel<T, N, NAV_Z>>::system(&self.model, scale)
+    }
+
+    /// The prediction with this shadow's discrete `(Phi, Qd)`, less the drive of `x_run`.
+    #[allow(non_snake_case)]
+    pub(super) fn predict(
+        &mut self,
+        Phi: &Arr<T, N>,
+        Qd: &Arr<T, N>,
+        x_run: &[T; N],
+        p0: &Arr<T, N>,
+    ) {
         // The navigation rows of Phi x_run: the part of the prediction the running filter's
         // compensation has already taken out of the mechanisation.
         let mut u = [T::zero(); nav_idx::SENSOR];
@@ -50,14 +72,13 @@ impl<T: Real, const N: usize> Shadow<T, N> {
                 *ui += *a * *b;
             }
         }
-        self.kf.predict(&Phi, &Qd);
+        self.kf.predict(Phi, Qd);
         for (x, ui) in self.kf.x.iter_mut().zip(u.iter()) {
             *x -= *ui;
         }
         if !self.kf.diagonal_healthy() {
             self.kf.repair(p0);
         }
-        Ok(())
     }
 
     /// Fuses `z = H x + v` ungated; keeps its log-likelihood.

@@ -228,3 +228,79 @@ fn an_estimate_inside_the_grid_keeps_the_window_and_one_outside_moves_it() {
     assert!(id.window_sums().iter().all(|s| *s == 0.0));
     assert_eq!((id.window_start(), id.fixes()), (3000.0, 0));
 }
+
+/// The shadows that differ from the centre in an intensity share its discretisation
+/// (`shared.rs`): `Phi` and `Qd0 + alpha Qd(B)` give the same prediction as each shadow's
+/// own full discretisation, to rounding; a correlation time's shadows (another `A`) are not
+/// shared. Model: gyro white + Gauss-Markov, accelerometer white + random walk (a `q`
+/// coordinate, linear in `Qc` rather than quadratic) + random constant (states without noise).
+#[test]
+fn shadows_that_differ_in_an_intensity_share_the_centres_discretisation() {
+    use super::shared::Centre;
+    use super::OnlineIdent;
+    use crate::model::{RandomConstant, RandomWalk, WhiteNoise};
+    use crate::nav::navigator::NavObserver;
+    let mut imu = navigator().model().imu.clone();
+    imu.set_all_accel(&[
+        Component::White(WhiteNoise { density: 1e-3 }),
+        Component::RandomWalk(RandomWalk {
+            q: 1e-9,
+            sigma0: 1e-3,
+        }),
+        Component::RandomConstant(RandomConstant { sigma: 1e-2 }),
+    ])
+    .unwrap_or_else(|e| panic!("{e:?}"));
+    let nav = crate::nav::navigator::tests::navigator_with::<24>(
+        imu,
+        crate::strapdown::Quat::identity(),
+        nalgebra::Vector3::zeros(),
+    );
+    let id = OnlineIdent::<f64, 24, 16>::new(OnlineConfig::DEFAULT, &nav, 0.0)
+        .unwrap_or_else(|e| panic!("{e:?}"));
+    let p = id.coords.len();
+    // Coordinates: gyro density, sigma, tau; accelerometer density, q (a random constant's
+    // sigma is not identified online); one pair.
+    assert_eq!((p, id.shadows.len()), (5, 12), "{:?}", id.coords);
+    // A turning step: the navigation block of A is not trivial.
+    let mut model = nav.model().clone();
+    model.point.mean_w_b = nalgebra::Vector3::new(0.01, -0.02, 0.3);
+    let mut scale = [1.0; 24];
+    for (i, s) in scale.iter_mut().enumerate() {
+        *s = 10f64.powi(-(i as i32 % 5));
+    }
+    let x: [f64; 24] = core::array::from_fn(|i| 1e-3 * (i as f64 - 7.0));
+    let p0 = nav.kalman().P;
+    // Shared (the observer hook) against every shadow in full.
+    let mut shared = id.clone();
+    shared.propagated(&model, &scale, &x, &p0);
+    let mut full = id.clone();
+    for sh in full.shadows.iter_mut() {
+        sh.propagate(&model, &scale, &x, &p0)
+            .unwrap_or_else(|e| panic!("{e:?}"));
+    }
+    assert_eq!(shared.faults(), 0);
+    for (k, (a, b)) in shared.shadows.iter().zip(full.shadows.iter()).enumerate() {
+        let big = b.kf.P.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+        let diff =
+            a.kf.P
+                .iter()
+                .flatten()
+                .zip(b.kf.P.iter().flatten())
+                .fold(0.0f64, |m, (u, v)| m.max((u - v).abs()));
+        assert!(
+            diff <= 1e-12 * big,
+            "shadow {k}: P differs by {diff:e} of {big:e}"
+        );
+        assert_eq!(a.kf.x, b.kf.x, "shadow {k}: x");
+    }
+    // Which coordinates shared: every intensity, no correlation time.
+    let mut bank = id.clone();
+    let (coords, rest) = bank.shadows.split_at_mut(2 * p);
+    let c = Centre::propagate(&mut rest[0], &model, &scale, &x, &p0).expect("the centre");
+    for (i, two) in coords.chunks_exact_mut(2).enumerate() {
+        let [plus, minus] = two else { unreachable!() };
+        let is_tau = id.coords[i].quantity == crate::model::Quantity::Tau;
+        let got = c.shared_qd(plus, minus, &model, &scale).is_some();
+        assert_eq!(got, !is_tau, "coordinate {i}: {:?}", id.coords[i]);
+    }
+}
