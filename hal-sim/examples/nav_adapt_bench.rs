@@ -9,7 +9,7 @@
 //! Other keys: `grade=tactical`, `hours=` (2), `rate=` (IMU Hz, 100), `score_from=` (3600 s),
 //! `adapt_first=`, `every=`, `window=` (600, 1200, 7200 s), `method=bank` (the core's
 //! shadow-filter bank, `nav --adapt-method bank`; with it `every=` defaults to 1200 s and
-//! `offset=`, `min_offset=`, `min_gain=`, `bank_conservative=1` set its `OnlineConfig`), `per_axis=1`, `taus=` (`held`,
+//! `offset=`, `min_offset=`, `min_gain=`, `memory=`, `bank_conservative=1` set its `OnlineConfig`), `per_axis=1`, `taus=` (`held`,
 //! `tested`, `free`; default the command's), `conservative=0`, `truth_axes=K` (the true
 //! model's intensities differ by axis: each axis's white density and sigmas scaled by its own
 //! log-uniform factor in [1/K, K], drawn per seed; correlation times alike; default 1, the
@@ -141,6 +141,7 @@ fn main() {
             offset: arg_or("offset", d.bank.offset),
             min_offset: arg_or("min_offset", d.bank.min_offset),
             min_gain: arg_or("min_gain", d.bank.min_gain),
+            memory: arg_or("memory", d.bank.memory),
             conservative: arg_or("bank_conservative", u8::from(d.bank.conservative)) != 0,
             ..d.bank
         },

@@ -175,6 +175,12 @@ pub enum Command {
         /// Cramér-Rao sd is above 0.5 decade (OnlineConfig::hold_flat_taus).
         #[arg(long, value_enum, default_value_t = ADAPT.taus)]
         adapt_taus: crate::nav::adapt::TauMode,
+        /// With --adapt-method bank: the time constant [s] with which the bank's window
+        /// forgets its fixes (OnlineConfig::memory), so that a sensor that changes in service
+        /// is followed; `inf` keeps every fix since the shadows last moved. BENCHMARKS.md
+        /// "A sensor that changes in service".
+        #[arg(long, default_value_t = ADAPT.bank.memory)]
+        adapt_memory: f64,
     },
     /// Simulate a strapdown drive (figure-eights, climbs): imu.csv, truth.csv, gnss.csv.
     SimulateDrive {

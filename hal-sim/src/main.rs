@@ -55,6 +55,7 @@ fn main() -> Result<()> {
             adapt_window,
             adapt_per_axis,
             adapt_taus,
+            adapt_memory,
             qemu_elf,
         } => {
             // Read first: a bad truth file should stop the command before the run.
@@ -140,8 +141,10 @@ fn main() -> Result<()> {
                     };
                     let [first, every] = <[f64; 2]>::try_from(adapt_every.unwrap_or(default_every))
                         .map_err(|_| anyhow::anyhow!("--adapt-every: expected FIRST,EVERY"))?;
-                    if !(first > 0.0 && every > 0.0 && adapt_window > 0.0) {
-                        anyhow::bail!("--adapt-every, --adapt-window: expected positive seconds");
+                    if !(first > 0.0 && every > 0.0 && adapt_window > 0.0 && adapt_memory > 0.0) {
+                        anyhow::bail!(
+                            "--adapt-every, --adapt-window, --adapt-memory: expected positive seconds"
+                        );
                     }
                     if qemu_elf.is_some() && !bank {
                         anyhow::bail!(
@@ -159,6 +162,7 @@ fn main() -> Result<()> {
                         bank: imu_ident::nav::OnlineConfig {
                             first,
                             every,
+                            memory: adapt_memory,
                             ..cfg.bank
                         },
                         ..cfg

@@ -445,6 +445,9 @@ fn drive_online(dir: &std::path::Path) -> NavArgs {
             bank: imu_ident::nav::OnlineConfig {
                 first: 120.0,
                 every: 120.0,
+                // A finite memory: the replay carries it (version 5) and the firmware's
+                // window forgets as the host's does.
+                memory: 900.0,
                 ..imu_ident::nav::OnlineConfig::DEFAULT
             },
             ..AdaptConfig::DEFAULT

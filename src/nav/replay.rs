@@ -3,11 +3,11 @@
 //! the order the host driver processes them. The loop that consumes it is
 //! [`NavReplay`](super::run::NavReplay).
 //!
-//! # Format (version 4, all integers and floats little-endian)
+//! # Format (version 5, all integers and floats little-endian)
 //!
 //! ```text
-//! header     magic "IMUN" | version u16 = 4 | reserved u16 = 0 | record count u32      12 bytes
-//! setup      51 f64, in this order:                                                   416 bytes
+//! header     magic "IMUN" | version u16 = 5 | reserved u16 = 0 | record count u32      12 bytes
+//! setup      52 f64, in this order:                                                   424 bytes
 //!              t0 [s] | lat, lon [rad], h [m] | q_b^n w, x, y, z | v N, E, D [m/s]
 //!              | gyro bias x, y, z [rad/s] (NaN: none) | lever arm x, y, z [m, body FRD]
 //!              | sd_att N, E, D [rad] | sd_vel [m/s] | sd_pos [m] | obs_sd x 6
@@ -17,6 +17,7 @@
 //!              | ZUPT sd [m/s] (NaN: none) | ZUPT rate, specific-force, speed bounds
 //!              | online identification: first decision [s] (NaN: none) | interval [s]
 //!              | offset, smallest offset, bound [decades] | least gain [nats] | fixes
+//!              | memory [s] (infinite: none)
 //!            then max_rejections u8 | components per axis u8 x 6 (gyro x, y, z, accel x, y, z)
 //!            | setup flags u8
 //! components per component, axes in the order above: kind u8 | a, b, c f64             25 bytes
@@ -46,7 +47,8 @@
 //!
 //! Version 2 added the NHC (sd and lever arm) and the setup flags (the byte that was zero
 //! padding in version 1); version 3 the ZUPT (sd and the rest detector's three bounds); version 4
-//! the online identification (seven values and four flags). Older
+//! the online identification (seven values and four flags); version 5 its memory
+//! ([`OnlineConfig::memory`], an eighth value, infinite for none). Older
 //! replays are rejected ([`NavReplayError::BadVersion`]), not read with the new aiding off:
 //! the replay is an intermediate file that `hal_sim::nav_qemu` writes afresh for every run, so there is nothing to migrate, and one layout keeps the
 //! firmware's decoder to one panic-free path.
@@ -73,14 +75,14 @@ use crate::strapdown::{Geodetic, Quat};
 
 /// First four bytes.
 pub const MAGIC: [u8; 4] = *b"IMUN";
-/// Format version (4: the online identification; module docs).
-pub const VERSION: u16 = 4;
+/// Format version (5: the online identification's memory; module docs).
+pub const VERSION: u16 = 5;
 /// Header length.
 pub const HEADER_LEN: usize = 12;
 /// Setup block length (51 `f64`, then `max_rejections`, six counts and the setup flags).
 pub const SETUP_LEN: usize = SETUP_F64 * 8 + 8;
 /// `f64` fields of the setup block.
-const SETUP_F64: usize = 51;
+const SETUP_F64: usize = 52;
 /// One component.
 pub const COMPONENT_LEN: usize = 25;
 /// IMU record payload (after the tag).
@@ -309,7 +311,7 @@ pub fn encode(
     let zupt = s.zupt.map_or([f64::NAN; 4], |z| {
         [z.sd, z.gyro_max, z.accel_max, z.speed_max]
     });
-    let online = s.online.map_or([f64::NAN; 7], |o| {
+    let online = s.online.map_or([f64::NAN; 8], |o| {
         [
             o.first,
             o.every,
@@ -318,6 +320,7 @@ pub fn encode(
             o.bound,
             o.min_gain,
             f64::from(o.min_fixes),
+            o.memory,
         ]
     });
     let parts: [&[f64]; 16] = [

@@ -241,7 +241,7 @@ impl Decoder {
             accel_max: z[2],
             speed_max: z[3],
         });
-        let o = [(); 7].map(|()| r.f64());
+        let o = [(); 8].map(|()| r.f64());
         s.max_rejections = r.u8();
         let counts: [u8; 6] = r.take();
         let flags = r.u8();
@@ -260,6 +260,7 @@ impl Decoder {
             bound: o[4],
             min_gain: o[5],
             min_fixes: if fixes_ok { fixes as u32 } else { 0 },
+            memory: o[7],
             conservative: flags & setup_flags::ONLINE_CONSERVATIVE != 0,
             per_axis: flags & setup_flags::ONLINE_PER_AXIS != 0,
             taus: flags & setup_flags::ONLINE_TAUS != 0,

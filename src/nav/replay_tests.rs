@@ -62,6 +62,7 @@ fn setup() -> NavSetup {
             bound: 1.5,
             min_gain: 2.0,
             min_fixes: 30,
+            memory: 1800.0,
             conservative: false,
             per_axis: true,
             taus: true,
@@ -213,14 +214,14 @@ fn header_errors_are_specific() {
 /// misread; the message says which one is read.
 #[test]
 fn older_versions_are_refused_with_their_number() {
-    for v in [1u16, 2, 3] {
+    for v in [1u16, 2, 3, 4] {
         let mut old = encoded(&setup(), &records(2));
         old[4..6].copy_from_slice(&v.to_le_bytes());
         let e = decoded(&old).err();
         assert_eq!(e, Some(NavReplayError::BadVersion(v)));
         let msg = std::format!("{}", NavReplayError::BadVersion(v));
         assert!(
-            msg.contains(&std::format!("version {v}")) && msg.contains("version 4"),
+            msg.contains(&std::format!("version {v}")) && msg.contains("version 5"),
             "{msg}"
         );
         let mut dec = Decoder::new();
@@ -230,17 +231,17 @@ fn older_versions_are_refused_with_their_number() {
 }
 
 /// Every setup field lands at its documented offset: the constraint's sd and lever arm, the
-/// zero-velocity update's sd and bounds, then the online identification's seven values are
-/// the last fifteen `f64` of the block, the setup flags its last byte.
+/// zero-velocity update's sd and bounds, then the online identification's eight values are
+/// the last sixteen `f64` of the block, the setup flags its last byte.
 #[test]
-fn version_4_fields_are_at_their_documented_offsets() {
+fn version_5_fields_are_at_their_documented_offsets() {
     let s = setup();
     let bytes = encoded(&s, &[]);
     let f64_at = |k: usize| {
         let o = HEADER_LEN + 8 * k;
         f64::from_le_bytes(bytes[o..o + 8].try_into().unwrap_or([0; 8]))
     };
-    assert_eq!(SETUP_LEN, 51 * 8 + 8);
+    assert_eq!(SETUP_LEN, 52 * 8 + 8);
     assert_eq!(f64_at(36), 0.05);
     assert_eq!([f64_at(37), f64_at(38), f64_at(39)], s.nhc_lever);
     assert_eq!(
@@ -248,8 +249,8 @@ fn version_4_fields_are_at_their_documented_offsets() {
         [0.02, 0.15, 0.6, 0.5]
     );
     assert_eq!(
-        (44..51).map(f64_at).collect::<Vec<_>>(),
-        [300.0, 900.0, 0.25, 0.03125, 1.5, 2.0, 30.0]
+        (44..52).map(f64_at).collect::<Vec<_>>(),
+        [300.0, 900.0, 0.25, 0.03125, 1.5, 2.0, 30.0, 1800.0]
     );
     assert_eq!(
         bytes[HEADER_LEN + SETUP_LEN - 1],
