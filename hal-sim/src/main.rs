@@ -146,6 +146,12 @@ fn main() -> Result<()> {
                             "--adapt-every, --adapt-window, --adapt-memory: expected positive seconds"
                         );
                     }
+                    if adapt_memory.is_finite() && !bank {
+                        anyhow::bail!(
+                            "--adapt-memory: the window's memory is the bank's; add \
+                             --adapt-method bank"
+                        );
+                    }
                     if qemu_elf.is_some() && !bank {
                         anyhow::bail!(
                             "--adapt with --qemu-elf: the firmware runs the core's bank, not the \

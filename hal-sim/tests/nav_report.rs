@@ -456,3 +456,39 @@ fn the_firmware_comparison_of_an_online_run_needs_the_bank() {
     assert!(e.contains("--adapt-method bank"), "{e}");
     assert!(!Path::new("never-written").exists());
 }
+
+/// `--adapt-memory` is the bank's: with the host's window replay it is refused, not ignored,
+/// before anything is read; a memory that is not positive is refused too.
+#[test]
+fn a_window_memory_needs_the_bank_and_positive_seconds() {
+    let args = |method: &str, memory: &str| {
+        [
+            "nav",
+            "--imu",
+            "missing-imu.csv",
+            "--gnss",
+            "missing-gnss.csv",
+            "--model",
+            "drive-datasheet",
+            "--adapt",
+            "--adapt-method",
+            method,
+            "--adapt-memory",
+            memory,
+            "--out",
+            "never-written",
+        ]
+        .map(str::to_string)
+    };
+    let e = fails(&args("replay", "1800").each_ref().map(String::as_str));
+    assert!(
+        e.contains("--adapt-memory") && e.contains("--adapt-method bank"),
+        "{e}"
+    );
+    let e = fails(&args("bank", "0").each_ref().map(String::as_str));
+    assert!(
+        e.contains("--adapt-memory") && e.contains("positive"),
+        "{e}"
+    );
+    assert!(!Path::new("never-written").exists());
+}
