@@ -33,11 +33,11 @@
 #[path = "bench_args/mod.rs"]
 mod bench_args;
 
+use bench_args::nav::score;
 use bench_args::{arg, arg_or, pct};
 use hal_sim::nav::adapt::{AdaptConfig, AdaptMethod, TauMode};
-use hal_sim::nav::{run_with, NavArgs, NavRun};
+use hal_sim::nav::{run_with, NavArgs};
 use hal_sim::nav_io::outages::OutageSpec;
-use hal_sim::nav_io::TruthRow;
 use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
 use hal_sim::trajectory::gnss::GnssConfig;
 use hal_sim::trajectory::profile::Profile;
@@ -72,35 +72,10 @@ fn spread_axes(m: &SimModel, k: f64, rng: &mut impl Rng) -> SimModel {
     for axis in out.gyro.iter_mut().chain(out.accel.iter_mut()) {
         let f = 10f64.powf(rng.gen_range(-e..=e));
         for c in axis.iter_mut() {
-            for &q in c.kind().identified() {
-                if q == Quantity::Tau {
-                    continue;
-                }
-                if let Some(v) = c.get(q) {
-                    c.set(q, if q == Quantity::Q { v * f * f } else { v * f });
-                }
-            }
+            hal_sim::nav::model::scale_sd(c, f);
         }
     }
     out
-}
-
-/// Horizontal RMS [m], attitude RMS [deg], worst 3-sigma fraction of the 9 errors, over
-/// epochs at or after `from`.
-fn score(run: &NavRun, truth: &[TruthRow], from: f64) -> (f64, f64, f64) {
-    let epochs: Vec<_> = run.epochs.iter().filter(|e| e.t >= from).cloned().collect();
-    let c = hal_sim::nav::truth::compare(&epochs, truth, "truth.csv")
-        .unwrap_or_else(|e| panic!("{e:#}"))
-        .summary;
-    let att = (c.rms_att_deg.iter().map(|x| x * x).sum::<f64>() / 3.0).sqrt();
-    let worst = c.worst_outside_3sigma();
-    if std::env::var("AXES").is_ok() {
-        println!(
-            "  outside 3 sigma: pos {:?} vel {:?} att {:?}; rms att {:?} deg",
-            c.outside_3sigma_pos, c.outside_3sigma_vel, c.outside_3sigma_att, c.rms_att_deg
-        );
-    }
-    (c.rms_horizontal_m, att, worst)
 }
 
 fn main() {

@@ -22,43 +22,26 @@
 #[path = "bench_args/mod.rs"]
 mod bench_args;
 
+use bench_args::nav::score;
 use bench_args::{arg, arg_or, pct};
 use hal_sim::nav::adapt::{AdaptConfig, AdaptMethod};
-use hal_sim::nav::{run_with, NavArgs, NavRun};
+use hal_sim::nav::{run_with, NavArgs};
 use hal_sim::nav_io::outages::OutageSpec;
-use hal_sim::nav_io::TruthRow;
 use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
 use hal_sim::trajectory::gnss::GnssConfig;
 use hal_sim::trajectory::profile::Profile;
 use hal_sim::trajectory::write::{simulate_drive, write_and_read_drive};
-use imu_ident::model::Quantity;
 use imu_ident::strapdown::Geodetic;
 
-/// `m` with every standard deviation (white density, sigma; `q` by the factor squared) times
-/// `k`.
+/// `m` with every standard deviation times `k` (a random walk's `q` by `k^2`).
 fn scaled(m: &SimModel, k: f64) -> SimModel {
     let mut out = m.clone();
     for axis in out.gyro.iter_mut().chain(out.accel.iter_mut()) {
         for c in axis.iter_mut() {
-            for &q in c.kind().identified() {
-                if let (false, Some(v)) = (q == Quantity::Tau || q == Quantity::Beta, c.get(q)) {
-                    c.set(q, if q == Quantity::Q { v * k * k } else { v * k });
-                }
-            }
+            hal_sim::nav::model::scale_sd(c, k);
         }
     }
     out
-}
-
-/// Horizontal RMS [m], attitude RMS [deg], worst 3-sigma fraction over epochs at or after
-/// `from`.
-fn score(run: &NavRun, truth: &[TruthRow], from: f64) -> (f64, f64, f64) {
-    let epochs: Vec<_> = run.epochs.iter().filter(|e| e.t >= from).cloned().collect();
-    let c = hal_sim::nav::truth::compare(&epochs, truth, "truth.csv")
-        .unwrap_or_else(|e| panic!("{e:#}"))
-        .summary;
-    let att = (c.rms_att_deg.iter().map(|x| x * x).sum::<f64>() / 3.0).sqrt();
-    (c.rms_horizontal_m, att, c.worst_outside_3sigma())
 }
 
 fn main() {

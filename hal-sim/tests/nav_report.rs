@@ -435,11 +435,10 @@ fn bad_input_names_the_file_line_and_field() {
     }
 }
 
-/// `--adapt --qemu-elf` needs the bank (`--adapt-method bank`): the firmware cannot run the
-/// host's window replay, and says so before reading anything.
-#[test]
-fn the_firmware_comparison_of_an_online_run_needs_the_bank() {
-    let e = fails(&[
+/// `hal-sim nav` on inputs that do not exist, with `extra` options: its error message (the
+/// options are refused before anything is read or written).
+fn refused_nav(extra: &[&str]) -> String {
+    let mut args = vec![
         "nav",
         "--imu",
         "missing-imu.csv",
@@ -447,12 +446,18 @@ fn the_firmware_comparison_of_an_online_run_needs_the_bank() {
         "missing-gnss.csv",
         "--model",
         "drive-datasheet",
-        "--adapt",
-        "--qemu-elf",
-        "missing.elf",
         "--out",
         "never-written",
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    fails(&args)
+}
+
+/// `--adapt --qemu-elf` needs the bank (`--adapt-method bank`): the firmware cannot run the
+/// host's window replay, and says so before reading anything.
+#[test]
+fn the_firmware_comparison_of_an_online_run_needs_the_bank() {
+    let e = refused_nav(&["--adapt", "--qemu-elf", "missing.elf"]);
     assert!(e.contains("--adapt-method bank"), "{e}");
     assert!(!Path::new("never-written").exists());
 }
@@ -461,31 +466,21 @@ fn the_firmware_comparison_of_an_online_run_needs_the_bank() {
 /// before anything is read; a memory that is not positive is refused too.
 #[test]
 fn a_window_memory_needs_the_bank_and_positive_seconds() {
-    let args = |method: &str, memory: &str| {
-        [
-            "nav",
-            "--imu",
-            "missing-imu.csv",
-            "--gnss",
-            "missing-gnss.csv",
-            "--model",
-            "drive-datasheet",
+    let memory = |method, memory| {
+        refused_nav(&[
             "--adapt",
             "--adapt-method",
             method,
             "--adapt-memory",
             memory,
-            "--out",
-            "never-written",
-        ]
-        .map(str::to_string)
+        ])
     };
-    let e = fails(&args("replay", "1800").each_ref().map(String::as_str));
+    let e = memory("replay", "1800");
     assert!(
         e.contains("--adapt-memory") && e.contains("--adapt-method bank"),
         "{e}"
     );
-    let e = fails(&args("bank", "0").each_ref().map(String::as_str));
+    let e = memory("bank", "0");
     assert!(
         e.contains("--adapt-memory") && e.contains("positive"),
         "{e}"

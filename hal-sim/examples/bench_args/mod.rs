@@ -1,6 +1,9 @@
-//! What the issue-13 benches (`anystart_bench`, `structure_bench`, `change_bench`) share: their
-//! `key=value` arguments, their environment overrides and their percentiles.
+//! What the benches (`anystart_bench`, `structure_bench`, `change_bench`, `nav_adapt_bench`,
+//! `nav_change_bench`, ...) share: their `key=value` arguments, their environment overrides,
+//! their percentiles, and the navigation benches' score (`nav`).
 #![allow(dead_code)]
+
+pub mod nav;
 
 /// The value of `key=value` among the command-line arguments.
 pub fn arg(key: &str) -> Option<String> {

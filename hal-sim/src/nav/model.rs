@@ -90,14 +90,20 @@ pub fn scaled_sd(m: &ImuErrorModel<f64>, k: f64) -> ImuErrorModel<f64> {
     let mut out = m.clone();
     for axis in out.gyro.iter_mut().chain(out.accel.iter_mut()) {
         for c in axis.iter_mut() {
-            match c {
-                Component::White(w) => w.density *= k,
-                Component::GaussMarkov(g) => g.sigma *= k,
-                Component::RandomWalk(r) => r.q *= k * k,
-                Component::RandomConstant(r) => r.sigma *= k,
-                Component::ExpCosine(e) => e.sigma *= k,
-            }
+            scale_sd(c, k);
         }
     }
     out
+}
+
+/// One component of [`scaled_sd`]: its standard deviation times `k` (a random walk's `q` by
+/// `k^2`).
+pub fn scale_sd(c: &mut Component<f64>, k: f64) {
+    match c {
+        Component::White(w) => w.density *= k,
+        Component::GaussMarkov(g) => g.sigma *= k,
+        Component::RandomWalk(r) => r.q *= k * k,
+        Component::RandomConstant(r) => r.sigma *= k,
+        Component::ExpCosine(e) => e.sigma *= k,
+    }
 }

@@ -63,7 +63,7 @@
 //! `2p + 1 + q` predictions and, for the `t` correlation-time coordinates, the pairs and the
 //! centre, `2t + q + 1` full discretisations; the `p - t` intensity coordinates share the
 //! centre's `Phi` and add a multiple of one `Q` series each to its `Qd` (`shared.rs`): all
-//! O(N^3), linear in p (p = 6: 12.4M instructions per step on the Cortex-M4 against 16.4M
+//! O(N^3), linear in p (p = 6: 12.2M instructions per step on the Cortex-M4 against 16.4M
 //! with every shadow discretised in full, BENCHMARKS.md). Per fix: `2p + 1 + q` fusions,
 //! O((2p + q) Z N^2).
 //!
@@ -510,11 +510,13 @@ impl<T: Real, const N: usize, const M: usize> NavObserver<T, N> for OnlineIdent<
             if centre.is_none() {
                 faults += 1;
             }
-            for two in coords.chunks_exact_mut(2) {
+            for (two, coord) in coords.chunks_exact_mut(2).zip(self.coords.iter()) {
                 let [plus, minus] = two else {
                     continue;
                 };
-                faults += match &centre {
+                // A correlation time moves `A`: its shadows are not offered for sharing (the
+                // test would build a continuous system only to refuse it).
+                faults += match centre.as_ref().filter(|_| coord.quantity != Quantity::Tau) {
                     Some(c) => c.propagate_coordinate(plus, minus, model, scale, x, p0),
                     None => [plus, minus]
                         .into_iter()

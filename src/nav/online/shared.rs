@@ -11,8 +11,8 @@
 //! So one `Q` series over `B` (with the centre's `exp(A h)`, [`Expm`]) serves both shadows,
 //! instead of two full discretisations. Nothing about the component kinds is assumed: `A`
 //! is compared exactly, `alpha` is read off the two differences and checked on every entry,
-//! and a coordinate that fails either test (a correlation time moves `A`) is discretised in
-//! full as before.
+//! and a coordinate that fails either test is discretised in full as before. The correlation
+//! times, which move `A`, are not offered (`OnlineIdent`'s prediction hook).
 
 use super::shadow::Shadow;
 use crate::linalg::Arr;
