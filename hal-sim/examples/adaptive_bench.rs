@@ -390,7 +390,7 @@ fn track(truth: &InsModel<f64>, seeds: u64, cfg: AdaptConfig<f64>) -> anyhow::Re
     let mut est_b = Vec::new();
     let mut o_out = Vec::new();
     for seed in 0..seeds {
-        let log = sim::simulate_change(truth, &b, 6 * 3600, 12 * 3600, seed)?;
+        let log = sim::simulate_change(truth, &b, (6 * 3600, 12 * 3600), seed, sim::Seam::Fresh)?;
         let (oracle, _) = replay::estimates::<f64>(&b, &log)?;
         let (orms, oout) = tilt_window(&log, &oracle, t0, t1).unwrap_or((f64::NAN, 0.0));
         o_out.push(oout * 100.0);

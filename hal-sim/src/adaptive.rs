@@ -40,6 +40,9 @@ pub struct AdaptiveRun {
     pub total_score: [f64; MAXP],
     /// Fisher information summed over the whole run (no forgetting).
     pub total_fisher: [[f64; MAXP]; MAXP],
+    /// Where the global stage dated the last change in service it found [s from the first
+    /// tick] (`None`: none found).
+    pub last_change: Option<f64>,
 }
 
 /// Replays `log` through the step identifying online ([`replay::run`] with `cfg`), started
@@ -72,6 +75,8 @@ pub fn run<T: Real>(
         jumps: f.jumps(),
         total_score: f.total_information().score.map(|v| v.as_f64()),
         total_fisher: f.total_information().fisher.map(|r| r.map(|v| v.as_f64())),
+        last_change: (f.global().changes() > 0)
+            .then(|| f64::from(f.global().floor()) * f64::from(cfg.global.block) * start.dt),
     })
 }
 

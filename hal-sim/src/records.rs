@@ -31,7 +31,7 @@ pub struct EstimateRow {
     pub nis: f64,
     /// The step's telemetry flags ([`imu_ident::telemetry::FLAG_NAMES`]): `missing` (1),
     /// `gated_outlier` (2), `p_repaired` (4), `param_clamped` (8), `time_jump` (16),
-    /// `bad_input` (32), `bridged` (128).
+    /// `bad_input` (32), `bridged` (128), `sensor_change` (256).
     pub flags: u16,
 }
 

@@ -150,6 +150,8 @@ pub fn adapt_config<T: Real>(c: &AdaptConfig<f64>) -> AdaptConfig<T> {
             margin: T::lit(c.global.margin),
             hold_recursion: c.global.hold_recursion,
             structure: T::lit(c.global.structure),
+            change: T::lit(c.global.change),
+            after_change: c.global.after_change,
         },
     }
 }

@@ -23,28 +23,61 @@ fn normal_vec(rng: &mut ChaCha8Rng) -> StateVec<f64> {
     StateVec::from_fn(|_, _| StandardNormal.sample(rng))
 }
 
-/// A change in service (BENCHMARKS.md §6): `before` steps of `a` (seed `2000 + seed`), then
-/// `after` steps of `b` (seed `3000 + seed`) from a fresh stationary state, its times continuing
-/// the first part's.
+/// Simulates `steps` observations of `model` with `seed`.
+pub fn simulate(model: &InsModel<f64>, steps: usize, seed: u64) -> Result<Vec<LogRow>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut rows = Vec::with_capacity(steps);
+    continue_path(model, None, steps, &mut rng, &mut rows)?;
+    Ok(rows)
+}
+
+/// What the states do at a simulated change in service.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Seam {
+    /// Every state restarts from a fresh stationary draw of the new model (BENCHMARKS.md §6):
+    /// `z` jumps at the change. Seeds `2000 + seed` before, `3000 + seed` after.
+    Fresh,
+    /// Every state continues through the change; only the noise driving it changes, as when a
+    /// sensor's noise changes in service (its Gauss-Markov states then relax to the new
+    /// variance within their correlation times). One stream, seed `4000 + seed`.
+    Continuous,
+}
+
+/// A change in service: `before` steps of `a`, then `after` steps of `b` (the same structure),
+/// its times continuing the first part's, the states at the change as `seam` says.
 pub fn simulate_change(
     a: &InsModel<f64>,
     b: &InsModel<f64>,
-    before: usize,
-    after: usize,
+    (before, after): (usize, usize),
     seed: u64,
+    seam: Seam,
 ) -> Result<Vec<LogRow>> {
-    let mut log = simulate(a, before, 2000 + seed)?;
-    let mut second = simulate(b, after, 3000 + seed)?;
-    let shift = before as f64 * a.dt;
-    for r in second.iter_mut() {
-        r.t += shift;
+    let mut rows = Vec::with_capacity(before + after);
+    match seam {
+        Seam::Fresh => {
+            let mut rng = ChaCha8Rng::seed_from_u64(2000 + seed);
+            continue_path(a, None, before, &mut rng, &mut rows)?;
+            let mut rng = ChaCha8Rng::seed_from_u64(3000 + seed);
+            continue_path(b, None, after, &mut rng, &mut rows)?;
+        }
+        Seam::Continuous => {
+            let mut rng = ChaCha8Rng::seed_from_u64(4000 + seed);
+            let x = continue_path(a, None, before, &mut rng, &mut rows)?;
+            continue_path(b, Some(x), after, &mut rng, &mut rows)?;
+        }
     }
-    log.extend(second);
-    Ok(log)
+    Ok(rows)
 }
 
-/// Simulates `steps` observations of `model` with `seed`.
-pub fn simulate(model: &InsModel<f64>, steps: usize, seed: u64) -> Result<Vec<LogRow>> {
+/// Appends `steps` observations of `model` to `rows` (times continuing theirs), from the
+/// physical state `x0` or, when `None`, from a stationary draw; returns the last physical state.
+fn continue_path(
+    model: &InsModel<f64>,
+    x0: Option<StateVec<f64>>,
+    steps: usize,
+    rng: &mut ChaCha8Rng,
+    rows: &mut Vec<LogRow>,
+) -> Result<StateVec<f64>> {
     let scale = model.scaling().map_err(|e| anyhow!("truth model: {e}"))?;
     let (sys, disc) = model
         .discretise(&scale)
@@ -56,12 +89,15 @@ pub fn simulate(model: &InsModel<f64>, steps: usize, seed: u64) -> Result<Vec<Lo
         .output_row(ErrorSource::Gyro, &scale)
         .map_err(|e| anyhow!("{e}"))?;
     let lq = sqrt_psd(&disc.Qd);
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut x = sqrt_psd(&sys.P0) * normal_vec(&mut rng);
-    let mut rows = Vec::with_capacity(steps);
+    // Scaled states: `x_scaled = x_physical / scale` entry by entry.
+    let mut x = match x0 {
+        Some(p) => p.component_div(&scale),
+        None => sqrt_psd(&sys.P0) * normal_vec(rng),
+    };
+    let t0 = rows.last().map_or(0.0, |r| r.t);
     for k in 1..=steps {
-        x = disc.Phi * x + lq * normal_vec(&mut rng);
-        let v: f64 = StandardNormal.sample(&mut rng);
+        x = disc.Phi * x + lq * normal_vec(rng);
+        let v: f64 = StandardNormal.sample(rng);
         let z = (sys.H * x)[0] + model.sigma_v * v;
         let truth = Truth {
             dv: x[idx::DV] * scale[idx::DV],
@@ -70,11 +106,11 @@ pub fn simulate(model: &InsModel<f64>, steps: usize, seed: u64) -> Result<Vec<Lo
             dw: (gyro * x)[0],
         };
         rows.push(LogRow {
-            t: k as f64 * model.dt,
+            t: t0 + k as f64 * model.dt,
             z,
             truth: Some(truth),
         });
     }
     debug_assert!(x.len() == NX);
-    Ok(rows)
+    Ok(x.component_mul(&scale))
 }

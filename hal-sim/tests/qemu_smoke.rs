@@ -315,6 +315,52 @@ fn qemu_firmware_parity_global_stage_12h() {
     assert_parity(&start, Ident::Global, &rows, "global stage");
 }
 
+/// A change in service (6 h of `paper`, then 6 h of a quieter sensor, every state continuous;
+/// `hal-sim/tests/change.rs`): the firmware's f32 change monitor finds it like the host's f64
+/// one. The alarm is a threshold crossing of a sum over block means, so f32 rounding may move it
+/// by a block or two; the dates are bounded at 2 blocks (120 ticks) apart.
+#[test]
+fn qemu_firmware_finds_a_change_in_service_like_the_host() {
+    use imu_ident::telemetry::SENSOR_CHANGE;
+    let Some(elf) = firmware_elf() else { return };
+    let a = InsModel::<f64>::paper();
+    let b = hal_sim::mismatch::factored(&a, &[0.10, 0.29, 0.19, 3.31])
+        .unwrap_or_else(|| panic!("model B"));
+    let rows = hal_sim::sim::simulate_change(
+        &a,
+        &b,
+        (21_600, 21_600),
+        31_003,
+        hal_sim::sim::Seam::Continuous,
+    )
+    .unwrap_or_else(|e| panic!("{e:#}"));
+    let log: Vec<(f64, f64)> = rows.iter().map(|r| (r.t, r.z)).collect();
+    let run = run_firmware(&elf, &a, Ident::Global, &log, &QemuConfig::default())
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    assert!(
+        run.success(),
+        "firmware failed: {:?} {:?}",
+        run.status,
+        run.messages
+    );
+    let host = host_run(&a, Ident::Global, &log);
+    let found = |t: &Telemetry| -> Vec<u32> {
+        t.records
+            .iter()
+            .filter(|r| r.flags & SENSOR_CHANGE != 0)
+            .map(|r| r.k)
+            .collect()
+    };
+    let (fw, h) = (found(&run.telemetry), found(&host));
+    eprintln!("change found at ticks {fw:?} (firmware) and {h:?} (host)");
+    assert!(!h.is_empty(), "the host found no change");
+    assert_eq!(fw.len(), h.len(), "changes found: {fw:?} vs {h:?}");
+    for (x, y) in fw.iter().zip(&h) {
+        assert!(x.abs_diff(*y) <= 120, "found at {x} vs {y}");
+        assert!(*y >= 21_600, "found before the change: {y}");
+    }
+}
+
 /// A log with a hidden gyro exponential-cosine drift (drawn at a realistic magnitude).
 fn hidden_effect_log() -> (hal_sim::candidates::Candidate, Vec<LogRow>) {
     use rand::SeedableRng;

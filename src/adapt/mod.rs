@@ -31,6 +31,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod bank;
+pub mod change;
 mod config;
 pub mod guard;
 mod jump;
@@ -223,6 +224,7 @@ impl<T: Real> AdaptiveFilter<T> {
         // The probes see what the bank saw: a gated observation is missing for them too.
         let z = if out.gated.is_some() { nan } else { z };
         let (mut moved, mut rejected, mut jumped, mut switched) = (false, false, false, false);
+
         if out.failed {
             // A staggered move could not be discretised: the bank rolls back; follow it.
             self.theta = *self.bank.theta();
@@ -242,7 +244,12 @@ impl<T: Real> AdaptiveFilter<T> {
             );
             rejected |= res.is_err();
         }
-        self.global.push(z);
+        let changed = self.global.push(z, &self.base, &self.specs);
+        if changed {
+            // The windowed information describes the sensor before the change.
+            self.acc = Information::default();
+            self.acc_sq = [[T::zero(); MAXP]; MAXP];
+        }
         if self.global.due() {
             self.global.start(&self.theta);
         }
@@ -250,6 +257,8 @@ impl<T: Real> AdaptiveFilter<T> {
             let switches = self.switches;
             jumped |= self.global_end(&found);
             switched = self.switches != switches;
+            // The model the filter now runs is watched for a change in service.
+            self.global.watch(&self.theta);
         }
         self.steps = self.steps.wrapping_add(1);
         if !self.probes.is_empty() && self.steps.checked_rem(self.cfg.epoch) == Some(0) {
@@ -284,6 +293,7 @@ impl<T: Real> AdaptiveFilter<T> {
             rejected,
             clamped,
             switched,
+            changed,
         }
     }
 

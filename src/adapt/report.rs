@@ -37,4 +37,7 @@ pub struct StepReport<T> {
     /// The model's structure changed at the end of this step (one component's kind replaced
     /// by the global stage's structure test; `jumped` and `moved` are set too).
     pub switched: bool,
+    /// The change detector found a change in service on this step
+    /// ([`change`](super::change)): the global stage's windows start after it.
+    pub changed: bool,
 }

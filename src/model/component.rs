@@ -85,6 +85,13 @@ impl Quantity {
         Self::ALL.into_iter().find(|q| q.name() == name)
     }
 
+    /// Whether the quantity scales the noise's power (a standard deviation, a density, a
+    /// random-walk intensity), not its spectrum's shape (a correlation time, a frequency): the
+    /// quantities a conservative model raises.
+    pub const fn is_intensity(self) -> bool {
+        matches!(self, Self::Sigma | Self::Q | Self::Sigma0 | Self::Density)
+    }
+
     /// The model-TOML spelling.
     pub const fn name(self) -> &'static str {
         match self {

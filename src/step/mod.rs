@@ -60,7 +60,7 @@ use crate::filter::{Estimates, InsFilter};
 use crate::model::{ErrorSource, InsModel, ModelError, Quantity, StateMat};
 use crate::telemetry::{
     status_flags, time_flags, Record, TelemetrySink, BAD_INPUT, BRIDGED, GATED_OUTLIER, MISSING,
-    PARAM_CLAMPED, P_REPAIRED, SKIPPED, TIME_JUMP,
+    PARAM_CLAMPED, P_REPAIRED, SENSOR_CHANGE, SKIPPED, TIME_JUMP,
 };
 use crate::Real;
 
@@ -343,6 +343,9 @@ impl<T: Real> Estimator<T> {
                 }
                 if rep.clamped {
                     flags |= PARAM_CLAMPED;
+                }
+                if rep.changed {
+                    flags |= SENSOR_CHANGE;
                 }
                 (rep.innovation, rep.variance, rep.moved, rep.jumped)
             }

@@ -44,9 +44,12 @@ pub const BAD_INPUT: u16 = 1 << 5;
 pub const SKIPPED: u16 = 1 << 6;
 /// A tick inserted to bridge a gap in the observation times (no row: prediction only).
 pub const BRIDGED: u16 = 1 << 7;
+/// The online identification found a change in service at this tick (its innovations left
+/// the model's, [`adapt::change`](crate::adapt::change)): its windows start after the change.
+pub const SENSOR_CHANGE: u16 = 1 << 8;
 
 /// Every flag with its name, in bit order (for reports and decoders).
-pub const FLAG_NAMES: [(u16, &str); 8] = [
+pub const FLAG_NAMES: [(u16, &str); 9] = [
     (MISSING, "missing"),
     (GATED_OUTLIER, "gated_outlier"),
     (P_REPAIRED, "p_repaired"),
@@ -55,6 +58,7 @@ pub const FLAG_NAMES: [(u16, &str); 8] = [
     (BAD_INPUT, "bad_input"),
     (SKIPPED, "skipped"),
     (BRIDGED, "bridged"),
+    (SENSOR_CHANGE, "sensor_change"),
 ];
 
 /// First word of the defmt telemetry frame written by [`Record::log`]; host decoders pick the

@@ -9,6 +9,17 @@ use crate::Real;
 /// below 4.3 nats on 80 logs; a switch to one more parameter needs 1.5 times this, 4.5 nats).
 pub const STRUCTURE_PENALTY: f64 = 3.0;
 
+/// The change monitor's alarm threshold [nats] when on. Lorden's bound (at least `e^h` blocks
+/// between false alarms) holds for the right model; the watched model is a search's estimate
+/// from a window as short as 4 h. Measured on stationary `paper` logs at firmware pace (seeds
+/// 9100-9119, 8 starts each): 16 nats raised 7 false alarms in 160 runs (all on one seed), 20
+/// and 24 none; 24 leaves a margin (`docs/ADAPTATION.md` §7.7).
+pub const CHANGE_THRESHOLD: f64 = 24.0;
+/// Blocks after an estimated change before the first search on the data since it. Measured on
+/// the development seeds (`docs/ADAPTATION.md` §7.7): 240 (4 h) followed worst; 30, 60 and 120
+/// were within one or two runs of 20 of each other; 60 is kept.
+pub const AFTER_CHANGE: u32 = 60;
+
 /// Tuning of the global stage.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -37,6 +48,11 @@ pub struct WindowConfig<T> {
     /// Complexity penalty [nats per identified parameter] of the structure test
     /// ([`structure`](super::structure)); `0`: no structure test.
     pub structure: T,
+    /// Alarm threshold [nats] of the change detector ([`change`](crate::adapt::change)); `0`:
+    /// no detector, the windows span changes in service.
+    pub change: T,
+    /// Blocks after an estimated change before the first search on the data since it.
+    pub after_change: u32,
 }
 
 impl<T: Real> WindowConfig<T> {
@@ -52,6 +68,8 @@ impl<T: Real> WindowConfig<T> {
         margin: T::ZERO,
         hold_recursion: false,
         structure: T::ZERO,
+        change: T::ZERO,
+        after_change: 0,
     };
 
     /// The measured default (`docs/ADAPTATION.md` §7): 60-s blocks, 8-h window, first search
@@ -74,6 +92,8 @@ impl<T: Real> WindowConfig<T> {
             // at the amplitude, `docs/ADAPTATION.md` §7.6). Opt in with
             // `structure: STRUCTURE_PENALTY`.
             structure: T::ZERO,
+            change: T::lit(CHANGE_THRESHOLD),
+            after_change: AFTER_CHANGE,
         }
     }
 

@@ -44,6 +44,7 @@
 
 mod config;
 mod found;
+mod monitor;
 pub mod pass;
 mod polish;
 pub mod structure;
@@ -52,10 +53,11 @@ use crate::adapt::guard::{Bounds, Mat};
 use crate::adapt::params::{Specs, MAXP};
 use crate::model::InsModel;
 use crate::Real;
+use monitor::Monitor;
 use pass::Pass;
 use structure::Alternative;
 
-pub use config::{WindowConfig, STRUCTURE_PENALTY};
+pub use config::{WindowConfig, AFTER_CHANGE, CHANGE_THRESHOLD, STRUCTURE_PENALTY};
 pub use found::{Found, Switch};
 
 /// Capacity of the ring of block means: 8 h of 60-s blocks (480) plus the blocks that arrive
@@ -110,6 +112,12 @@ pub struct WindowSearch<T: Real> {
     head: usize,
     /// Block means pushed since the start.
     pushed: u32,
+    /// Block means pushed before the last change in service: no window reaches before it.
+    floor: u32,
+    /// Changes in service found by the monitor.
+    changes: u32,
+    /// Watches the filter's model on the new blocks for a change in service.
+    monitor: Monitor<T>,
     acc: T,
     acc_n: u32,
     missing: bool,
@@ -164,6 +172,9 @@ impl<T: Real> WindowSearch<T> {
         ring: [T::ZERO; WINDOW_CAP],
         head: 0,
         pushed: 0,
+        floor: 0,
+        changes: 0,
+        monitor: Monitor::BLANK,
         acc: T::ZERO,
         acc_n: 0,
         missing: false,
@@ -211,6 +222,7 @@ impl<T: Real> WindowSearch<T> {
             ..cfg
         };
         self.next_search = cfg.first.max(2);
+        self.monitor = Monitor::new(cfg.change);
     }
 
     /// After a structure switch: the grid's centre (the start model's parameters) in the new
@@ -220,6 +232,39 @@ impl<T: Real> WindowSearch<T> {
         self.centre = crate::adapt::params::remap(from, &self.centre, to, theta);
         self.phase = Phase::Idle;
         self.running = false;
+    }
+
+    /// The sensor changed in service `blocks` block means ago: no window reaches before that, a
+    /// running search (whose window spans the change) is abandoned, and the next one starts
+    /// `after_change` blocks after the change.
+    fn changed(&mut self, blocks: u32) {
+        self.floor = self.floor.max(self.pushed.saturating_sub(blocks));
+        self.changes = self.changes.saturating_add(1);
+        self.phase = Phase::Idle;
+        self.running = false;
+        self.next_search = self.floor.saturating_add(self.cfg.after_change.max(2));
+    }
+
+    /// Watches the model `theta` (the filter's, after a search) for a change in service from
+    /// the next block on ([`monitor`]).
+    pub fn watch(&mut self, theta: &[T; MAXP]) {
+        self.monitor.watch(theta);
+    }
+
+    /// The change monitor's CUSUM statistic [nats].
+    pub fn change_statistic(&self) -> T {
+        self.monitor.statistic()
+    }
+
+    /// Block means pushed before the last change found (`0`: none found): the first block any
+    /// window may hold.
+    pub fn floor(&self) -> u32 {
+        self.floor
+    }
+
+    /// Changes in service reported so far.
+    pub fn changes(&self) -> u32 {
+        self.changes
     }
 
     /// Seconds per block mean (the block length times the model's `dt`; zero before the first
@@ -238,10 +283,12 @@ impl<T: Real> WindowSearch<T> {
         self.evaluations
     }
 
-    /// Adds one tick's observation (non-finite: missing) to the current block.
-    pub fn push(&mut self, z: T) {
+    /// Adds one tick's observation (non-finite: missing) to the current block; `base`/`specs`
+    /// describe the filter's model (as for [`work`](Self::work)). Returns whether the change
+    /// monitor found a change in service at this tick.
+    pub fn push(&mut self, z: T, base: &InsModel<T>, specs: &Specs) -> bool {
         if !self.cfg.enabled() {
-            return;
+            return false;
         }
         if z.is_finite() {
             self.acc += z;
@@ -263,7 +310,12 @@ impl<T: Real> WindowSearch<T> {
             self.acc = T::zero();
             self.acc_n = 0;
             self.missing = false;
+            if let Some(blocks) = self.monitor.push(mean, self.cfg.block, base, specs) {
+                self.changed(blocks);
+                return true;
+            }
         }
+        false
     }
 
     /// Whether a search should start now (enough new blocks since the last one).
@@ -313,7 +365,8 @@ impl<T: Real> WindowSearch<T> {
 
     /// Starts a search anchored at `anchor` over the most recent blocks.
     pub fn start(&mut self, anchor: &[T; MAXP]) {
-        let avail = (self.pushed as usize).min(WINDOW_CAP);
+        let since_change = self.pushed.saturating_sub(self.floor) as usize;
+        let avail = (self.pushed as usize).min(WINDOW_CAP).min(since_change);
         self.wlen = avail.min(self.cfg.window as usize);
         self.w0 = (self.head + WINDOW_CAP - self.wlen) % WINDOW_CAP;
         self.started_at = self.pushed;
@@ -331,7 +384,14 @@ impl<T: Real> WindowSearch<T> {
         self.alt_k = 0;
         self.switch = Switch::NONE;
         self.searches = self.searches.wrapping_add(1);
-        self.next_search = self.pushed.saturating_add(self.cfg.every.max(1));
+        // After a change the window since it doubles from one search to the next until the
+        // usual pace is reached: the first answers on the new sensor come from short windows.
+        let every = if self.changes > 0 {
+            self.cfg.every.min(since_change as u32)
+        } else {
+            self.cfg.every
+        };
+        self.next_search = self.pushed.saturating_add(every.max(1));
     }
 
     /// Runs at most `budget` filter steps (a pass with derivatives counts `2p + 1` per block).

@@ -110,6 +110,60 @@ pub fn block_system<T: Real>(
     Some((a, q, n + 1))
 }
 
+/// Builds `mem` as the filter of the block sums of `base` with `theta` (`ln` parameters of
+/// `specs`) over blocks of `block` ticks, with a diffuse start whose velocity is the first
+/// finite block mean `z0`. Returns the block mean's observation row and noise variance.
+pub fn block_filter<T: Real>(
+    base: &InsModel<T>,
+    specs: &Specs,
+    theta: &[T; MAXP],
+    block: u32,
+    z0: T,
+    mem: &mut Member<T>,
+) -> Result<([T; NX], T), AdaptError> {
+    let k = T::lit(f64::from(block.max(1)));
+    let m = apply(base, specs, theta).ok_or(AdaptError::BadParameter)?;
+    let scale = m.scaling().map_err(AdaptError::Model)?;
+    let sys = m.continuous(&scale).map_err(AdaptError::Model)?;
+    let (phi1, qd1) = m.discretise_block(&scale).map_err(AdaptError::Model)?;
+    let h1 = from_vec(&sys.H);
+    let (phi, qd, n) =
+        block_system(&phi1, &qd1, &h1, sys.n, block).ok_or(AdaptError::BadParameter)?;
+    // Diffuse start of the INS states: the window begins hours into the run, where the
+    // velocity and tilt errors are far outside the model's initial covariance (a free
+    // Schuler loop drifts to metres per second). A tight prior there makes the first
+    // innovations dominate the comparison and favours whichever model absorbs them fastest
+    // (measured: 386 nats for a 10x accelerometer sigma). Velocity starts at the first
+    // block mean; the first BURN terms, dominated by the prior, are not summed.
+    let mut p0 = from_mat(&sys.P0);
+    for (i, sd) in [(idx::DV, DIFFUSE_DV), (idx::DELTA, DIFFUSE_TILT)] {
+        let s = scale.get(i).copied().unwrap_or(T::one());
+        for row in p0.iter_mut() {
+            if let Some(v) = row.get_mut(i) {
+                *v = T::zero();
+            }
+        }
+        if let Some(row) = p0.get_mut(i) {
+            row.fill(T::zero());
+            if let Some(v) = row.get_mut(i) {
+                let sd = T::lit(sd) / s;
+                *v = sd * sd;
+            }
+        }
+    }
+    mem.reset(&p0, n);
+    if let (Some(x), Some(s)) = (mem.kf.x.get_mut(idx::DV), scale.get(idx::DV)) {
+        *x = z0 / *s;
+    }
+    mem.set_system(&phi, &qd);
+    // z_block = s / k + the mean of k white observation errors.
+    let mut h = [T::zero(); NX];
+    if let Some(v) = h.get_mut(n.wrapping_sub(1)) {
+        *v = T::one() / k;
+    }
+    Ok((h, m.sigma_v * m.sigma_v / k))
+}
+
 /// A pass in progress: `count` filters (`1`, or `2p + 1` with derivatives) over the window.
 #[derive(Debug, Clone)]
 pub struct Pass<T: Real> {
@@ -181,7 +235,6 @@ impl<T: Real> Pass<T> {
         if j >= self.count {
             return Ok(());
         }
-        let k = T::lit(f64::from(self.block));
         let mut th = self.theta;
         if j > 0 {
             let i = (j - 1) / 2;
@@ -190,47 +243,8 @@ impl<T: Real> Pass<T> {
                 *v += sign * self.step;
             }
         }
-        let m = apply(base, specs, &th).ok_or(AdaptError::BadParameter)?;
-        let scale = m.scaling().map_err(AdaptError::Model)?;
-        let sys = m.continuous(&scale).map_err(AdaptError::Model)?;
-        let (phi1, qd1) = m.discretise_block(&scale).map_err(AdaptError::Model)?;
-        let h1 = from_vec(&sys.H);
-        let (phi, qd, n) =
-            block_system(&phi1, &qd1, &h1, sys.n, self.block).ok_or(AdaptError::BadParameter)?;
-        // Diffuse start of the INS states: the window begins hours into the run, where the
-        // velocity and tilt errors are far outside the model's initial covariance (a free
-        // Schuler loop drifts to metres per second). A tight prior there makes the first
-        // innovations dominate the comparison and favours whichever model absorbs them fastest
-        // (measured: 386 nats for a 10x accelerometer sigma). Velocity starts at the first
-        // block mean; the first BURN terms, dominated by the prior, are not summed.
-        let mut p0 = from_mat(&sys.P0);
-        for (i, sd) in [(idx::DV, DIFFUSE_DV), (idx::DELTA, DIFFUSE_TILT)] {
-            let s = scale.get(i).copied().unwrap_or(T::one());
-            for row in p0.iter_mut() {
-                if let Some(v) = row.get_mut(i) {
-                    *v = T::zero();
-                }
-            }
-            if let Some(row) = p0.get_mut(i) {
-                row.fill(T::zero());
-                if let Some(v) = row.get_mut(i) {
-                    let sd = T::lit(sd) / s;
-                    *v = sd * sd;
-                }
-            }
-        }
         let mem = self.members.get_mut(j).ok_or(AdaptError::BadParameter)?;
-        mem.reset(&p0, n);
-        if let (Some(x), Some(s)) = (mem.kf.x.get_mut(idx::DV), scale.get(idx::DV)) {
-            *x = self.z0 / *s;
-        }
-        mem.set_system(&phi, &qd);
-        // z_block = s / k + the mean of k white observation errors.
-        self.h = [T::zero(); NX];
-        if let Some(v) = self.h.get_mut(n.wrapping_sub(1)) {
-            *v = T::one() / k;
-        }
-        self.r = m.sigma_v * m.sigma_v / k;
+        (self.h, self.r) = block_filter(base, specs, &th, self.block, self.z0, mem)?;
         self.prepared += 1;
         Ok(())
     }

@@ -465,7 +465,7 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         let mut f = [T::zero(); MAX_COORDS];
         for (i, (fi, xi)) in f.iter_mut().zip(self.est.iter()).enumerate() {
             let up = match (self.coords.get(i), self.cr_sd.get(i)) {
-                (Some(c), Some(sd)) if self.cfg.conservative && c.quantity != Quantity::Tau => {
+                (Some(c), Some(sd)) if self.cfg.conservative && c.quantity.is_intensity() => {
                     sd.min(self.d)
                 }
                 _ => 0.0,
