@@ -11,114 +11,14 @@
 //! recursion not held, `PEN` the structure test's penalty). `design=probes` is `AdaptConfig::default()`, today's design.
 #![allow(clippy::needless_range_loop)]
 
-use argmin::core::{CostFunction, Error, Executor, State};
-use argmin::solver::neldermead::NelderMead;
 use hal_sim::adaptive::{self, tilt_window};
-use hal_sim::log::LogRow;
 use hal_sim::{replay, scenario, sim};
-use imu_ident::adapt::params::{apply, specs, theta_of, MAXP};
 use imu_ident::adapt::AdaptConfig;
-use imu_ident::model::InsModel;
 use rand::{Rng, SeedableRng};
-
-/// `m` at the `ln` parameters `th` (the core's mapping, `imu_ident::adapt::params`).
-fn set(m: &InsModel<f64>, th: &[f64]) -> InsModel<f64> {
-    let sp = specs(m);
-    let mut t = [0.0; MAXP];
-    for (o, v) in t.iter_mut().zip(th) {
-        *o = *v;
-    }
-    apply(m, &sp, &t).unwrap_or_else(|| m.clone())
-}
-
-/// The `ln` parameters of `m` (accelerometer sigma, tau, gyro sigma, tau for `paper`).
-fn theta(m: &InsModel<f64>) -> Vec<f64> {
-    let sp = specs(m);
-    theta_of(m, &sp)[..sp.len()].to_vec()
-}
-
-struct Nll<'a> {
-    base: &'a InsModel<f64>,
-    log: &'a [LogRow],
-}
-impl CostFunction for Nll<'_> {
-    type Param = Vec<f64>;
-    type Output = f64;
-    fn cost(&self, p: &Vec<f64>) -> Result<f64, Error> {
-        if p.iter().any(|v| !v.is_finite() || v.abs() > 60.0) || p[1] < 0.0 || p[3] < 0.0 {
-            return Ok(f64::INFINITY);
-        }
-        match replay::log_likelihood(&set(self.base, p), self.log) {
-            Ok((ll, _)) if ll.is_finite() => Ok(-ll),
-            _ => Ok(f64::INFINITY),
-        }
-    }
-}
-
-/// Offline maximum-likelihood fit: Nelder-Mead (restarted once from its optimum) from the truth
-/// and from the best point of a grid of factors 10^{-1, 0, 1} around it (81 points, on 10-s
-/// block means, `docs/ADAPTATION.md` §7); the one with the higher full-rate likelihood. The
-/// likelihood is multi-modal: on some seeds the maximum is not the local one near the truth.
-fn ml_fit(base: &InsModel<f64>, log: &[LogRow]) -> (Vec<f64>, Vec<f64>, f64, f64) {
-    let local = nm_fit(base, log, theta(base));
-    let mut dbase = base.clone();
-    dbase.dt *= 10.0;
-    dbase.sigma_v /= 10f64.sqrt();
-    let dlog: Vec<LogRow> = log
-        .chunks_exact(10)
-        .map(|c| LogRow {
-            t: c[9].t,
-            z: c.iter().map(|r| r.z).sum::<f64>() / 10.0,
-            truth: None,
-        })
-        .collect();
-    let dcost = Nll {
-        base: &dbase,
-        log: &dlog,
-    };
-    let th0 = theta(base);
-    let mut best = (f64::INFINITY, th0.clone());
-    for a in 0..81 {
-        let mut p = th0.clone();
-        let mut q = a;
-        for v in p.iter_mut() {
-            *v += ((q % 3) as f64 - 1.0) * 10f64.ln();
-            q /= 3;
-        }
-        let c = dcost.cost(&p).unwrap();
-        if c < best.0 {
-            best = (c, p);
-        }
-    }
-    let global = nm_fit(base, log, best.1);
-    let cost = Nll { base, log };
-    let (cl, cg) = (cost.cost(&local).unwrap(), cost.cost(&global).unwrap());
-    (local, global, -cl, -cg)
-}
-
-fn nm_fit(base: &InsModel<f64>, log: &[LogRow], x0: Vec<f64>) -> Vec<f64> {
-    let mut x = x0;
-    for step in [0.5, 0.15] {
-        let mut s = vec![x.clone()];
-        for i in 0..x.len() {
-            let mut v = x.clone();
-            v[i] += step;
-            s.push(v);
-        }
-        let res = Executor::new(
-            Nll { base, log },
-            NelderMead::new(s).with_sd_tolerance(0.002).unwrap(),
-        )
-        .configure(|st| st.max_iters(300))
-        .run()
-        .unwrap();
-        x = res.state.get_best_param().cloned().unwrap();
-    }
-    x
-}
 
 #[path = "bench_args/mod.rs"]
 mod bench_args;
+use bench_args::ml::{ml_fit, set, theta};
 use bench_args::{arg_or, env_or, flag, pct};
 
 fn main() -> anyhow::Result<()> {
@@ -168,7 +68,8 @@ fn main() -> anyhow::Result<()> {
         let log = sim::simulate(&truth, 12 * 3600, seed)?;
         let tilt = |e: &[hal_sim::records::EstimateRow]| tilt_window(&log, e, t0, t1).unwrap();
         let oracle = tilt(&replay::estimates::<f64>(&truth, &log)?.0).0;
-        let (plocal, pglobal, llocal, lglobal) = ml_fit(&truth, &log[..8 * 3600]);
+        let (plocal, pglobal, llocal, lglobal) =
+            ml_fit(&truth, &log[..8 * 3600], f64::NEG_INFINITY);
         let pref = if lglobal > llocal { &pglobal } else { &plocal };
         let mlref = tilt(&replay::estimates::<f64>(&set(&truth, pref), &log)?.0).0;
         let ml_local = tilt(&replay::estimates::<f64>(&set(&truth, &plocal), &log)?.0).0;

@@ -1,8 +1,10 @@
 //! What the benches (`anystart_bench`, `structure_bench`, `change_bench`, `nav_adapt_bench`,
 //! `nav_change_bench`, ...) share: their `key=value` arguments, their environment overrides,
-//! their percentiles, and the navigation benches' score (`nav`).
+//! their percentiles, the maximum-likelihood reference (`ml`) and the navigation benches' score
+//! (`nav`).
 #![allow(dead_code)]
 
+pub mod ml;
 pub mod nav;
 
 /// The value of `key=value` among the command-line arguments.
