@@ -9,7 +9,7 @@
 use crate::output::write_csv;
 use anyhow::Result;
 use imu_ident::telemetry::{
-    Record, BRIDGED, GATED_OUTLIER, MISSING, P_REPAIRED, SKIPPED, TIME_JUMP,
+    Record, BRIDGED, GATED_OUTLIER, MISSING, P_REPAIRED, SENSOR_CHANGE, SKIPPED, TIME_JUMP,
 };
 use serde::Serialize;
 use std::path::Path;
@@ -128,6 +128,8 @@ pub struct RunCounts {
     pub skipped_time: usize,
     /// Covariance repairs.
     pub repairs: usize,
+    /// Changes in service the global stage's monitor found (ticks flagged `sensor_change`).
+    pub sensor_changes: usize,
 }
 
 impl RunCounts {
@@ -143,6 +145,7 @@ impl RunCounts {
             }
             c.steps += 1;
             c.repairs += usize::from(r.has(P_REPAIRED));
+            c.sensor_changes += usize::from(r.has(SENSOR_CHANGE));
             if r.has(MISSING) {
                 c.missing += 1;
             } else if r.has(GATED_OUTLIER) {
