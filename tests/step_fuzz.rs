@@ -1,6 +1,7 @@
 //! Fuzzing of the firmware step (issue 7): arbitrary log rows `(t, z)` through
 //! [`Estimator::<f32>::push`], with the fixed model and with the online identification (a small
-//! [`AdaptConfig`], so that re-identifications and probe jumps happen in short sequences).
+//! [`AdaptConfig`], so that re-identifications and probe jumps happen in short sequences; and a
+//! small global stage with its change monitor).
 //!
 //! The rows mix plausible data (noise of sd 0.03 m/s around 0 or a small offset, one row per
 //! second) with every fault the firmware may see: NaN, +-Inf, +-1e30, `f32::MAX`, subnormals,
@@ -20,8 +21,8 @@ use imu_ident::filter::is_positive_definite;
 use imu_ident::model::{Component, InsModel};
 use imu_ident::step::{AcfRecord, Estimator, ParamRecord, StepConfig};
 use imu_ident::telemetry::{
-    Record, TelemetrySink, BAD_INPUT, BRIDGED, GATED_OUTLIER, MISSING, P_REPAIRED, SKIPPED,
-    TIME_JUMP,
+    Record, TelemetrySink, BAD_INPUT, BRIDGED, GATED_OUTLIER, MISSING, P_REPAIRED, SENSOR_CHANGE,
+    SKIPPED, TIME_JUMP,
 };
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestCaseError, TestRunner};
@@ -49,6 +50,28 @@ fn small_adapt() -> AdaptConfig<f32> {
         epoch: 100,
         warmup: 20,
         ..AdaptConfig::default()
+    }
+}
+
+/// The global stage at a small scale: 10-tick blocks, a 60-block window, a search every 20
+/// blocks at 200 filter steps per tick, and a change monitor that alarms at 4 nats and searches
+/// again 5 blocks after a change, so that searches, jumps, alarms and abandoned searches all
+/// happen within a case.
+fn small_global() -> AdaptConfig<f32> {
+    let g = AdaptConfig::<f32>::global().global;
+    AdaptConfig {
+        global: imu_ident::adapt::WindowConfig {
+            block: 10,
+            window: 60,
+            first: 20,
+            every: 20,
+            budget: 200,
+            change: 4.0,
+            after_change: 5,
+            ..g
+        },
+        probe_factor: 0.0,
+        ..small_adapt()
     }
 }
 
@@ -288,6 +311,7 @@ struct Totals {
     reidentified: u64,
     updates: u64,
     jumps: u64,
+    changes: u64,
 }
 
 /// The invariants of the estimator after a push (module documentation).
@@ -520,6 +544,9 @@ fn fuzz_one(
             if r.has(P_REPAIRED) {
                 tot.repaired += 1;
             }
+            if r.has(SENSOR_CHANGE) {
+                tot.changes += 1;
+            }
         }
         check_state(&nav, cfg.adapt.as_ref())?;
     }
@@ -560,7 +587,7 @@ fn fuzz(name: &str, cfg: StepConfig<f32>) {
     eprintln!(
         "step_fuzz {name}: {} cases (shrinking included), {} rows, {} ticks in {:.1} s \
          ({:.0} ticks/s); skipped {}, clock jumps confirmed {}, gated {}, repaired {}, re-identifications {}, \
-         updates {}, jumps {}",
+         updates {}, jumps {}, changes in service {}",
         tot.cases,
         tot.rows,
         tot.ticks,
@@ -572,7 +599,8 @@ fn fuzz(name: &str, cfg: StepConfig<f32>) {
         tot.repaired,
         tot.reidentified,
         tot.updates,
-        tot.jumps
+        tot.jumps,
+        tot.changes
     );
     if let Err(e) = result {
         panic!("{name}: {e}");
@@ -596,6 +624,18 @@ fn adaptive_step_survives_any_rows() {
         "adaptive",
         StepConfig {
             adapt: Some(small_adapt()),
+            max_bridge: MAX_BRIDGE,
+            ..StepConfig::default()
+        },
+    );
+}
+
+#[test]
+fn global_stage_with_its_change_monitor_survives_any_rows() {
+    fuzz(
+        "global",
+        StepConfig {
+            adapt: Some(small_global()),
             max_bridge: MAX_BRIDGE,
             ..StepConfig::default()
         },

@@ -224,7 +224,6 @@ impl<T: Real> AdaptiveFilter<T> {
         // The probes see what the bank saw: a gated observation is missing for them too.
         let z = if out.gated.is_some() { nan } else { z };
         let (mut moved, mut rejected, mut jumped, mut switched) = (false, false, false, false);
-
         if out.failed {
             // A staggered move could not be discretised: the bank rolls back; follow it.
             self.theta = *self.bank.theta();
