@@ -47,6 +47,7 @@ fn main() -> anyhow::Result<()> {
     let (t0, t1) = (12.0 * 3600.0, 18.0 * 3600.0 + 1.0);
     let (mut ratios, mut fixed, mut outs, mut vs_ref) = (vec![], vec![], vec![], vec![]);
     let with_mlref = arg_or("mlref", 0u8) == 1;
+    let single = arg_or("f32", 0u8) == 1;
     for seed in first..first + seeds {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed * 7919 + 13);
         let f: Vec<f64> = (0..4)
@@ -70,7 +71,12 @@ fn main() -> anyhow::Result<()> {
         } else {
             &a
         };
-        let r = adaptive::run::<f64>(start, &log, cfg)?;
+        // `f32=1`: the online identification in single precision, as the firmware runs it.
+        let r = if single {
+            adaptive::run::<f32>(start, &log, cfg)?
+        } else {
+            adaptive::run::<f64>(start, &log, cfg)?
+        };
         if std::env::var_os("TRACE").is_some() {
             // Every parameter record: when the identified model moved, and where to.
             let truth = |m: &InsModel<f64>| {
