@@ -61,6 +61,13 @@ pub fn simulate_change(
             continue_path(b, None, after, &mut rng, &mut rows)?;
         }
         Seam::Continuous => {
+            // The states carry over one for one: the two models must lay them out alike.
+            let layout = |m: &InsModel<f64>| m.layout().map_err(|e| anyhow!("truth model: {e}"));
+            if layout(a)? != layout(b)? {
+                return Err(anyhow!(
+                    "a continuous change needs models of the same structure (their states differ)"
+                ));
+            }
             let mut rng = ChaCha8Rng::seed_from_u64(4000 + seed);
             let x = continue_path(a, None, before, &mut rng, &mut rows)?;
             continue_path(b, Some(x), after, &mut rng, &mut rows)?;

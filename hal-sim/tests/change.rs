@@ -100,3 +100,21 @@ fn stationary_logs_raise_no_alarm() {
         }
     }
 }
+
+/// A continuous change carries the states over one for one, so the two models must lay them out
+/// alike: a model with one more component is refused, with a message that says why.
+#[test]
+fn a_continuous_change_between_different_structures_is_refused() {
+    use imu_ident::model::ComponentKind;
+    let a = paper();
+    let mut b = a.clone();
+    b.gyro
+        .push(ComponentKind::RandomWalk.with_quantities(&[1e-12]))
+        .unwrap_or_else(|_| panic!("room for a component"));
+    let err = sim::simulate_change(&a, &b, (60, 60), 1, sim::Seam::Continuous)
+        .err()
+        .unwrap_or_else(|| panic!("accepted"));
+    assert!(format!("{err:#}").contains("same structure"), "{err:#}");
+    // The fresh seam draws each part from its own model: accepted.
+    assert!(sim::simulate_change(&a, &b, (60, 60), 1, sim::Seam::Fresh).is_ok());
+}

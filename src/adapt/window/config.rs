@@ -16,8 +16,8 @@ pub const STRUCTURE_PENALTY: f64 = 3.0;
 /// and 24 none; 24 leaves a margin (`docs/ADAPTATION.md` §7.7).
 pub const CHANGE_THRESHOLD: f64 = 24.0;
 /// Blocks after an estimated change before the first search on the data since it. Measured on
-/// the development seeds (`docs/ADAPTATION.md` §7.7): 240 (4 h) followed worst; 30, 60 and 120
-/// were within one or two runs of 20 of each other; 60 is kept.
+/// 10 development seeds per case (BENCHMARKS.md "With the change monitor"): 240 (4 h) followed
+/// worst; 30, 60 and 120 were within one or two runs of each other; 60 is kept.
 pub const AFTER_CHANGE: u32 = 60;
 
 /// Tuning of the global stage.
@@ -48,8 +48,8 @@ pub struct WindowConfig<T> {
     /// Complexity penalty [nats per identified parameter] of the structure test
     /// ([`structure`](super::structure)); `0`: no structure test.
     pub structure: T,
-    /// Alarm threshold [nats] of the change detector ([`change`](crate::adapt::change)); `0`:
-    /// no detector, the windows span changes in service.
+    /// Alarm threshold [nats] of the change monitor ([`change`](crate::adapt::change)); `0`:
+    /// no monitor, the windows span changes in service.
     pub change: T,
     /// Blocks after an estimated change before the first search on the data since it.
     pub after_change: u32,
