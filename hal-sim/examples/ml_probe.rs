@@ -7,23 +7,11 @@ use argmin::solver::neldermead::NelderMead;
 use hal_sim::adaptive::tilt_window;
 use hal_sim::log::LogRow;
 use hal_sim::{replay, scenario, sim};
-use imu_ident::adapt::params::{apply, specs, theta_of, MAXP};
 use imu_ident::model::InsModel;
 
-/// `m` at the `ln` parameters `th` (the core's mapping, `imu_ident::adapt::params`).
-fn set(m: &InsModel<f64>, th: &[f64]) -> InsModel<f64> {
-    let sp = specs(m);
-    let mut t = [0.0; MAXP];
-    for (o, v) in t.iter_mut().zip(th) {
-        *o = *v;
-    }
-    apply(m, &sp, &t).unwrap_or_else(|| m.clone())
-}
-
-fn theta(m: &InsModel<f64>) -> Vec<f64> {
-    let sp = specs(m);
-    theta_of(m, &sp)[..sp.len()].to_vec()
-}
+#[path = "bench_args/mod.rs"]
+mod bench_args;
+use bench_args::ml::{set, simplex, theta};
 
 struct Nll<'a> {
     base: &'a InsModel<f64>,
@@ -55,15 +43,11 @@ fn nm(
     step: f64,
     iters: u64,
 ) -> (Vec<f64>, f64, u64) {
-    let mut s = vec![x0.to_vec()];
-    for i in 0..x0.len() {
-        let mut v = x0.to_vec();
-        v[i] += step;
-        s.push(v);
-    }
     let res = Executor::new(
         Nll { base, log },
-        NelderMead::new(s).with_sd_tolerance(0.01).unwrap(),
+        NelderMead::new(simplex(x0, step))
+            .with_sd_tolerance(0.01)
+            .unwrap(),
     )
     .configure(|st| st.max_iters(iters))
     .run()

@@ -64,20 +64,6 @@ fn random(m: &ImuErrorModel<f64>, rng: &mut impl Rng) -> ImuErrorModel<f64> {
     out
 }
 
-/// `m` with every intensity (white density, sigma; `q` by the factor squared) of every axis
-/// scaled by its own log-uniform factor in [1/k, k]: a true model whose axes differ.
-fn spread_axes(m: &SimModel, k: f64, rng: &mut impl Rng) -> SimModel {
-    let mut out = m.clone();
-    let e = k.log10();
-    for axis in out.gyro.iter_mut().chain(out.accel.iter_mut()) {
-        let f = 10f64.powf(rng.gen_range(-e..=e));
-        for c in axis.iter_mut() {
-            hal_sim::nav::model::scale_sd(c, f);
-        }
-    }
-    out
-}
-
 fn main() {
     let grade = arg("grade").unwrap_or_else(|| "mems".into());
     let seeds: u64 = arg_or("seeds", 3);
@@ -134,8 +120,11 @@ fn main() {
     let mut true_out3 = vec![];
     for seed in first..first + seeds {
         let sim = if truth_axes > 1.0 {
+            // Every axis's intensities by its own log-uniform factor in [1/k, k]: a true model
+            // whose axes differ.
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed * 1000 + 777);
-            spread_axes(&sim, truth_axes, &mut rng)
+            let e = truth_axes.log10();
+            sim.scaled_axes(|| 10f64.powf(rng.gen_range(-e..=e)))
         } else {
             sim.clone()
         };

@@ -33,17 +33,6 @@ use hal_sim::trajectory::profile::Profile;
 use hal_sim::trajectory::write::{simulate_drive, write_and_read_drive};
 use imu_ident::strapdown::Geodetic;
 
-/// `m` with every standard deviation times `k` (a random walk's `q` by `k^2`).
-fn scaled(m: &SimModel, k: f64) -> SimModel {
-    let mut out = m.clone();
-    for axis in out.gyro.iter_mut().chain(out.accel.iter_mut()) {
-        for c in axis.iter_mut() {
-            hal_sim::nav::model::scale_sd(c, k);
-        }
-    }
-    out
-}
-
 fn main() {
     let grade = arg("grade").unwrap_or_else(|| "mems".into());
     let seeds: u64 = arg_or("seeds", 4);
@@ -67,7 +56,7 @@ fn main() {
         "tactical" => SimModel::tactical(),
         g => panic!("grade={g}: mems or tactical"),
     };
-    let after = scaled(&sim, factor);
+    let after = sim.scaled_axes(|| factor);
     let from = change + settle;
     println!(
         "# {grade}, {seeds} seeds from {first}, {hours} h, every standard deviation x{factor} at {change} s, scored from {from} s; {:?}",

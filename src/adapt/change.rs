@@ -96,17 +96,12 @@ impl<T: Real> ChangeDetector<T> {
         };
     }
 
-    /// Stops watching until [`arm`](Self::arm).
-    pub fn disarm(&mut self) {
-        self.armed = false;
-    }
-
     /// Whether it is watching.
     pub fn armed(&self) -> bool {
         self.armed
     }
 
-    /// The larger of the two sums [nats] (telemetry).
+    /// The larger of the two sums [nats].
     pub fn statistic(&self) -> T {
         self.up.max(self.down)
     }

@@ -102,15 +102,11 @@ pub fn ml_fit(base: &InsModel<f64>, log: &[LogRow], from: f64) -> (Vec<f64>, Vec
 fn nm_fit(base: &InsModel<f64>, log: &[LogRow], x0: Vec<f64>, from: f64) -> Vec<f64> {
     let mut x = x0;
     for step in [0.5, 0.15] {
-        let mut s = vec![x.clone()];
-        for i in 0..x.len() {
-            let mut v = x.clone();
-            v[i] += step;
-            s.push(v);
-        }
         let res = Executor::new(
             Nll { base, log, from },
-            NelderMead::new(s).with_sd_tolerance(0.002).unwrap(),
+            NelderMead::new(simplex(&x, step))
+                .with_sd_tolerance(0.002)
+                .unwrap(),
         )
         .configure(|st| st.max_iters(300))
         .run()
@@ -118,4 +114,15 @@ fn nm_fit(base: &InsModel<f64>, log: &[LogRow], x0: Vec<f64>, from: f64) -> Vec<
         x = res.state.get_best_param().cloned().unwrap();
     }
     x
+}
+
+/// The starting simplex of a Nelder-Mead search: `x` and `x + step e_i` for every `i`.
+pub fn simplex(x: &[f64], step: f64) -> Vec<Vec<f64>> {
+    let mut s = vec![x.to_vec()];
+    for i in 0..x.len() {
+        let mut v = x.to_vec();
+        v[i] += step;
+        s.push(v);
+    }
+    s
 }

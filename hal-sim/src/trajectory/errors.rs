@@ -108,6 +108,20 @@ impl ImuErrorModel {
             accel: [accel.to_vec(), accel.to_vec(), accel.to_vec()],
         }
     }
+
+    /// This model with each axis's standard deviations times its own factor, `factor()` called
+    /// once per axis (gyro x, y, z, then accelerometer x, y, z;
+    /// [`scale_sd`](crate::nav::model::scale_sd) on each component).
+    pub fn scaled_axes(&self, mut factor: impl FnMut() -> f64) -> Self {
+        let mut out = self.clone();
+        for axis in out.gyro.iter_mut().chain(out.accel.iter_mut()) {
+            let f = factor();
+            for c in axis.iter_mut() {
+                crate::nav::model::scale_sd(c, f);
+            }
+        }
+        out
+    }
 }
 
 /// Symmetric square root of a 2x2 covariance (negative rounding eigenvalues clamped to 0).

@@ -251,11 +251,6 @@ impl<T: Real> WindowSearch<T> {
         self.monitor.watch(theta);
     }
 
-    /// The change monitor's CUSUM statistic [nats].
-    pub fn change_statistic(&self) -> T {
-        self.monitor.statistic()
-    }
-
     /// Block means pushed before the last change found (`0`: none found): the first block any
     /// window may hold.
     pub fn floor(&self) -> u32 {

@@ -71,11 +71,6 @@ impl<T: Real> Monitor<T> {
         }
     }
 
-    /// The CUSUM's larger sum [nats] (telemetry).
-    pub fn statistic(&self) -> T {
-        self.detector.statistic()
-    }
-
     /// One block mean `z` (non-finite: missing) of `block` ticks. On an alarm, returns the
     /// blocks since the estimated change and stops watching.
     pub fn push(&mut self, z: T, block: u32, base: &InsModel<T>, specs: &Specs) -> Option<u32> {

@@ -518,10 +518,7 @@ impl<T: Real, const N: usize, const M: usize> NavObserver<T, N> for OnlineIdent<
                 // test would build a continuous system only to refuse it).
                 faults += match centre.as_ref().filter(|_| coord.quantity != Quantity::Tau) {
                     Some(c) => c.propagate_coordinate(plus, minus, model, scale, x, p0),
-                    None => [plus, minus]
-                        .into_iter()
-                        .map(|sh| u32::from(sh.propagate(model, scale, x, p0).is_err()))
-                        .sum(),
+                    None => shared::propagate_each([plus, minus], model, scale, x, p0),
                 };
             }
             for sh in tail {

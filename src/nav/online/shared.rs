@@ -86,10 +86,7 @@ impl<T: Real, const N: usize> Centre<T, N> {
             minus.predict(&self.phi, &qd, x_run, p0);
             return 0;
         }
-        [plus, minus]
-            .into_iter()
-            .map(|sh| u32::from(sh.propagate(run, scale, x_run, p0).is_err()))
-            .sum()
+        propagate_each([plus, minus], run, scale, x_run, p0)
     }
 
     /// `Qd(B)` and `alpha` of a coordinate's `+d` and `-d` shadows (module docs), or `None`
@@ -190,4 +187,18 @@ fn along<T: Real, const N: usize>(bm: &Arr<T, N>, b: &Arr<T, N>, n: usize) -> Op
             .all(|(vm, v)| (*vm - alpha * *v).abs() <= tol)
     });
     (alpha.is_finite() && fits).then_some(alpha)
+}
+
+/// Predicts `shadows` each with its own full discretisation; returns how many could not be.
+pub(super) fn propagate_each<T: Real, const N: usize>(
+    shadows: [&mut Shadow<T, N>; 2],
+    run: &StrapdownErrorModel<T>,
+    scale: &[T; N],
+    x_run: &[T; N],
+    p0: &Arr<T, N>,
+) -> u32 {
+    shadows
+        .into_iter()
+        .map(|sh| u32::from(sh.propagate(run, scale, x_run, p0).is_err()))
+        .sum()
 }
