@@ -68,6 +68,10 @@ fn small_global() -> AdaptConfig<f32> {
             budget: 200,
             change: 4.0,
             after_change: 5,
+            // The flat-answer rules too: the early search, and the hold's profile polish
+            // (off by default) on the same hostile rows.
+            flat_every: 5,
+            hold_flat: true,
             ..g
         },
         probe_factor: 0.0,

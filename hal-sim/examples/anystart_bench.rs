@@ -43,6 +43,8 @@ fn main() -> anyhow::Result<()> {
         cfg.global.budget = env_or("BUDGET", cfg.global.budget);
         cfg.global.structure = env_or("PEN", cfg.global.structure);
         cfg.global.change = env_or("CHANGE", cfg.global.change);
+        cfg.global.hold_flat = env_or("HOLD", u8::from(cfg.global.hold_flat)) != 0;
+        cfg.global.flat_every = env_or("FLAT_EVERY", cfg.global.flat_every);
         cfg.global.after_change = env_or("AFTER", cfg.global.after_change);
         println!("{:?}", cfg.global);
     }
@@ -60,6 +62,7 @@ fn main() -> anyhow::Result<()> {
     let (mut r_or, mut r_ml, mut outs, mut worst_vs_ref) = (vec![], vec![], vec![], vec![]);
     let mut truth_ratio = vec![];
     let mut false_alarms = 0usize;
+    let mut flat_runs = 0usize;
     println!(
         "design {design}, seeds {first}..{}, {nstarts} starts",
         first + seeds
@@ -113,6 +116,11 @@ fn main() -> anyhow::Result<()> {
                     );
                 }
             }
+            // Runs that spent part of the scored hours on a parameter flagged not identifiable.
+            let flat = r.estimates.iter().any(|e| {
+                e.t >= t0 && e.t < t1 && e.flags & imu_ident::telemetry::NOT_IDENTIFIABLE != 0
+            });
+            flat_runs += usize::from(flat);
             if k == starts.len() - 1 {
                 truth_ratio.push(ratio);
                 continue;
@@ -157,5 +165,6 @@ fn main() -> anyhow::Result<()> {
         pct(&mut truth_ratio.clone(), 1.0)
     );
     println!("runs with a change found (false alarms: the logs are stationary): {false_alarms}");
+    println!("runs with a parameter flagged not identifiable in the scored hours (of all, truth starts included): {flat_runs}");
     Ok(())
 }

@@ -42,6 +42,8 @@ fn main() -> anyhow::Result<()> {
     cfg.global.every = env_or("EVERY", cfg.global.every);
     cfg.global.budget = env_or("BUDGET", cfg.global.budget);
     cfg.global.change = env_or("CHANGE", cfg.global.change);
+    cfg.global.hold_flat = env_or("HOLD", u8::from(cfg.global.hold_flat)) != 0;
+    cfg.global.flat_every = env_or("FLAT_EVERY", cfg.global.flat_every);
     cfg.global.after_change = env_or("AFTER", cfg.global.after_change);
     let a = InsModel::<f64>::paper();
     let (t0, t1) = (12.0 * 3600.0, 18.0 * 3600.0 + 1.0);

@@ -9,7 +9,7 @@
 //! cargo run --release -p hal-sim --example structure_bench -- [first=9300] [seeds=20] [truth=ec|paper] [f32]
 //! ```
 //! The global stage is `AdaptConfig::global()` with the structure test on (penalty
-//! `STRUCTURE_PENALTY`); `EVERY`, `BUDGET`, `PEN` (structure penalty, nats per parameter)
+//! `STRUCTURE_PENALTY`); `EVERY`, `BUDGET`, `PEN` (structure penalty, nats per parameter), `FLAT_EVERY`
 //! override it for experiments.
 
 use hal_sim::adaptive::{self, tilt_window};
@@ -102,6 +102,7 @@ fn main() -> anyhow::Result<()> {
     cfg.global.every = env_or("EVERY", cfg.global.every);
     cfg.global.budget = env_or("BUDGET", cfg.global.budget);
     cfg.global.structure = env_or("PEN", imu_ident::adapt::window::STRUCTURE_PENALTY);
+    cfg.global.flat_every = env_or("FLAT_EVERY", cfg.global.flat_every);
     println!("{:?}", cfg.global);
     let start = InsModel::<f64>::paper();
     let beta_true = 2.0 * std::f64::consts::PI / 600.0;

@@ -85,8 +85,17 @@ fn write_run_report(
     if let Some(t) = truth {
         runs.push(crate::compare::evaluate("truth", t, rows)?);
     }
+    let flat = tel.not_identifiable();
+    let flat = if flat.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "<p><b>Not identifiable from these data yet</b> (the last search's window: a Cramér-Rao deviation above half a decade): {}.</p>",
+            flat.join("; ")
+        )
+    };
     let extra = format!(
-        "<h2>Online identification over time</h2>{}",
+        "<h2>Online identification over time</h2>{flat}{}",
         crate::report::parameter_plots(&tel.param_rows(), truth, rows.last().map_or(0.0, |r| r.t))?
     );
     let html = crate::report::html_with(

@@ -459,7 +459,7 @@ fn parse_frame(frame: &Frame<'_>, out: &mut Decoded) -> Result<()> {
             flags: field("flags", &flags)?,
         });
     } else if let Some(v) = tagged(frame, PARAM_WIRE_TAG, &PARAM_WIRE_FIELDS)? {
-        let [k, t, s, comp, kd, tau, sigma, beta, sd_tau, sd_sigma, sd_beta] = v;
+        let [k, t, s, comp, kd, tau, sigma, beta, sd_tau, sd_sigma, sd_beta, flat] = v;
         out.telemetry.params.push(ParamRecord {
             k: field("k", &k)?,
             t: field("t", &t)?,
@@ -472,6 +472,7 @@ fn parse_frame(frame: &Frame<'_>, out: &mut Decoded) -> Result<()> {
             sd_tau: field("sd_tau", &sd_tau)?,
             sd_sigma: field("sd_sigma", &sd_sigma)?,
             sd_beta: field("sd_beta", &sd_beta)?,
+            flat: field("flat", &flat)?,
         });
     } else if let Some(v) = tagged(frame, ACF_WIRE_TAG, &ACF_FIELDS)? {
         let [k, t, s, tau, sigma] = v;

@@ -9,7 +9,8 @@
 use crate::output::write_csv;
 use anyhow::Result;
 use imu_ident::telemetry::{
-    Record, BRIDGED, GATED_OUTLIER, MISSING, P_REPAIRED, SENSOR_CHANGE, SKIPPED, TIME_JUMP,
+    Record, BRIDGED, GATED_OUTLIER, MISSING, NOT_IDENTIFIABLE, P_REPAIRED, SENSOR_CHANGE, SKIPPED,
+    TIME_JUMP,
 };
 use serde::Serialize;
 use std::path::Path;
@@ -31,7 +32,7 @@ pub struct EstimateRow {
     pub nis: f64,
     /// The step's telemetry flags ([`imu_ident::telemetry::FLAG_NAMES`]): `missing` (1),
     /// `gated_outlier` (2), `p_repaired` (4), `param_clamped` (8), `time_jump` (16),
-    /// `bad_input` (32), `bridged` (128), `sensor_change` (256).
+    /// `bad_input` (32), `bridged` (128), `sensor_change` (256), `not_identifiable` (512).
     pub flags: u16,
 }
 
@@ -130,6 +131,9 @@ pub struct RunCounts {
     pub repairs: usize,
     /// Changes in service the global stage's monitor found (ticks flagged `sensor_change`).
     pub sensor_changes: usize,
+    /// Ticks run with a parameter the last window search did not identify (flagged
+    /// `not_identifiable`).
+    pub not_identifiable: usize,
 }
 
 impl RunCounts {
@@ -146,6 +150,7 @@ impl RunCounts {
             c.steps += 1;
             c.repairs += usize::from(r.has(P_REPAIRED));
             c.sensor_changes += usize::from(r.has(SENSOR_CHANGE));
+            c.not_identifiable += usize::from(r.has(NOT_IDENTIFIABLE));
             if r.has(MISSING) {
                 c.missing += 1;
             } else if r.has(GATED_OUTLIER) {
@@ -191,6 +196,10 @@ pub struct ParamRow {
     pub sd_ln_sigma: f64,
     /// The same for `ln beta`.
     pub sd_ln_beta: f64,
+    /// The quantities of this component the last window search did not identify, space
+    /// separated (`tau`, `sigma`, `beta`; empty: all identified or not identified online):
+    /// "not identifiable from these data yet", their interval being the row's Cramér-Rao one.
+    pub not_identifiable: String,
 }
 
 impl ParamRow {
@@ -217,7 +226,7 @@ pub fn write_estimates(path: &Path, rows: &[EstimateRow]) -> Result<()> {
 }
 
 /// Writes the parameters-over-time log as CSV
-/// (`t,sensor,component,kind,tau,sigma,beta,sd_ln_tau,sd_ln_sigma,sd_ln_beta`).
+/// (`t,sensor,component,kind,tau,sigma,beta,sd_ln_tau,sd_ln_sigma,sd_ln_beta,not_identifiable`).
 pub fn write_params_csv(path: &Path, rows: &[ParamRow]) -> Result<()> {
     write_csv(path, rows)
 }

@@ -20,7 +20,9 @@ use anyhow::{anyhow, Result};
 use imu_ident::adapt::AdaptConfig;
 use imu_ident::model::InsModel;
 use imu_ident::step::{AcfRecord, Estimator, ParamRecord, StepConfig};
-use imu_ident::telemetry::{Record, TelemetrySink, BRIDGED, SKIPPED};
+use imu_ident::telemetry::{
+    Record, TelemetrySink, BRIDGED, FLAT_BETA, FLAT_SIGMA, FLAT_TAU, SKIPPED,
+};
 use imu_ident::Real;
 
 use crate::log::LogRow;
@@ -94,8 +96,41 @@ impl Telemetry {
                 sd_ln_tau: f64::from(p.sd_tau),
                 sd_ln_sigma: f64::from(p.sd_sigma),
                 sd_ln_beta: f64::from(p.sd_beta),
+                not_identifiable: flat_names(p.flat),
             })
             .collect()
+    }
+
+    /// The quantities the last parameter records of each component flag "not identifiable
+    /// from these data yet", as `sensor component quantity` with the value and its 95 %
+    /// Cramér-Rao interval (for `summary.json` and the report).
+    pub fn not_identifiable(&self) -> Vec<String> {
+        let Some(last) = self.params.last().map(|p| p.k) else {
+            return Vec::new();
+        };
+        let mut out = Vec::new();
+        for p in self.params.iter().filter(|p| p.k == last) {
+            for (bit, name, value, sd) in [
+                (FLAT_TAU, "tau", p.tau, p.sd_tau),
+                (FLAT_SIGMA, "sigma", p.sigma, p.sd_sigma),
+                (FLAT_BETA, "beta", p.beta, p.sd_beta),
+            ] {
+                if p.flat & bit == 0 {
+                    continue;
+                }
+                let (v, sd) = (f64::from(value), f64::from(sd));
+                let interval = ParamRow::interval95(v, sd).map_or(
+                    "no interval: the information is singular".to_string(),
+                    |(a, b)| format!("95 % Cramér-Rao interval {a:.3e} to {b:.3e}"),
+                );
+                out.push(format!(
+                    "{} {} {name} = {v:.3e} ({interval})",
+                    p.sensor.name(),
+                    p.component
+                ));
+            }
+        }
+        out
     }
 
     /// The autocorrelation records as `acf.csv` rows.
@@ -152,6 +187,8 @@ pub fn adapt_config<T: Real>(c: &AdaptConfig<f64>) -> AdaptConfig<T> {
             structure: T::lit(c.global.structure),
             change: T::lit(c.global.change),
             after_change: c.global.after_change,
+            hold_flat: c.global.hold_flat,
+            flat_every: c.global.flat_every,
         },
     }
 }
@@ -281,4 +318,18 @@ pub fn follow<'a>(log: &'a [LogRow], records: &'a [Record]) -> impl Iterator<Ite
         let row = rows.next();
         (!record.has(SKIPPED)).then_some(Tick { record, row })
     })
+}
+
+/// The names of the quantities a parameter record flags not identifiable, space separated.
+fn flat_names(flat: u8) -> String {
+    [
+        (FLAT_TAU, "tau"),
+        (FLAT_SIGMA, "sigma"),
+        (FLAT_BETA, "beta"),
+    ]
+    .iter()
+    .filter(|(bit, _)| flat & bit != 0)
+    .map(|(_, n)| *n)
+    .collect::<Vec<_>>()
+    .join(" ")
 }

@@ -323,7 +323,7 @@ pub fn tilt_plot(run: &ModelRun, log: &[LogRow]) -> Result<Option<String>> {
 }
 
 /// How the parameter plots' shaded intervals are obtained (printed under them).
-pub const CR_INTERVAL_NOTE: &str = "Shaded: the approximate 95 % Cramér-Rao interval, value x exp(±1.96 sd), where sd is the standard deviation of the logarithm of the value from the Fisher information the online identification gathered over its exponential window as the window weighs it (params.csv's sd_ln_* columns: the sandwich variance of the windowed estimate). An interval appears once that information is positive definite; it is clipped to a third of the smallest and three times the largest plotted value, so that the weak early intervals do not flatten the plot.";
+pub const CR_INTERVAL_NOTE: &str = "Shaded: the approximate 95 % Cramér-Rao interval, value x exp(±1.96 sd), where sd is the standard deviation of the logarithm of the value (params.csv's sd_ln_* columns) from the Fisher information of the online identification's window: with the global stage, the last search's window (each marginal deviation, the other parameters free); otherwise the recursion's exponential window as that window weighs it (the sandwich variance of the windowed estimate). An interval appears once that information is positive definite; it is clipped to a third of the smallest and three times the largest plotted value, so that the weak early intervals do not flatten the plot.";
 
 /// One plot per identified parameter of a `run --adapt` (its `params` records) over time, with
 /// its Cramér-Rao interval as a shaded band, and the true value when the truth model is known

@@ -266,6 +266,8 @@ fn assert_parity(model: &InsModel<f64>, ident: Ident, rows: &[LogRow], what: &st
             );
             worst_param = worst_param.max(r);
         }
+        // The same quantities flagged not identifiable (issue 13, item 2).
+        assert_eq!(a.flat, b.flat, "{what}: flags differ: {a:?} vs {b:?}");
         // The Cramér-Rao deviations: the same quantities reported, and equal within 5 % (a
         // square root of an f32 sandwich product of the summed information).
         for (x, y) in [

@@ -139,6 +139,7 @@ fn run_compare_and_diagnose_replay_the_same_ticks() {
         skipped_time: summary["counts"]["skipped_time"].as_u64().unwrap() as usize,
         repairs: summary["counts"]["repairs"].as_u64().unwrap() as usize,
         sensor_changes: summary["counts"]["sensor_changes"].as_u64().unwrap() as usize,
+        not_identifiable: summary["counts"]["not_identifiable"].as_u64().unwrap() as usize,
     };
     let (run_ll, run_n) = records::log_likelihood(&run_est);
     println!("run: {run_counts:?}, log-likelihood {run_ll} over {run_n} innovations");

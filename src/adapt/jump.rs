@@ -10,6 +10,10 @@ use super::{probes, AdaptError, AdaptiveFilter, Found};
 use crate::linalg::is_positive_definite;
 use crate::Real;
 
+/// Half the 95 % quantiles of chi-square with 1 to 5 degrees of freedom [nats]: how much
+/// holding `k` flat coordinates may cost the window's log-likelihood.
+const HOLD_QUANTILE: [f64; MAXP] = [1.921, 2.996, 3.907, 4.744, 5.535];
+
 impl<T: Real> AdaptiveFilter<T> {
     /// End of a probe epoch: jump to a winning probe (fresh information, the old one describes
     /// another basin), then re-anchor the grid at the centre. Returns whether it jumped.
@@ -66,32 +70,55 @@ impl<T: Real> AdaptiveFilter<T> {
         // The first finished search ends the search phase (the recursion, when not held,
         // then climbs from the basin the window chose).
         self.searching = false;
+        let p = self.specs.len().min(MAXP);
+        // Issue 13, item 2: what the window does not bound is flagged, not left to wander.
+        self.flat = found.flat(p);
         if let Some(sw) = found.switch.get().filter(|s| self.switch_wins(s)) {
             if self.switch_structure(sw, found.blocks).is_ok() {
                 self.jumps = self.jumps.saturating_add(1);
                 self.switches = self.switches.saturating_add(1);
+                // The window's information describes the old structure's parameters.
+                self.last_global.fisher = [[T::zero(); MAXP]; MAXP];
+                self.flat = 0;
                 return true;
             }
         }
         if !(found.gain.is_finite() && found.gain > self.cfg.global.margin) {
             return false;
         }
+        // Held only where the window cannot tell the held values from its best point: the
+        // likelihood-ratio statistic of the hold (the profile likelihood's, `hold_cost`
+        // halved) within its 95 % chi-square quantile for k held coordinates. Beyond it the
+        // data speak against the held values, whatever the marginal deviations say.
+        let k = self.flat.count_ones() as usize;
+        let quantile = HOLD_QUANTILE.get(k.wrapping_sub(1)).copied().unwrap_or(0.0);
+        let target =
+            if self.cfg.global.hold_flat && self.flat != 0 && found.hold_cost <= T::lit(quantile) {
+                let kept = found.gain - found.hold_cost;
+                if kept.partial_cmp(&self.cfg.global.margin) != Some(core::cmp::Ordering::Greater) {
+                    // The held point is no better than where the filter is.
+                    return false;
+                }
+                self.bounds.clamp(&found.held, p)
+            } else {
+                found.theta
+            };
         // Staggered (one member re-discretised per tick, the centre first), unlike a probe's
         // jump: the recursion is held, so only the information waits for the members, and the
         // tick that ends a search does not add the 2p + 1 re-discretisations of a jump at once
         // (about 230k instructions on the Cortex-M4, §5 of docs/ADAPTATION.md) to its share
         // of the search.
-        self.bank.request_theta(&found.theta);
+        self.bank.request_theta(&target);
         // A move within a factor two keeps the windowed information (it still describes the
         // likelihood near the new point, as after a Gauss-Newton move); a longer one is a jump to
         // another basin, where it does not.
         let far = self
             .theta
             .iter()
-            .zip(found.theta.iter())
-            .take(self.specs.len())
+            .zip(target.iter())
+            .take(p)
             .any(|(a, b)| (*a - *b).abs() > T::lit(core::f64::consts::LN_2));
-        self.theta = found.theta;
+        self.theta = target;
         if far {
             self.acc = Information::default();
             self.acc_sq = [[T::zero(); MAXP]; MAXP];

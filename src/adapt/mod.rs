@@ -98,6 +98,8 @@ pub struct AdaptiveFilter<T: Real> {
     clamped: bool,
     last_global: Found<T>,
     switches: u32,
+    /// The coordinates the last search's window did not identify (bit `i`: `theta[i]`).
+    flat: u8,
 }
 
 impl<T: Real> AdaptiveFilter<T> {
@@ -128,6 +130,7 @@ impl<T: Real> AdaptiveFilter<T> {
         clamped: false,
         last_global: Found::BLANK,
         switches: 0,
+        flat: 0,
     };
 
     /// Starts from `model` (its parameters are the initial guess).
@@ -200,6 +203,7 @@ impl<T: Real> AdaptiveFilter<T> {
         self.clamped = false;
         self.last_global = Found::BLANK;
         self.switches = 0;
+        self.flat = 0;
         Ok(())
     }
 
@@ -314,6 +318,26 @@ impl<T: Real> AdaptiveFilter<T> {
     /// The last finished global search (zero gain and no evaluations before the first).
     pub fn last_global(&self) -> &Found<T> {
         &self.last_global
+    }
+
+    /// The identified coordinates (bit `i`: `theta[i]`, in [`specs`](Self::specs) order)
+    /// the last global search's window did not identify: "not identifiable from these data
+    /// yet" (issue 13, item 2; [`Found::flat`]). Zero before the first search and after a
+    /// structure switch.
+    pub fn flat(&self) -> u8 {
+        self.flat
+    }
+
+    /// The Cramér-Rao standard deviations (`ln`) of the parameters the filter runs, as the
+    /// step reports them: with the global stage, from the last search's window
+    /// ([`Found::sd`]: the data that chose them); otherwise, or before the first search, the
+    /// recursion's [`windowed_sd`](Self::windowed_sd).
+    pub fn cr_sd(&self) -> Option<[T; MAXP]> {
+        if self.cfg.global.enabled() && self.last_global.evaluations > 0 {
+            self.last_global.sd(self.specs.len())
+        } else {
+            self.windowed_sd()
+        }
     }
 
     /// The block update (module documentation). Returns whether `theta` moved.

@@ -123,6 +123,20 @@ pub fn remap<T: Real>(from: &Specs, values: &[T; MAXP], to: &Specs, fill: &[T; M
     out
 }
 
+/// Bit `i` of a mask of `theta` coordinates (at most 8; `0` beyond: no shift can overflow).
+pub const fn coordinate_bit(i: usize) -> u8 {
+    if i < 8 {
+        1 << (i & 7)
+    } else {
+        0
+    }
+}
+
+/// Whether `mask` holds coordinate `i` ([`coordinate_bit`]).
+pub const fn has_coordinate(mask: u8, i: usize) -> bool {
+    mask & coordinate_bit(i) != 0
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

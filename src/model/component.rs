@@ -51,6 +51,12 @@ pub enum ComponentKind {
     White,
 }
 
+/// Cramér-Rao standard deviation [decades] of an identified quantity above which it is flagged
+/// "not identifiable from these data yet" (issue 13, item 2): a factor of 3 either way at one
+/// sigma. The one threshold of the one-channel global stage ([`crate::adapt::window`]) and the
+/// navigator's bank ([`crate::nav::online`]).
+pub const IDENTIFIABLE_SD: f64 = 0.5;
+
 /// A named parameter of a component.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -52,6 +52,7 @@
 mod acf;
 
 pub use crate::telemetry::{model_params, AcfRecord, ParamRecord};
+use crate::telemetry::{FLAT_BETA, FLAT_SIGMA, FLAT_TAU};
 
 use crate::adapt::params::{Specs, MAXP};
 use crate::adapt::{AdaptConfig, AdaptError, AdaptiveFilter, StepStatus};
@@ -60,7 +61,7 @@ use crate::filter::{Estimates, InsFilter};
 use crate::model::{ErrorSource, InsModel, ModelError, Quantity, StateMat};
 use crate::telemetry::{
     status_flags, time_flags, Record, TelemetrySink, BAD_INPUT, BRIDGED, GATED_OUTLIER, MISSING,
-    PARAM_CLAMPED, P_REPAIRED, SENSOR_CHANGE, SKIPPED, TIME_JUMP,
+    NOT_IDENTIFIABLE, PARAM_CLAMPED, P_REPAIRED, SENSOR_CHANGE, SKIPPED, TIME_JUMP,
 };
 use crate::Real;
 
@@ -347,6 +348,9 @@ impl<T: Real> Estimator<T> {
                 if rep.changed {
                     flags |= SENSOR_CHANGE;
                 }
+                if a.flat() != 0 {
+                    flags |= NOT_IDENTIFIABLE;
+                }
                 (rep.innovation, rep.variance, rep.moved, rep.jumped)
             }
         };
@@ -474,13 +478,11 @@ impl<T: Real> Estimator<T> {
         if r.reidentified {
             if let Ok(m) = self.model() {
                 // One factorisation per re-identification, shared by the records.
-                let crb = self
-                    .adaptive()
-                    .and_then(|a| Some((a.specs(), a.windowed_sd()?)));
+                let ident = self.adaptive().map(|a| (a.specs(), a.cr_sd(), a.flat()));
                 model_params(&m, r.record.k, r.record.t, |p| {
                     let mut p = *p;
-                    if let Some((specs, sd)) = &crb {
-                        add_crb(&mut p, specs, sd);
+                    if let Some((specs, sd, flat)) = &ident {
+                        add_crb(&mut p, specs, sd.as_ref(), *flat);
                     }
                     sink.params(&p);
                 });
@@ -503,15 +505,28 @@ impl<T: Real> Estimator<T> {
 }
 
 /// Fills a parameter record's Cramér-Rao standard deviations (of `ln` of each value) from the
-/// adaptive filter's [`AdaptiveFilter::windowed_sd`] `sd` of its identified `specs`. A random
-/// walk's record carries `sqrt(q)`, so its `ln` standard deviation is half that of the
-/// identified `ln q`.
-fn add_crb<T: Real>(p: &mut ParamRecord, specs: &Specs, sd: &[T; MAXP]) {
-    for (spec, &s) in specs.iter().zip(sd.iter()) {
+/// adaptive filter's [`AdaptiveFilter::cr_sd`] `sd` of its identified `specs`, and its flags
+/// from [`AdaptiveFilter::flat`] (bit `i`: `specs[i]` not identifiable). A random walk's record
+/// carries `sqrt(q)`, so its `ln` standard deviation is half that of the identified `ln q`.
+fn add_crb<T: Real>(p: &mut ParamRecord, specs: &Specs, sd: Option<&[T; MAXP]>, flat: u8) {
+    for (i, spec) in specs.iter().enumerate().take(MAXP) {
         if spec.sensor != p.sensor || spec.index != p.component {
             continue;
         }
-        let s = s.as_f64() as f32;
+        let s = sd
+            .and_then(|sd| sd.get(i))
+            .map_or(f32::NAN, |s| s.as_f64() as f32);
+        let bit = if crate::adapt::params::has_coordinate(flat, i) {
+            match spec.kind {
+                Quantity::Tau => FLAT_TAU,
+                Quantity::Beta => FLAT_BETA,
+                Quantity::Sigma0 => 0,
+                _ => FLAT_SIGMA,
+            }
+        } else {
+            0
+        };
+        p.flat |= bit;
         match spec.kind {
             Quantity::Tau => p.sd_tau = s,
             Quantity::Sigma | Quantity::Density => p.sd_sigma = s,

@@ -20,8 +20,8 @@
 pub mod params;
 
 pub use params::{
-    model_params, sensor_code, AcfRecord, ParamRecord, ACF_WIRE_TAG, PARAM_WIRE_FIELDS,
-    PARAM_WIRE_TAG,
+    model_params, sensor_code, AcfRecord, ParamRecord, ACF_WIRE_TAG, FLAT_BETA, FLAT_SIGMA,
+    FLAT_TAU, PARAM_WIRE_FIELDS, PARAM_WIRE_TAG,
 };
 
 use crate::filter::{Estimates, UpdateStatus};
@@ -47,9 +47,14 @@ pub const BRIDGED: u16 = 1 << 7;
 /// The online identification found a change in service at this tick (its innovations left
 /// the model's, [`adapt::change`](crate::adapt::change)): its windows start after the change.
 pub const SENSOR_CHANGE: u16 = 1 << 8;
+/// The model runs with a parameter the online identification's last window search did not
+/// identify (Cramér-Rao sd above [`IDENTIFIABLE_SD`](crate::model::IDENTIFIABLE_SD) decades:
+/// "not identifiable from these data yet"); the parameter records carry its interval. Set on
+/// every tick until a search identifies it.
+pub const NOT_IDENTIFIABLE: u16 = 1 << 9;
 
 /// Every flag with its name, in bit order (for reports and decoders).
-pub const FLAG_NAMES: [(u16, &str); 9] = [
+pub const FLAG_NAMES: [(u16, &str); 10] = [
     (MISSING, "missing"),
     (GATED_OUTLIER, "gated_outlier"),
     (P_REPAIRED, "p_repaired"),
@@ -59,6 +64,7 @@ pub const FLAG_NAMES: [(u16, &str); 9] = [
     (SKIPPED, "skipped"),
     (BRIDGED, "bridged"),
     (SENSOR_CHANGE, "sensor_change"),
+    (NOT_IDENTIFIABLE, "not_identifiable"),
 ];
 
 /// First word of the defmt telemetry frame written by [`Record::log`]; host decoders pick the

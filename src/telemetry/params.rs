@@ -43,7 +43,19 @@ pub struct ParamRecord {
     pub sd_sigma: f32,
     /// Cramér-Rao standard deviation of `ln beta` (NaN: not identified).
     pub sd_beta: f32,
+    /// The quantities the online identification's last window search did not identify (issue
+    /// 13, item 2: "not identifiable from these data yet"; Cramér-Rao sd above
+    /// [`IDENTIFIABLE_SD`](crate::model::IDENTIFIABLE_SD) decades): bits [`FLAT_TAU`],
+    /// [`FLAT_SIGMA`], [`FLAT_BETA`].
+    pub flat: u8,
 }
+
+/// [`ParamRecord::flat`]: the correlation time is not identifiable from these data yet.
+pub const FLAT_TAU: u8 = 1 << 0;
+/// [`ParamRecord::flat`]: the standard deviation (or density, or random-walk intensity) is not.
+pub const FLAT_SIGMA: u8 = 1 << 1;
+/// [`ParamRecord::flat`]: the oscillation frequency is not.
+pub const FLAT_BETA: u8 = 1 << 2;
 
 impl ParamRecord {
     /// Sets the parameters of the component this record describes in `m` (the inverse of
@@ -81,8 +93,9 @@ impl ParamRecord {
 }
 
 /// Field names of the defmt parameter frame, in order (see [`ParamRecord::log`]).
-pub const PARAM_WIRE_FIELDS: [&str; 11] = [
+pub const PARAM_WIRE_FIELDS: [&str; 12] = [
     "k", "t", "sensor", "comp", "kind", "tau", "sigma", "beta", "sd_tau", "sd_sigma", "sd_beta",
+    "flat",
 ];
 
 /// First word of the defmt parameter frame.
@@ -122,7 +135,7 @@ impl ParamRecord {
     #[cfg(feature = "defmt")]
     pub fn log(&self) {
         defmt::info!(
-            "par k={=u32} t={=f64} sensor={=u8} comp={=u8} kind={=u8} tau={=f32} sigma={=f32} beta={=f32} sd_tau={=f32} sd_sigma={=f32} sd_beta={=f32}",
+            "par k={=u32} t={=f64} sensor={=u8} comp={=u8} kind={=u8} tau={=f32} sigma={=f32} beta={=f32} sd_tau={=f32} sd_sigma={=f32} sd_beta={=f32} flat={=u8}",
             self.k,
             self.t,
             sensor_code(self.sensor),
@@ -133,7 +146,8 @@ impl ParamRecord {
             self.beta,
             self.sd_tau,
             self.sd_sigma,
-            self.sd_beta
+            self.sd_beta,
+            self.flat
         );
     }
 }
@@ -174,6 +188,7 @@ pub fn model_params<T: Real>(m: &InsModel<T>, k: u32, t: f64, mut out: impl FnMu
                 sd_tau: nan,
                 sd_sigma: nan,
                 sd_beta: nan,
+                flat: 0,
             });
         }
     }
@@ -190,6 +205,7 @@ pub fn model_params<T: Real>(m: &InsModel<T>, k: u32, t: f64, mut out: impl FnMu
             sd_tau: nan,
             sd_sigma: nan,
             sd_beta: nan,
+            flat: 0,
         });
     }
 }

@@ -20,6 +20,14 @@ pub const CHANGE_THRESHOLD: f64 = 24.0;
 /// worst; 30, 60 and 120 were within one or two runs of each other; 60 is kept.
 pub const AFTER_CHANGE: u32 = 60;
 
+/// Blocks after a search whose answer the window does not identify before the next search
+/// (1 h; the usual pace is 4 h). Measured at firmware pace on development seeds 1000-1009 (320
+/// runs from any start): the 4-h window's answer was flat on about a fifth of the runs and
+/// was run until the 8-h search ended near hour 9; searching again 1 h later brought the 95th
+/// percentile of the tilt ratio from 1.11-1.16 to 1.02-1.03 and the worst from 5-17x to
+/// 1.05x (BENCHMARKS.md "Flat answers searched again sooner").
+pub const FLAT_EVERY: u32 = 60;
+
 /// Tuning of the global stage.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -53,6 +61,20 @@ pub struct WindowConfig<T> {
     pub change: T,
     /// Blocks after an estimated change before the first search on the data since it.
     pub after_change: u32,
+    /// Hold the parameters a search's window does not identify (Cramér-Rao sd above
+    /// [`IDENTIFIABLE_SD`](crate::model::IDENTIFIABLE_SD) decades, [`Found::flat`]) at the
+    /// values the filter runs, the others moved along the ridge ([`Found::held`]). They are
+    /// flagged either way.
+    ///
+    /// [`Found::flat`]: super::Found::flat
+    /// [`Found::held`]: super::Found::held
+    pub hold_flat: bool,
+    /// Blocks after a search whose answer the window does not identify ([`Found::flat`])
+    /// before the next search, when sooner than the usual pace (`0`: the usual pace). Not
+    /// after a change in service, nor with the structure test on (`docs/ADAPTATION.md` §7.8).
+    ///
+    /// [`Found::flat`]: super::Found::flat
+    pub flat_every: u32,
 }
 
 impl<T: Real> WindowConfig<T> {
@@ -70,13 +92,16 @@ impl<T: Real> WindowConfig<T> {
         structure: T::ZERO,
         change: T::ZERO,
         after_change: 0,
+        hold_flat: false,
+        flat_every: 0,
     };
 
     /// The measured default (`docs/ADAPTATION.md` §7): 60-s blocks, 8-h window, first search
     /// after 4 h, then every 4 h, 64 filter steps and at most one filter construction per tick
     /// (a search over a full window takes about 1.3 h; the Cortex-M4's mean and worst tick stay
     /// within 50k and 500k instructions); margin 0 (the filter runs at the window's maximum: the
-    /// search replaces the recursion, which is held).
+    /// search replaces the recursion, which is held); an answer the window does not identify
+    /// is searched again after [`FLAT_EVERY`] blocks.
     pub fn default_on() -> Self {
         Self {
             block: 60,
@@ -94,6 +119,11 @@ impl<T: Real> WindowConfig<T> {
             structure: T::ZERO,
             change: T::lit(CHANGE_THRESHOLD),
             after_change: AFTER_CHANGE,
+            // Off: measured neutral from any start (development seeds 1000-1009) and harmful
+            // after a change in service, where the values held are the old sensor's (seed
+            // 31008: 1.67x oracle B against 1.01x; `docs/ADAPTATION.md` §7.8).
+            hold_flat: false,
+            flat_every: FLAT_EVERY,
         }
     }
 

@@ -8,7 +8,7 @@
 
 use super::{Phase, WindowSearch, FINAL, MAX_ITERATIONS, SHORT_ITERATIONS, TOP};
 use crate::adapt::guard::Bounds;
-use crate::adapt::params::MAXP;
+use crate::adapt::params::{has_coordinate, MAXP};
 use crate::linalg::{chol_solve, cholesky};
 use crate::Real;
 
@@ -65,11 +65,25 @@ impl<T: Real> WindowSearch<T> {
     /// per parameter (direction kept).
     pub(super) fn scoring_step(&self, p: usize, bounds: &Bounds<T>) -> Option<[T; MAXP]> {
         let mut a = self.acc_fisher;
+        let mut g = self.acc_score;
         for (i, row) in a.iter_mut().enumerate().take(p) {
             row[i] = row[i] * (T::one() + self.lambda) + T::lit(1e-9);
         }
+        // A fixed coordinate (the hold's) does not move: its row and column decouple.
+        for i in (0..p.min(MAXP)).filter(|&i| has_coordinate(self.fixed, i)) {
+            for (j, row) in a.iter_mut().enumerate() {
+                for (k, v) in row.iter_mut().enumerate() {
+                    if j == i || k == i {
+                        *v = if j == k { T::one() } else { T::zero() };
+                    }
+                }
+            }
+            if let Some(v) = g.get_mut(i) {
+                *v = T::zero();
+            }
+        }
         let l = cholesky(&a, p)?;
-        let mut d = chol_solve(&l, &self.acc_score, p);
+        let mut d = chol_solve(&l, &g, p);
         let big = d.iter().take(p).fold(T::zero(), |m, v| m.max(v.abs()));
         let limit = self.cfg.spacing * T::lit(0.5);
         if !big.is_finite() {
@@ -128,7 +142,10 @@ impl<T: Real> WindowSearch<T> {
         match self.scoring_step(p, bounds) {
             Some(t) => {
                 self.pass.theta = t;
-                if matches!(self.phase, Phase::AltRefine | Phase::NestRefine) {
+                if matches!(
+                    self.phase,
+                    Phase::AltRefine | Phase::NestRefine | Phase::HoldRefine
+                ) {
                     self.phase
                 } else if refine {
                     Phase::Refine(k)
@@ -147,17 +164,25 @@ impl<T: Real> WindowSearch<T> {
             // The alternative's result is kept by `end_alternative`, not as the model's best.
             return Phase::Idle;
         }
+        if self.phase == Phase::HoldRefine {
+            // The hold's profile maximum: kept apart, never the search's best.
+            self.held = self.acc_theta;
+            self.held_ll = self.acc_ll;
+            return Phase::Idle;
+        }
         if self.phase == Phase::NestRefine {
             // A better point of the filter's model: it becomes the answer.
             if self.acc_ll > self.best_ll {
                 self.best_ll = self.acc_ll;
                 self.best = self.acc_theta;
+                self.best_fisher = self.acc_fisher;
             }
             return Phase::Idle;
         }
         if self.acc_ll > self.best_ll {
             self.best_ll = self.acc_ll;
             self.best = self.acc_theta;
+            self.best_fisher = self.acc_fisher;
         }
         if refine {
             if k + 1 < FINAL {

@@ -88,11 +88,11 @@ use newton::Quad;
 use shadow::Shadow;
 
 /// Cramér-Rao standard deviation [decades] above which a coordinate is flagged "not
-/// identifiable from these data yet" (a factor of 3 either way at one sigma). The flag is
+/// identifiable from these data yet" (the component table's threshold). The flag is
 /// reported (and with [`OnlineConfig::hold_flat_taus`] a correlation time so flagged is
 /// held); what moves a coordinate is the likelihood gain its parabola promises
 /// ([`OnlineConfig::min_gain`]).
-pub const IDENTIFIABLE_SD: f64 = 0.5;
+pub use crate::model::IDENTIFIABLE_SD;
 
 /// Settings of the online identification.
 #[derive(Debug, Clone, Copy, PartialEq)]
