@@ -234,6 +234,10 @@ fn params_dict<'py>(
     d.set_item("sd_ln_tau", num(|r| r.sd_ln_tau))?;
     d.set_item("sd_ln_sigma", num(|r| r.sd_ln_sigma))?;
     d.set_item("sd_ln_beta", num(|r| r.sd_ln_beta))?;
+    d.set_item(
+        "not_identifiable",
+        PyList::new(py, rows.iter().map(|r| r.not_identifiable.as_str()))?,
+    )?;
     Ok(d)
 }
 

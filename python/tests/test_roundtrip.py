@@ -15,14 +15,21 @@ from conftest import run_cli
 RTOL = 1e-12
 
 
+# Columns of text even when every cell is empty (params.csv's flagged quantities).
+TEXT_COLUMNS = {"not_identifiable"}
+
+
 def read_csv(path: Path):
     """A CSV with a header as a dict of columns: floats as arrays (empty cell = NaN), other
-    columns as lists of str."""
+    columns (and those in TEXT_COLUMNS) as lists of str."""
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     cols = {}
     for name in rows[0].keys() if rows else []:
         vals = [r[name] for r in rows]
+        if name in TEXT_COLUMNS:
+            cols[name] = vals
+            continue
         try:
             cols[name] = np.array([float(v) if v != "" else np.nan for v in vals])
         except ValueError:
