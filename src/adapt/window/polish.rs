@@ -157,6 +157,20 @@ impl<T: Real> WindowSearch<T> {
         }
     }
 
+    /// The polish's result becomes the search's answer when its likelihood is higher. The
+    /// window's information goes with it; also when the polish ended where the answer already
+    /// is (a polish of the anchor that accepted no step leaves the anchor the best point, whose
+    /// information only the polish computed).
+    fn offer_best(&mut self) {
+        if self.acc_ll > self.best_ll {
+            self.best_ll = self.acc_ll;
+            self.best = self.acc_theta;
+            self.best_fisher = self.acc_fisher;
+        } else if self.acc_theta == self.best && self.acc_ll.is_finite() {
+            self.best_fisher = self.acc_fisher;
+        }
+    }
+
     /// Ends a polish: a brief one stores its result in place of its start point; a refinement
     /// competes for the answer.
     pub(super) fn end_polish(&mut self, k: usize, refine: bool) -> Phase {
@@ -172,18 +186,10 @@ impl<T: Real> WindowSearch<T> {
         }
         if self.phase == Phase::NestRefine {
             // A better point of the filter's model: it becomes the answer.
-            if self.acc_ll > self.best_ll {
-                self.best_ll = self.acc_ll;
-                self.best = self.acc_theta;
-                self.best_fisher = self.acc_fisher;
-            }
+            self.offer_best();
             return Phase::Idle;
         }
-        if self.acc_ll > self.best_ll {
-            self.best_ll = self.acc_ll;
-            self.best = self.acc_theta;
-            self.best_fisher = self.acc_fisher;
-        }
+        self.offer_best();
         if refine {
             if k + 1 < FINAL {
                 self.start_polish(k + 1, true)
