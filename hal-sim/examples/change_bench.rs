@@ -9,7 +9,8 @@
 //! ```
 //! `EVERY`, `BUDGET` override the global stage's pace (host pace: `EVERY=120 BUDGET=1000`);
 //! `CHANGE` sets the change monitor's threshold (`0`: off), `AFTER` the blocks before the first
-//! search after a change. `TRACE=1` prints the identified models and the changes found;
+//! search after a change. `TRACE=1` prints the identified models (with their Cramér-Rao
+//! deviations and flags) and the changes found;
 //! `START_B=1` starts from the model after the change (a miss that remains is the data's, not
 //! the search's). Keys: `seamless=1` keeps every state continuous through the change
 //! (`sim::Seam::Continuous`); `stationary=1` runs the model after the change from the start.
@@ -93,8 +94,15 @@ fn main() -> anyhow::Result<()> {
             }
             for p in &r.params {
                 println!(
-                    "  t {:>6.0} {} {} tau {:.1} sigma {:.3e}",
-                    p.t, p.sensor, p.kind, p.tau, p.sigma
+                    "  t {:>6.0} {} {} tau {:.1} sigma {:.3e} sd(ln) {:.2} {:.2} not identifiable: {}",
+                    p.t,
+                    p.sensor,
+                    p.kind,
+                    p.tau,
+                    p.sigma,
+                    p.sd_ln_tau,
+                    p.sd_ln_sigma,
+                    p.not_identifiable
                 );
             }
         }
