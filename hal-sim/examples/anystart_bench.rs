@@ -101,12 +101,7 @@ fn main() -> anyhow::Result<()> {
             let (rms, out) = tilt(&r.estimates);
             let ratio = rms / oracle;
             // Changes found on a stationary log are false alarms: count them.
-            let alarms: Vec<f64> = r
-                .estimates
-                .iter()
-                .filter(|e| e.flags & imu_ident::telemetry::SENSOR_CHANGE != 0)
-                .map(|e| e.t / 3600.0)
-                .collect();
+            let alarms = r.flagged_hours(imu_ident::telemetry::SENSOR_CHANGE);
             if !alarms.is_empty() {
                 false_alarms += 1;
                 if std::env::var_os("TRACE").is_some() {

@@ -110,12 +110,7 @@ fn main() -> anyhow::Result<()> {
         let (fa, _) = replay::estimates::<f64>(&a, &log)?;
         let (frms, _) = tilt_window(&log, &fa, t0, t1).unwrap_or((f64::NAN, 0.0));
         // Changes found, and when the first was (hours; the truth is at 6 h).
-        let found: Vec<f64> = r
-            .estimates
-            .iter()
-            .filter(|e| e.flags & SENSOR_CHANGE != 0)
-            .map(|e| e.t / 3600.0)
-            .collect();
+        let found = r.flagged_hours(SENSOR_CHANGE);
         // `mlref=1`: the ML reference B, an offline fit of B's structure to hours 6-12 (the
         // 6 h the bar allows after the change), run as a fixed filter over the whole log; the
         // run is then also judged against max(ML reference B, oracle B), as the any-start bar

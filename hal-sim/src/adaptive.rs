@@ -45,6 +45,18 @@ pub struct AdaptiveRun {
     pub last_change: Option<f64>,
 }
 
+impl AdaptiveRun {
+    /// Times [h] of the ticks whose telemetry flags carry any bit of `flag` (for example
+    /// `imu_ident::telemetry::SENSOR_CHANGE`).
+    pub fn flagged_hours(&self, flag: u16) -> Vec<f64> {
+        self.estimates
+            .iter()
+            .filter(|e| e.flags & flag != 0)
+            .map(|e| e.t / 3600.0)
+            .collect()
+    }
+}
+
 /// Replays `log` through the step identifying online ([`replay::run`] with `cfg`), started
 /// from `start`, in precision `T`.
 pub fn run<T: Real>(

@@ -24,11 +24,7 @@ fn host_pace(change: f64) -> AdaptConfig<f64> {
 
 /// Times [h] of the ticks flagged `sensor_change`.
 fn changes(r: &adaptive::AdaptiveRun) -> Vec<f64> {
-    r.estimates
-        .iter()
-        .filter(|e| e.flags & SENSOR_CHANGE != 0)
-        .map(|e| e.t / 3600.0)
-        .collect()
+    r.flagged_hours(SENSOR_CHANGE)
 }
 
 /// 6 h of `paper`, then 12 h of a quieter sensor (sigma_a 0.10x, tau_a 0.29x, sigma_g 0.19x,

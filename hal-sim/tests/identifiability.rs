@@ -43,12 +43,7 @@ fn a_flat_answer_is_flagged_and_searched_again_sooner() {
     let (rms, _) = tilt_window(&log, &run.estimates, t0, t1).unwrap();
     let (rms0, _) = tilt_window(&log, &slow.estimates, t0, t1).unwrap();
 
-    let flagged: Vec<f64> = run
-        .estimates
-        .iter()
-        .filter(|e| e.flags & NOT_IDENTIFIABLE != 0)
-        .map(|e| e.t / 3600.0)
-        .collect();
+    let flagged = run.flagged_hours(NOT_IDENTIFIABLE);
     let rows: Vec<&ParamRow> = run
         .params
         .iter()
