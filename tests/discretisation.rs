@@ -128,7 +128,11 @@ fn component_closed_forms_match_the_series() {
     a.fixed_view_mut::<2, 2>(0, 0).copy_from(&b.a);
     q.fixed_view_mut::<2, 2>(0, 0).copy_from(&b.qc);
     let d = discretise(&a, &q, dt).unwrap();
-    let (phi, qd) = (ec.phi(dt), ec.qd(dt));
+    // The filter's realisation is a damped rotation (`model::exp_cosine` docs): its closed
+    // form is `Phi = exp(-alpha dt) R(beta dt)`, `Qd = sigma^2 (1 - exp(-2 alpha dt)) I`.
+    let (e, (s, c)) = ((-ec.alpha() * dt).exp(), (ec.beta * dt).sin_cos());
+    let phi = nalgebra::Matrix2::new(c, -s, s, c) * e;
+    let qd = nalgebra::Matrix2::identity() * (ec.sigma * ec.sigma * (1.0 - e * e));
     for i in 0..2 {
         for j in 0..2 {
             assert!((d.Phi[(i, j)] - phi[(i, j)]).abs() < 1e-13, "Phi[{i},{j}]");

@@ -7,7 +7,7 @@
 
 use crate::log::{LogRow, Truth};
 use anyhow::{anyhow, Result};
-use imu_ident::model::{idx, ErrorSource, InsModel, StateMat, StateVec, NX};
+use imu_ident::model::{idx, ErrorSource, InsModel, Realisation, StateMat, StateVec, NX};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -85,15 +85,21 @@ fn continue_path(
     rng: &mut ChaCha8Rng,
     rows: &mut Vec<LogRow>,
 ) -> Result<StateVec<f64>> {
-    let scale = model.scaling().map_err(|e| anyhow!("truth model: {e}"))?;
+    // The paper's realisation of every component: a seed draws the same path as before the
+    // filters took the damped-rotation form of the exponential-cosine (`Realisation`). The
+    // physical state `x0` of a continued path is in this realisation too.
+    let r = Realisation::Paper;
+    let scale = model
+        .scaling_in(r)
+        .map_err(|e| anyhow!("truth model: {e}"))?;
     let (sys, disc) = model
-        .discretise(&scale)
+        .discretise_in(&scale, r)
         .map_err(|e| anyhow!("truth model: {e}"))?;
     let accel = model
-        .output_row(ErrorSource::Accel, &scale)
+        .output_row_in(ErrorSource::Accel, &scale, r)
         .map_err(|e| anyhow!("{e}"))?;
     let gyro = model
-        .output_row(ErrorSource::Gyro, &scale)
+        .output_row_in(ErrorSource::Gyro, &scale, r)
         .map_err(|e| anyhow!("{e}"))?;
     let lq = sqrt_psd(&disc.Qd);
     // Scaled states: `x_scaled = x_physical / scale` entry by entry.

@@ -248,6 +248,19 @@ pub enum Component<T> {
     White(WhiteNoise<T>),
 }
 
+/// Which state-space realisation of a component's process (the same process either way; they
+/// differ only for an exponential-cosine, `model::exp_cosine` docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Realisation {
+    /// The filters' (every estimator in the crate): well conditioned for every parameter.
+    #[default]
+    Filter,
+    /// The paper's shaping filter (eq. 16-17, corrected), singular as `beta -> 0`. The host's
+    /// truth simulator draws with it, so that a seed draws the same log as before the filters
+    /// changed realisation.
+    Paper,
+}
+
 /// The state-space block of one component (only the leading `states` rows/columns are used).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Block<T: Real> {
@@ -399,8 +412,14 @@ impl<T: Real> Component<T> {
         }
     }
 
-    /// The state-space block of the component.
+    /// The state-space block of the component, in the filter's realisation.
     pub fn block(&self) -> Block<T> {
+        self.block_in(Realisation::Filter)
+    }
+
+    /// The state-space block of the component in realisation `r` (they differ only for an
+    /// exponential-cosine).
+    pub fn block_in(&self, r: Realisation) -> Block<T> {
         let z = Matrix2::zeros();
         let c1 = RowVector2::new(T::one(), T::zero());
         let scalar = |a: T, qc: T, p0: T| Block {
@@ -412,7 +431,7 @@ impl<T: Real> Component<T> {
         };
         match self {
             Self::GaussMarkov(g) => scalar(-g.alpha(), g.qc(), g.sigma * g.sigma),
-            Self::ExpCosine(e) => {
+            Self::ExpCosine(e) if r == Realisation::Paper => {
                 let g = e.g_vector();
                 Block {
                     states: 2,
@@ -422,6 +441,15 @@ impl<T: Real> Component<T> {
                     p0: e.p_inf(),
                 }
             }
+            // The damped-rotation realisation: well conditioned for every beta, where the
+            // paper's becomes singular as beta -> 0 (`model::exp_cosine` docs).
+            Self::ExpCosine(e) => Block {
+                states: 2,
+                a: e.rotation_a(),
+                qc: Matrix2::identity() * e.rotation_qc(),
+                c: c1,
+                p0: Matrix2::identity() * (e.sigma * e.sigma),
+            },
             Self::RandomWalk(r) => scalar(T::zero(), r.q, r.sigma0 * r.sigma0),
             Self::RandomConstant(r) => scalar(T::zero(), T::zero(), r.sigma * r.sigma),
             Self::White(_) => Block {

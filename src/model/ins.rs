@@ -19,7 +19,7 @@
 
 use crate::linalg::{from_mat, Arr, At};
 use crate::model::discretise::{discretise, discretise_block, Discrete};
-use crate::model::{Component, GaussMarkov, ModelError};
+use crate::model::{Component, GaussMarkov, ModelError, Realisation};
 use crate::Real;
 use heapless::Vec;
 use nalgebra::{RowSVector, SMatrix, SVector};
@@ -262,6 +262,11 @@ impl<T: Real> InsModel<T> {
 
     /// A power-of-two scaling that brings every state to O(1) magnitude.
     pub fn scaling(&self) -> Result<Scaling<T>, ModelError> {
+        self.scaling_in(Realisation::Filter)
+    }
+
+    /// [`InsModel::scaling`] of the components in realisation `r`.
+    pub fn scaling_in(&self, r: Realisation) -> Result<Scaling<T>, ModelError> {
         let layout = self.layout()?;
         let mut s = Scaling::from_element(T::one());
         s[idx::DV] = pow2_near(self.sigma_v);
@@ -276,7 +281,7 @@ impl<T: Real> InsModel<T> {
         });
         for slot in &layout {
             if let Some(comp) = self.component(slot) {
-                let block = comp.block();
+                let block = comp.block_in(r);
                 for k in 0..slot.states.min(2) {
                     if let Some(v) = s.get_mut(slot.start + k) {
                         *v = pow2_near(block.p0[(k, k)].sqrt().max(comp.magnitude()));
@@ -290,6 +295,16 @@ impl<T: Real> InsModel<T> {
     /// The continuous-time system in the states scaled by `scale`.
     #[allow(non_snake_case)]
     pub fn continuous(&self, scale: &Scaling<T>) -> Result<Continuous<T>, ModelError> {
+        self.continuous_in(scale, Realisation::Filter)
+    }
+
+    /// [`InsModel::continuous`] with the components in realisation `r`.
+    #[allow(non_snake_case)]
+    pub fn continuous_in(
+        &self,
+        scale: &Scaling<T>,
+        r: Realisation,
+    ) -> Result<Continuous<T>, ModelError> {
         let layout = self.layout()?;
         let mut A = StateMat::zeros();
         let mut Qc = StateMat::zeros();
@@ -306,7 +321,7 @@ impl<T: Real> InsModel<T> {
             let Some(comp) = self.component(slot) else {
                 continue;
             };
-            let b = comp.block();
+            let b = comp.block_in(r);
             // The INS state this sensor drives; observation terms enter H instead.
             let driven = match slot.sensor {
                 ErrorSource::Accel => Some(dv),
@@ -355,7 +370,16 @@ impl<T: Real> InsModel<T> {
         &self,
         scale: &Scaling<T>,
     ) -> Result<(Continuous<T>, Discrete<T, NX>), ModelError> {
-        let c = self.continuous(scale)?;
+        self.discretise_in(scale, Realisation::Filter)
+    }
+
+    /// [`InsModel::discretise`] with the components in realisation `r`.
+    pub fn discretise_in(
+        &self,
+        scale: &Scaling<T>,
+        r: Realisation,
+    ) -> Result<(Continuous<T>, Discrete<T, NX>), ModelError> {
+        let c = self.continuous_in(scale, r)?;
         let d = discretise(&c.A, &c.Qc, self.dt)?;
         Ok((c, d))
     }
@@ -377,13 +401,23 @@ impl<T: Real> InsModel<T> {
         sensor: ErrorSource,
         scale: &Scaling<T>,
     ) -> Result<StateRow<T>, ModelError> {
+        self.output_row_in(sensor, scale, Realisation::Filter)
+    }
+
+    /// [`InsModel::output_row`] with the components in realisation `r`.
+    pub fn output_row_in(
+        &self,
+        sensor: ErrorSource,
+        scale: &Scaling<T>,
+        r: Realisation,
+    ) -> Result<StateRow<T>, ModelError> {
         let layout = self.layout()?;
         let mut row = StateRow::zeros();
         for slot in layout.iter().filter(|s| s.sensor == sensor) {
             let Some(comp) = self.component(slot) else {
                 continue;
             };
-            let c = comp.block().c;
+            let c = comp.block_in(r).c;
             for k in 0..slot.states.min(2) {
                 if let (Some(r), Some(s)) = (row.get_mut(slot.start + k), scale.get(slot.start + k))
                 {

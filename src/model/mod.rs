@@ -17,7 +17,7 @@ pub mod random_walk;
 pub mod white;
 pub mod wire;
 
-pub use component::{Component, ComponentKind, Quantity, Summary, IDENTIFIABLE_SD};
+pub use component::{Component, ComponentKind, Quantity, Realisation, Summary, IDENTIFIABLE_SD};
 pub use discretise::Discrete;
 pub use error_model::{ContinuousSystem, ErrorModel, StateBlock};
 pub use exp_cosine::ExpCosine;

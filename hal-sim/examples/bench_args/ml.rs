@@ -31,12 +31,18 @@ struct Nll<'a> {
     base: &'a InsModel<f64>,
     log: &'a [LogRow],
     from: f64,
+    /// Lower bounds of the `ln` parameters, by coordinate (missing: none).
+    floor: &'a [f64],
 }
 impl CostFunction for Nll<'_> {
     type Param = Vec<f64>;
     type Output = f64;
     fn cost(&self, p: &Vec<f64>) -> Result<f64, Error> {
-        if p.iter().any(|v| !v.is_finite() || v.abs() > 60.0) || p[1] < 0.0 || p[3] < 0.0 {
+        if p.iter().any(|v| !v.is_finite() || v.abs() > 60.0)
+            || p[1] < 0.0
+            || p[3] < 0.0
+            || p.iter().zip(self.floor).any(|(v, f)| v < f)
+        {
             return Ok(f64::INFINITY);
         }
         let ll = if self.from.is_finite() {
@@ -78,6 +84,7 @@ pub fn ml_fit(base: &InsModel<f64>, log: &[LogRow], from: f64) -> (Vec<f64>, Vec
         base: &dbase,
         log: &dlog,
         from,
+        floor: &[],
     };
     let th0 = theta(base);
     let mut best = (f64::INFINITY, th0.clone());
@@ -94,16 +101,50 @@ pub fn ml_fit(base: &InsModel<f64>, log: &[LogRow], from: f64) -> (Vec<f64>, Vec
         }
     }
     let global = nm_fit(base, log, best.1, from);
-    let cost = Nll { base, log, from };
+    let cost = Nll {
+        base,
+        log,
+        from,
+        floor: &[],
+    };
     let (cl, cg) = (cost.cost(&local).unwrap(), cost.cost(&global).unwrap());
     (local, global, -cl, -cg)
 }
 
-fn nm_fit(base: &InsModel<f64>, log: &[LogRow], x0: Vec<f64>, from: f64) -> Vec<f64> {
+/// The log-likelihood of `log` under `base` at the `ln` parameters `th`, every tick counted
+/// (`-inf` where the model is invalid).
+pub fn loglik(base: &InsModel<f64>, log: &[LogRow], th: &[f64]) -> f64 {
+    let nll = Nll {
+        base,
+        log,
+        from: f64::NEG_INFINITY,
+        floor: &[],
+    };
+    -nll.cost(&th.to_vec()).unwrap_or(f64::INFINITY)
+}
+
+/// Nelder-Mead from `x0` (simplex steps 0.5 then 0.15 in `ln`), the ticks at or after `from`.
+pub fn nm_fit(base: &InsModel<f64>, log: &[LogRow], x0: Vec<f64>, from: f64) -> Vec<f64> {
+    nm_fit_above(base, log, x0, from, &[])
+}
+
+/// [`nm_fit`] with lower bounds `floor` on the `ln` parameters (by coordinate).
+pub fn nm_fit_above(
+    base: &InsModel<f64>,
+    log: &[LogRow],
+    x0: Vec<f64>,
+    from: f64,
+    floor: &[f64],
+) -> Vec<f64> {
     let mut x = x0;
     for step in [0.5, 0.15] {
         let res = Executor::new(
-            Nll { base, log, from },
+            Nll {
+                base,
+                log,
+                from,
+                floor,
+            },
             NelderMead::new(simplex(&x, step))
                 .with_sd_tolerance(0.002)
                 .unwrap(),
