@@ -5,7 +5,8 @@
 #   2. formatting                     (cargo fmt --check)
 #   3. clippy -D warnings, host       (whole workspace, all targets)
 #   4. clippy -D warnings, Cortex-M4F (the no_std library, the QEMU and the STM32F405 firmware)
-#   5. host tests                     (cargo test --workspace; the QEMU tests wait for step 7)
+#   5. host tests                     (cargo test --workspace: unit, integration and doc tests;
+#                                      the QEMU tests wait for step 7)
 #   6. firmware release builds        (imu-ident-qemu, imu-ident-nav-qemu and imu-ident-board for
 #                                      thumbv7em-none-eabihf, sizes printed; then all three again
 #                                      with prove-no-panic: they link only if no panic path is left)
@@ -57,8 +58,11 @@ section "5/8 host tests (cargo test --workspace)"
 # The fuzz tests (tests/step_fuzz.rs, hal-sim/tests/fuzz_parsers.rs) read their case count
 # from FUZZ_CASES; CI runs their default short budget (about 15 s on 2 cores). The long run with
 # a large FUZZ_CASES is recorded in RELIABILITY.md.
+# The examples (benchmarks) are not built here: step 3's clippy checks them, and linking 18
+# benchmark binaries cost minutes of CI (BENCHMARKS.md "CI build time"). Doc tests run after.
 unset FUZZ_CASES
-cargo test --workspace -- --skip qemu_firmware_
+cargo test --workspace --lib --bins --tests -- --skip qemu_firmware_
+cargo test --workspace --doc
 
 section "6/8 firmware release builds ($TARGET: imu-ident-qemu, imu-ident-nav-qemu, imu-ident-board)"
 # Prints an ELF's text/data/bss sizes (and, with -A, every section's).

@@ -10,7 +10,9 @@
 //! ```
 //! The global stage is `AdaptConfig::global()` with the structure test on (penalty
 //! `STRUCTURE_PENALTY`); `EVERY`, `BUDGET`, `PEN` (structure penalty, nats per parameter), `FLAT_EVERY`
-//! override it for experiments.
+//! override it for experiments. `START=ka,kta,kg,ktg` starts from `paper` with its four
+//! parameters multiplied by these factors; `TRACE=1` prints every search (of the run with
+//! switching disabled, or with `TRACE_SWITCHING=1` of the run itself).
 
 use hal_sim::adaptive::{self, tilt_window};
 use hal_sim::{replay, sim};
@@ -19,6 +21,7 @@ use imu_ident::model::{Component, ExpCosine, InsModel};
 
 #[path = "bench_args/mod.rs"]
 mod bench_args;
+use bench_args::ml::{set, theta};
 use bench_args::{arg_or, env_or, flag, pct};
 
 /// Prints every finished search (its best alternative structure included): for diagnosis.
@@ -104,9 +107,26 @@ fn main() -> anyhow::Result<()> {
     cfg.global.structure = env_or("PEN", imu_ident::adapt::window::STRUCTURE_PENALTY);
     cfg.global.flat_every = env_or("FLAT_EVERY", cfg.global.flat_every);
     println!("{:?}", cfg.global);
-    let start = InsModel::<f64>::paper();
+    // `START=ka,kta,kg,ktg`: the start's sigma_a, tau_a, sigma_g, tau_g as factors of `paper`'s
+    // (the any-start bench's corners and draws), for tracing a wrong start's structure test.
+    let start = {
+        let paper = InsModel::<f64>::paper();
+        let k: Vec<f64> = std::env::var("START")
+            .map(|v| v.split(',').filter_map(|x| x.trim().parse().ok()).collect())
+            .unwrap_or_default();
+        if k.len() == 4 {
+            let th: Vec<f64> = theta(&paper)
+                .iter()
+                .zip(&k)
+                .map(|(a, f)| a + f.ln())
+                .collect();
+            set(&paper, &th)
+        } else {
+            paper
+        }
+    };
     let beta_true = 2.0 * std::f64::consts::PI / 600.0;
-    let mut truth = start.clone();
+    let mut truth = InsModel::<f64>::paper();
     if truth_name == "ec" {
         // `ECSIG`: the exponential-cosine's sigma [deg/h] (the bar's 0.1 by default).
         let deg_h: f64 = std::env::var("ECSIG")
@@ -128,7 +148,9 @@ fn main() -> anyhow::Result<()> {
         // The structure test's statistic without the switch (penalty out of reach): the best
         // alternative's gain over the searches of hours 0-6 and 0-12.
         let mut free = cfg;
-        free.global.structure = 1e9;
+        if std::env::var_os("TRACE_SWITCHING").is_none() {
+            free.global.structure = 1e9;
+        }
         let (g6, gall) = trace(&truth, &start, &log, free, std::env::var("TRACE").is_ok())?;
         gains6.push(g6);
         gains.push(gall);

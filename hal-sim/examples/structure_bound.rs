@@ -27,7 +27,7 @@
 
 use hal_sim::log::LogRow;
 use hal_sim::sim;
-use imu_ident::model::{Component, ExpCosine, InsModel};
+use imu_ident::model::{Component, ComponentKind, ExpCosine, InsModel, Quantity};
 use std::f64::consts::PI;
 
 #[path = "bench_args/mod.rs"]
@@ -49,13 +49,15 @@ struct Fits {
 /// `paper` with the gyro's Gauss-Markov replaced by an exponential-cosine of the same sigma and
 /// tau and angular frequency `beta`.
 fn with_ec(m: &InsModel<f64>, beta: f64) -> anyhow::Result<InsModel<f64>> {
-    let mut out = m.clone();
-    let (sigma, tau) = match m.gyro[0] {
-        Component::GaussMarkov(g) => (g.sigma, g.tau),
-        Component::ExpCosine(e) => (e.sigma, e.tau),
-        _ => anyhow::bail!("the gyro's first component is neither kind"),
+    let first = m.gyro[0];
+    let (Some(sigma), Some(tau)) = (first.get(Quantity::Sigma), first.get(Quantity::Tau)) else {
+        anyhow::bail!("the gyro's first component has no sigma and tau");
     };
-    out.gyro[0] = Component::ExpCosine(ExpCosine::new(sigma, tau, beta)?);
+    let mut out = m.clone();
+    // The kind table builds it; `validate` rejects what the table does not check.
+    let ec = ComponentKind::ExpCosine.with_quantities(&[sigma, tau, beta]);
+    ec.validate()?;
+    out.gyro[0] = ec;
     Ok(out)
 }
 
@@ -82,7 +84,7 @@ fn fits(log: &[LogRow], truth: Option<&InsModel<f64>>) -> anyhow::Result<Fits> {
         f64::NEG_INFINITY,
         beta_min,
     ];
-    let mut starts: Vec<Vec<f64>> = [150.0, 200.0, 300.0, 400.0, 500.0, 600.0, 750.0, 1000.0]
+    let starts: Vec<Vec<f64>> = [150.0, 200.0, 300.0, 400.0, 500.0, 600.0, 750.0, 1000.0]
         .iter()
         .chain([1500.0, 2500.0, span / 4.0].iter())
         .map(|period: &f64| {
@@ -92,7 +94,7 @@ fn fits(log: &[LogRow], truth: Option<&InsModel<f64>>) -> anyhow::Result<Fits> {
         })
         .collect();
     let mut scored: Vec<(f64, Vec<f64>)> = starts
-        .drain(..)
+        .into_iter()
         .map(|th| (loglik(&ec0, log, &th), th))
         .collect();
     scored.sort_by(|a, b| b.0.total_cmp(&a.0));

@@ -293,7 +293,6 @@ impl<T: Real> InsModel<T> {
     }
 
     /// The continuous-time system in the states scaled by `scale`.
-    #[allow(non_snake_case)]
     pub fn continuous(&self, scale: &Scaling<T>) -> Result<Continuous<T>, ModelError> {
         self.continuous_in(scale, Realisation::Filter)
     }

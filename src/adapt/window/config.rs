@@ -71,7 +71,7 @@ pub struct WindowConfig<T> {
     pub hold_flat: bool,
     /// Blocks after a search whose answer the window does not identify ([`Found::flat`])
     /// before the next search, when sooner than the usual pace (`0`: the usual pace). Not
-    /// after a change in service, nor with the structure test on (`docs/ADAPTATION.md` §7.8).
+    /// after a change in service (`docs/ADAPTATION.md` §7.8).
     ///
     /// [`Found::flat`]: super::Found::flat
     pub flat_every: u32,
