@@ -640,7 +640,7 @@ impl<T: Real> WindowSearch<T> {
             // 1.05x and a worst run of 8.1x; with it, 18 of 20 and 1.26x. The cost: the test
             // also runs on the revisit's shorter window, and switches sooner with a wider beta
             // (worst 16 % off against 10 % on seeds 9300-9319, host pace). Skipping the test
-            // on revisits was tried: it moved the searches so that 2 of 40 logs switched at all.
+            // on revisits was tried: then 3 of 60 logs of the switched at all.
             if self.cfg.flat_every > 0 && self.changes == 0 && found.flat(p) != 0 {
                 let soon = self.pushed.saturating_add(self.cfg.flat_every);
                 self.next_search = self.next_search.min(soon);
