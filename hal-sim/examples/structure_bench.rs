@@ -111,18 +111,24 @@ fn main() -> anyhow::Result<()> {
     // (the any-start bench's corners and draws), for tracing a wrong start's structure test.
     let start = {
         let paper = InsModel::<f64>::paper();
-        let k: Vec<f64> = std::env::var("START")
-            .map(|v| v.split(',').filter_map(|x| x.trim().parse().ok()).collect())
-            .unwrap_or_default();
-        if k.len() == 4 {
-            let th: Vec<f64> = theta(&paper)
-                .iter()
-                .zip(&k)
-                .map(|(a, f)| a + f.ln())
-                .collect();
-            set(&paper, &th)
-        } else {
-            paper
+        match std::env::var("START") {
+            Ok(v) => {
+                let k: Vec<f64> = v
+                    .split(',')
+                    .map(|x| x.trim().parse::<f64>())
+                    .collect::<Result<_, _>>()
+                    .map_err(|e| anyhow::anyhow!("START={v}: {e}"))?;
+                if k.len() != 4 || k.iter().any(|f| !(f.is_finite() && *f > 0.0)) {
+                    anyhow::bail!("START={v}: four positive factors expected");
+                }
+                let th: Vec<f64> = theta(&paper)
+                    .iter()
+                    .zip(&k)
+                    .map(|(a, f)| a + f.ln())
+                    .collect();
+                set(&paper, &th)
+            }
+            Err(_) => paper,
         }
     };
     let beta_true = 2.0 * std::f64::consts::PI / 600.0;

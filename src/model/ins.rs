@@ -418,9 +418,10 @@ impl<T: Real> InsModel<T> {
             };
             let c = comp.block_in(r).c;
             for k in 0..slot.states.min(2) {
-                if let (Some(r), Some(s)) = (row.get_mut(slot.start + k), scale.get(slot.start + k))
+                if let (Some(out), Some(s)) =
+                    (row.get_mut(slot.start + k), scale.get(slot.start + k))
                 {
-                    *r += c[k] * *s;
+                    *out += c[k] * *s;
                 }
             }
         }
