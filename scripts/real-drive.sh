@@ -9,7 +9,8 @@
 #    while the outage starts more than 30 s before the last (11 outages), scored against the
 #    RTK fixes (OUT/summary.json, OUT/outages.json); the solution is OUT/solution.pos.
 #    The three runs of issue 16: no extra option (datasheet), MODEL=drive-inflated, and
-#    `--identify` (the noise identified on the log by maximum likelihood).
+#    `--identify` (the noise identified on the log by maximum likelihood); online, causally:
+#    MODEL=drive-inflated bash scripts/real-drive.sh OUT --adapt --adapt-every 60,60.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if [ $# -lt 1 ]; then

@@ -10,7 +10,11 @@
 //! `adapt_first=`, `every=`, `window=` (600, 1200, 7200 s), `method=bank` (the core's
 //! shadow-filter bank, `nav --adapt-method bank`; with it `every=` defaults to 1200 s and
 //! `offset=`, `min_offset=`, `min_gain=`, `memory=`, `bank_conservative=1` set its `OnlineConfig`), `per_axis=1`, `taus=` (`held`,
-//! `tested`, `free`; default the command's), `conservative=0`, `truth_axes=K` (the true
+//! `tested`, `free`; default the command's), `conservative=0`, `gnss_sd=0` (the window
+//! search does not identify the GNSS standard deviations, `--adapt-gnss-sd false`; on by
+//! default),
+//! `gnss_stated=K` (the adaptive runs take the fixes' standard deviations as K times the true
+//! noise, `--gnss-sd-factor K,K`; the true-model run has the truth), `truth_axes=K` (the true
 //! model's intensities differ by axis: each axis's white density and sigmas scaled by its own
 //! log-uniform factor in [1/K, K], drawn per seed; correlation times alike; default 1, the
 //! grade's model on every axis); environment `AXES=1` prints every run's 9 per-axis 3-sigma
@@ -106,7 +110,11 @@ fn main() {
             conservative: arg_or("bank_conservative", u8::from(d.bank.conservative)) != 0,
             ..d.bank
         },
+        gnss_sd: arg_or("gnss_sd", u8::from(d.gnss_sd)) != 0,
     };
+    // The receiver's stated standard deviations are this factor times the true noise in the
+    // adaptive runs (`--gnss-sd-factor`; the true-model run has the truth).
+    let gnss_stated: f64 = arg_or("gnss_stated", 1.0);
     let sim = match grade.as_str() {
         "mems" => SimModel::mems(),
         "tactical" => SimModel::tactical(),
@@ -185,6 +193,7 @@ fn main() {
             let t = std::time::Instant::now();
             let args = NavArgs {
                 adapt: Some(cfg),
+                gnss_sd_factor: [gnss_stated; 2],
                 ..base(model, s)
             };
             let run = run_with::<f64>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));

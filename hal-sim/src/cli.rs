@@ -181,6 +181,12 @@ pub enum Command {
         /// "A sensor that changes in service".
         #[arg(long, default_value_t = ADAPT.bank.memory)]
         adapt_memory: f64,
+        /// With the window search (`--adapt-method replay`): also identify factors on the
+        /// GNSS position and velocity standard deviations (the measurement noise, on top of
+        /// --gnss-sd-factor), as `--identify` does offline. The bank keeps --gnss-sd-factor.
+        /// BENCHMARKS.md "The GNSS noise online".
+        #[arg(long, default_value_t = ADAPT.gnss_sd, action = clap::ArgAction::Set, value_name = "BOOL")]
+        adapt_gnss_sd: bool,
     },
     /// Simulate a strapdown drive (figure-eights, climbs): imu.csv, truth.csv, gnss.csv.
     SimulateDrive {

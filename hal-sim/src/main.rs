@@ -56,6 +56,7 @@ fn main() -> Result<()> {
             adapt_per_axis,
             adapt_taus,
             adapt_memory,
+            adapt_gnss_sd,
             qemu_elf,
         } => {
             // Read first: a bad truth file should stop the command before the run.
@@ -171,6 +172,7 @@ fn main() -> Result<()> {
                             memory: adapt_memory,
                             ..cfg.bank
                         },
+                        gnss_sd: adapt_gnss_sd && !bank,
                         ..cfg
                     })
                 } else {

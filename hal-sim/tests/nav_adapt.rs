@@ -101,6 +101,7 @@ const ONE_SEARCH: AdaptConfig = AdaptConfig {
     conservative: true,
     method: AdaptMethod::Replay,
     bank: imu_ident::nav::OnlineConfig::DEFAULT,
+    gnss_sd: false,
 };
 
 #[test]
@@ -262,4 +263,118 @@ fn tested_correlation_times_are_held_when_right_and_moved_when_rejected() {
         "{:?}",
         short.log10_factors
     );
+}
+
+/// The GNSS noise online (`AdaptConfig::gnss_sd`, `--adapt-gnss-sd true`): the same drive and
+/// search, the IMU model right, but the receiver's stated standard deviations 4x its true
+/// noise (`--gnss-sd-factor 4,4`). The search has two more coordinates, the factors on the
+/// fixes' position and velocity standard deviations, and should find 1/4 for both.
+///
+/// Bounds: the maximum's log10 factor within 3.29 Cramér-Rao sd (99.9 % two-sided, Wald) plus
+/// half the search's last step (1/16 decade: the pattern search stops on a grid of 1/8 decade)
+/// of log10(1/4). With ~1 200 fixes of three axes each the Cramér-Rao sd is a few thousandths
+/// of a decade, so the bound is about 0.08 decade, a factor 1.2: a search that did not move
+/// the factors (0.6 decade off) fails it. The model taken runs the rest of the drive: its
+/// position NIS over the fixes after the search is that of a right R (mean 3 per fix, three
+/// axes), where the stated R would give about 3/16.
+#[test]
+fn online_search_finds_a_misstated_gnss_noise() {
+    let (imu, fixes, truth, dir) = drive();
+    let truth_model = SimModel::mems()
+        .to_core()
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    let cfg = AdaptConfig {
+        gnss_sd: true,
+        ..ONE_SEARCH
+    };
+    let args = NavArgs {
+        gnss_sd_factor: [4.0, 4.0],
+        ..nav_args(&dir, &truth, truth_model, Some(cfg))
+    };
+    let run = run_with::<f64>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let log = run.adapt.as_ref().expect("an adapt log");
+    let names: Vec<(&str, &str)> = log
+        .coordinates
+        .iter()
+        .map(|c| (c.sensor, c.quantity))
+        .collect();
+    assert_eq!(
+        names,
+        [
+            ("gyro", "density"),
+            ("gyro", "sigma"),
+            ("accel", "density"),
+            ("accel", "sigma"),
+            ("gnss", "position_sd"),
+            ("gnss", "velocity_sd")
+        ]
+    );
+    let s = &log.searches[0];
+    println!(
+        "maximum {:?}, Cramér-Rao sd {:?}, taken {:?}",
+        s.ml_log10_factors, s.cr_sd_log10, s.log10_factors
+    );
+    let want = 0.25f64.log10();
+    for i in [4, 5] {
+        let (m, sd) = (s.ml_log10_factors[i], s.cr_sd_log10[i]);
+        assert!(sd.is_finite() && sd > 0.0, "coordinate {i}: sd {sd}");
+        assert!(
+            (m - want).abs() <= 3.29 * sd + 0.0625,
+            "coordinate {i}: {m} +- {sd}, want {want}"
+        );
+    }
+    // The rest of the drive runs with the factors found: adapt.csv gives them on top of the
+    // stated 4, and the position NIS after the search is a right R's.
+    let out = dir.path().join("out");
+    hal_sim::nav::records::write_outputs(&out, &run, None, None)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    let csv = std::fs::read_to_string(out.join("adapt.csv")).unwrap_or_else(|e| panic!("{e}"));
+    let mut rd = csv::Reader::from_reader(csv.as_bytes());
+    let head = rd.headers().unwrap_or_else(|e| panic!("{e}")).clone();
+    let row = rd
+        .records()
+        .next()
+        .expect("one search")
+        .unwrap_or_else(|e| panic!("{e}"));
+    for (col, i) in [("gnss_xyz_0_position_sd", 4), ("gnss_xyz_0_velocity_sd", 5)] {
+        let k = head.iter().position(|h| h == col).expect(col);
+        let v: f64 = row[k].parse().unwrap_or_else(|e| panic!("{col}: {e}"));
+        assert!(
+            (v - 4.0 * 10f64.powf(s.log10_factors[i])).abs() < 1e-9,
+            "{col} {v}"
+        );
+    }
+    // adapt-model.toml names the factors the run ended with, as the option that reruns them.
+    let toml =
+        std::fs::read_to_string(out.join("adapt-model.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let opt = toml
+        .lines()
+        .find_map(|l| l.split("--gnss-sd-factor ").nth(1))
+        .unwrap_or_else(|| panic!("no --gnss-sd-factor in {toml}"));
+    let end: Vec<f64> = opt
+        .split(',')
+        .map(|v| v.trim().parse().unwrap_or_else(|e| panic!("{opt}: {e}")))
+        .collect();
+    assert_eq!(end, log.gnss_sd_factor_end());
+    assert_eq!(
+        end,
+        [4, 5].map(|i| 4.0 * 10f64.powf(s.log10_factors[i])),
+        "{opt}"
+    );
+    let after: Vec<f64> = run
+        .epochs
+        .iter()
+        .filter(|e| e.t > s.t && e.fused)
+        .map(|e| e.nis_axis[..3].iter().sum::<f64>())
+        .collect();
+    let mean = after.iter().sum::<f64>() / after.len() as f64;
+    println!(
+        "{} fixes after the search, mean position NIS {mean:.3}",
+        after.len()
+    );
+    // Each fix's sum of the three per-axis NIS has mean 3 and variance about 6 (chi-square(3)
+    // when the axes are independent): the mean over n fixes within 3.29 sd of 3.
+    let n = after.len() as f64;
+    assert!(n >= 30.0, "{n} fixes");
+    assert!((mean - 3.0).abs() <= 3.29 * (6.0 / n).sqrt(), "{mean}");
 }

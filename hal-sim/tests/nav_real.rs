@@ -226,3 +226,74 @@ fn real_drive_identifies_the_constraint_sd() {
     assert!((NHC_SD / 3.0..=NHC_SD * 3.0).contains(&sd), "sd {sd}");
     assert!(rms < 6.88, "outage RMS {rms} m");
 }
+
+/// Online, causal (`--adapt --adapt-every 60,60 --adapt-gnss-sd true`, from the data's
+/// hand-inflated model): the window search also identifies the GNSS position and velocity
+/// standard deviations. Asserted:
+/// - its final factors on them agree with the offline identification on the whole log
+///   (`--identify`, the same likelihood) to within 3.29 of the last search's Cramér-Rao sd
+///   (99.9 %, Wald) plus the 1/8-decade grid both searches stop on;
+/// - at the end of the outages it is no worse than the hand-inflated model it started from,
+///   nor than the data's own filter, 7.15 m RMS (the issue's bar). Measured 6.18 m
+///   (BENCHMARKS.md "The GNSS noise online"); without the GNSS coordinates 8.29 m.
+///
+/// About 2 min in release.
+#[test]
+#[ignore = "about 2 min in release: cargo test --release -p hal-sim --test nav_real -- --ignored"]
+fn real_drive_online_with_the_gnss_noise_beats_the_hand_inflated_model() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let Some((args, samples, fixes)) = drive(dir.path()) else {
+        return;
+    };
+    let inflated = NavArgs {
+        model: hal_sim::nav::model::load("drive-inflated").unwrap_or_else(|e| panic!("{e:#}")),
+        model_name: "drive-inflated".into(),
+        ..args.clone()
+    };
+    let fixed = run_with::<f64>(&inflated, &samples, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let cfg = hal_sim::nav::adapt::AdaptConfig {
+        first: 60.0,
+        every: 60.0,
+        gnss_sd: true,
+        ..hal_sim::nav::adapt::AdaptConfig::DEFAULT
+    };
+    let online = run_with::<f64>(
+        &NavArgs {
+            adapt: Some(cfg),
+            ..inflated.clone()
+        },
+        &samples,
+        &fixes,
+    )
+    .unwrap_or_else(|e| panic!("{e:#}"));
+    let id = identify::identify(&args, &samples, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let log = online.adapt.as_ref().expect("an adapt log");
+    let last = log.searches.last().expect("searches");
+    let rms = |r: &hal_sim::nav::NavRun| r.summary.outage_rms_m.unwrap_or(f64::NAN);
+    println!(
+        "online with the GNSS noise: {} searches, final log10 factors {:?} (Cramér-Rao sd {:?}); \
+         outage RMS {:.2} m; hand-inflated {:.2} m; offline GNSS factors {:?}",
+        log.searches.len(),
+        last.log10_factors,
+        last.cr_sd_log10,
+        rms(&online),
+        rms(&fixed),
+        &id.factors[4..]
+    );
+    for (c, (x, sd)) in log
+        .coordinates
+        .iter()
+        .zip(last.log10_factors.iter().zip(&last.cr_sd_log10))
+    {
+        if let Some(i) = c.gnss_sd() {
+            let offline = id.factors[4 + i].log10();
+            assert!(
+                (x - offline).abs() <= 3.29 * sd + 0.125,
+                "{}: online {x} +- {sd}, offline {offline}",
+                c.quantity
+            );
+        }
+    }
+    assert!(rms(&online) <= rms(&fixed), "online {} m", rms(&online));
+    assert!(rms(&online) <= 7.15, "online {} m", rms(&online));
+}

@@ -311,6 +311,24 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> NavReplay<T, N, O> {
         Ok(())
     }
 
+    /// The factors on every fix's position and velocity standard deviations
+    /// ([`NavSetup::sd_factor`]).
+    pub fn sd_factor(&self) -> [T; 2] {
+        self.sd_factor
+    }
+
+    /// Sets the factors on the fixes' standard deviations (the host's online identification
+    /// of the GNSS noise); a factor that is not finite and positive leaves both unchanged and
+    /// returns [`ModelError::BadSigma`](crate::model::ModelError::BadSigma).
+    pub fn set_sd_factor(&mut self, f: [T; 2]) -> Result<(), NavError> {
+        if f.iter().all(|x| x.is_finite() && *x > T::zero()) {
+            self.sd_factor = f;
+            Ok(())
+        } else {
+            Err(NavError::Model(crate::model::ModelError::BadSigma))
+        }
+    }
+
     /// Fuses `fix`, its standard deviations multiplied by the setup's factors
     /// ([`NavSetup::sd_factor`]).
     pub fn fuse(&mut self, fix: &GnssFix<T>) -> Result<Fused<T, NAV_Z>, NavError> {

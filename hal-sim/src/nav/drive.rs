@@ -116,6 +116,19 @@ impl<T: Real> NavLoop<T> {
         self.run.navigator_mut()
     }
 
+    /// The factors on the fixes' position and velocity standard deviations in use.
+    pub fn gnss_sd_factor(&self) -> [f64; 2] {
+        self.run.sd_factor().map(|f| f.as_f64())
+    }
+
+    /// Sets the factors on the fixes' standard deviations (`--gnss-sd-factor`; the online
+    /// identification's GNSS coordinates).
+    pub fn set_gnss_sd_factor(&mut self, f: [f64; 2]) -> Result<()> {
+        self.run
+            .set_sd_factor(f.map(T::lit))
+            .map_err(|e| anyhow::anyhow!("nav: GNSS sd factors {f:?}: {e:?}"))
+    }
+
     /// The time of the last sample mechanised [s].
     pub fn time(&self, imu: &[ImuSample]) -> f64 {
         imu.get(self.i).map_or(f64::NAN, |s| s.t)

@@ -336,7 +336,7 @@ pub fn run_observed<T: Real>(
         summary,
         adapt: adapter
             .map(adapt::Adapter::finish)
-            .or_else(|| adapt::bank_log(lp.nav().observer())),
+            .or_else(|| adapt::bank_log(lp.nav().observer(), args.gnss_sd_factor)),
     })
 }
 

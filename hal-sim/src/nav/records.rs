@@ -564,10 +564,13 @@ pub fn write_all(out: &Path, run: &super::NavRun) -> Result<()> {
         write_string(&out.join("adapt.json"), &serde_json::to_string_pretty(a)?)?;
         a.write_csv(&out.join("adapt.csv"))?;
         let toml = super::model::to_toml(&a.model)?;
-        write_string(
-            &out.join("adapt-model.toml"),
-            &toml.to_text("# The model in use at the end of hal-sim nav --adapt\n")?,
-        )?;
+        let mut head = String::from("# The model in use at the end of hal-sim nav --adapt\n");
+        if a.coordinates.iter().any(|c| c.gnss_sd().is_some()) {
+            // What the model file cannot hold: the GNSS factors the run ended with.
+            let [p, v] = a.gnss_sd_factor_end();
+            head += &format!("# with the GNSS standard deviations: --gnss-sd-factor {p},{v}\n");
+        }
+        write_string(&out.join("adapt-model.toml"), &toml.to_text(&head)?)?;
     }
     Ok(())
 }

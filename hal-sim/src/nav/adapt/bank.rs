@@ -22,22 +22,11 @@ pub fn start_bank<T: Real>(online: OnlineConfig, nav: &mut NavOf<T>, t: f64) -> 
     Ok(())
 }
 
-/// The record of a run identified by the bank.
-pub fn bank_log<T: Real>(shadows: &Shadows<T>) -> Option<AdaptLog> {
+/// The record of a run identified by the bank, which ran with the GNSS sd factors
+/// `gnss_sd_factor` (`--gnss-sd-factor`; the bank does not identify them).
+pub fn bank_log<T: Real>(shadows: &Shadows<T>, gnss_sd_factor: [f64; 2]) -> Option<AdaptLog> {
     let id = shadows.ident.as_ref()?;
-    let coordinates = id
-        .coordinates()
-        .iter()
-        .map(|c| Coordinate {
-            sensor: c.sensor.name(),
-            axes: c.axes().collect(),
-            component: usize::from(c.component),
-            kind: c.kind.name(),
-            quantity: c.quantity.name(),
-            q: c.quantity,
-            s: c.sensor,
-        })
-        .collect();
+    let coordinates = id.coordinates().iter().map(Coordinate::of_bank).collect();
     let nan = f64::NAN;
     let searches = shadows
         .log
@@ -62,5 +51,6 @@ pub fn bank_log<T: Real>(shadows: &Shadows<T>) -> Option<AdaptLog> {
         searches,
         model: id.running_model().cast(),
         base: id.base().cast(),
+        gnss_sd_factor_start: gnss_sd_factor,
     })
 }

@@ -12,7 +12,9 @@
 //!    factor, searched in the base-10 logarithm by a pattern search (steps 1, 0.5, 0.25,
 //!    0.125 decades and up to 6 passes on the first search; 0.25 and 0.125 and up to 3 passes
 //!    afterwards; a move is kept when the likelihood rises), bounded to two decades either
-//!    side of the starting model;
+//!    side of the starting model; with [`AdaptConfig::gnss_sd`], also factors on the fixes'
+//!    position and velocity standard deviations (the measurement noise, as `nav --identify`
+//!    searches it offline);
 //! 3. the running filter takes the best model (`Navigator::retune_imu_model`: the states
 //!    kept, the covariance of a component whose magnitude grew inflated by the ratio), which
 //!    every later window starts from. Later windows replay from the state kept at their start
@@ -32,10 +34,13 @@
 //! the same decisions up to `t`.
 
 mod bank;
+mod coords;
 mod information;
 mod record;
 
 pub use bank::{bank_log, start_bank};
+use coords::Target;
+pub use coords::{apply, coordinates, gnss_factors, tie, Coordinate, GNSS_SD, GNSS_SD_DEFAULT};
 
 pub use information::cramer_rao_sd;
 pub use record::value;
@@ -45,8 +50,8 @@ use super::pattern;
 use super::NavArgs;
 use crate::nav_io::{GnssFix, ImuSample};
 use anyhow::Result;
-use imu_ident::model::{ComponentKind, Quantity};
-use imu_ident::nav::{ImuErrorModel, ImuSensor};
+use imu_ident::model::Quantity;
+use imu_ident::nav::ImuErrorModel;
 use imu_ident::Real;
 use serde::Serialize;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
@@ -73,6 +78,10 @@ pub struct AdaptConfig {
     /// The bank's settings ([`AdaptMethod::Bank`]; its `per_axis` and `taus` are taken from
     /// this configuration).
     pub bank: imu_ident::nav::OnlineConfig,
+    /// The window search ([`AdaptMethod::Replay`]) also identifies factors on the GNSS
+    /// position and velocity standard deviations ([`GNSS_SD`]; the measurement noise `R`,
+    /// on top of `--gnss-sd-factor`).
+    pub gnss_sd: bool,
 }
 
 /// How the online identification maximises the likelihood.
@@ -97,6 +106,7 @@ impl AdaptConfig {
         conservative: true,
         method: AdaptMethod::Replay,
         bank: imu_ident::nav::OnlineConfig::DEFAULT,
+        gnss_sd: GNSS_SD_DEFAULT,
     };
 }
 
@@ -138,136 +148,6 @@ pub use imu_ident::nav::online::IDENTIFIABLE_SD;
 
 /// Bound on every log10 factor, relative to the starting model.
 pub const MAX_DECADES: f64 = 2.0;
-
-/// One identified coordinate: a quantity of a component on a set of axes.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Coordinate {
-    /// `gyro` or `accel`.
-    pub sensor: &'static str,
-    /// Axes it applies to (0 = x, 1 = y, 2 = z).
-    pub axes: Vec<usize>,
-    /// Index of the component on each of those axes.
-    pub component: usize,
-    /// The component's kind.
-    pub kind: &'static str,
-    /// The quantity.
-    pub quantity: &'static str,
-    #[serde(skip)]
-    q: Quantity,
-    #[serde(skip)]
-    s: ImuSensor,
-}
-
-impl Coordinate {
-    /// Its axes as letters: `xyz`, `x`, ...
-    pub fn axes_name(&self) -> String {
-        self.axes
-            .iter()
-            .filter_map(|&a| crate::imu_model::AXES.get(a))
-            .collect()
-    }
-
-    /// Its `adapt.csv` column: `sensor_axes_component_quantity` (`gyro_xyz_1_sigma`).
-    pub fn column(&self) -> String {
-        format!(
-            "{}_{}_{}_{}",
-            self.sensor,
-            self.axes_name(),
-            self.component,
-            self.quantity
-        )
-    }
-
-    /// Its name in the report: `gyro xyz gauss_markov sigma`.
-    pub fn label(&self) -> String {
-        format!(
-            "{} {} {} {}",
-            self.sensor,
-            self.axes_name(),
-            self.kind,
-            self.quantity
-        )
-    }
-}
-
-/// The coordinates of `model` under `cfg`.
-pub fn coordinates(model: &ImuErrorModel<f64>, cfg: &AdaptConfig) -> Vec<Coordinate> {
-    let mut out = Vec::new();
-    for s in [ImuSensor::Gyro, ImuSensor::Accel] {
-        let axes = model.sensor(s);
-        // Tied only when the three axes carry the same kinds in the same order.
-        let kinds = |a: usize| axes[a].iter().map(|c| c.kind()).collect::<Vec<_>>();
-        let tied = !cfg.per_axis && kinds(0) == kinds(1) && kinds(1) == kinds(2);
-        let groups: Vec<Vec<usize>> = if tied {
-            vec![vec![0, 1, 2]]
-        } else {
-            (0..3).map(|a| vec![a]).collect()
-        };
-        for g in groups {
-            for (k, c) in axes[g[0]].iter().enumerate() {
-                let kind: ComponentKind = c.kind();
-                for &q in kind.identified() {
-                    let wanted = match q {
-                        Quantity::Beta => false,
-                        Quantity::Tau => cfg.taus != TauMode::Held,
-                        _ => true,
-                    };
-                    if wanted {
-                        out.push(Coordinate {
-                            sensor: s.name(),
-                            axes: g.clone(),
-                            component: k,
-                            kind: kind.name(),
-                            quantity: q.name(),
-                            q,
-                            s,
-                        });
-                    }
-                }
-            }
-        }
-    }
-    out
-}
-
-/// `model` with every tied coordinate's quantity set, on each of its axes, to the geometric
-/// mean over those axes: tying means one value per sensor, so a start that differs between
-/// the axes must not keep its differences under a common factor.
-pub fn tie(model: &ImuErrorModel<f64>, coords: &[Coordinate]) -> ImuErrorModel<f64> {
-    let mut m = model.clone();
-    for c in coords.iter().filter(|c| c.axes.len() > 1) {
-        let axes = m.sensor_mut(c.s);
-        let logs: Vec<f64> = c
-            .axes
-            .iter()
-            .filter_map(|&a| axes[a].get(c.component).and_then(|comp| comp.get(c.q)))
-            .map(f64::ln)
-            .collect();
-        let mean = (logs.iter().sum::<f64>() / logs.len() as f64).exp();
-        for &a in &c.axes {
-            if let Some(comp) = axes[a].get_mut(c.component) {
-                comp.set(c.q, mean);
-            }
-        }
-    }
-    m
-}
-
-/// `base` with coordinate `i`'s quantity multiplied by `10^x[i]`.
-pub fn apply(base: &ImuErrorModel<f64>, coords: &[Coordinate], x: &[f64]) -> ImuErrorModel<f64> {
-    let mut m = base.clone();
-    for (c, &lx) in coords.iter().zip(x) {
-        let axes = m.sensor_mut(c.s);
-        for &a in &c.axes {
-            if let Some(comp) = axes[a].get_mut(c.component) {
-                if let Some(v) = comp.get(c.q) {
-                    comp.set(c.q, v * 10f64.powf(lx));
-                }
-            }
-        }
-    }
-    m
-}
 
 /// One search.
 #[derive(Debug, Clone, Serialize)]
@@ -326,6 +206,9 @@ pub struct AdaptLog {
     /// The starting model, tied ([`tie`]): the factors' reference.
     #[serde(skip)]
     pub base: ImuErrorModel<f64>,
+    /// The factors on the GNSS standard deviations the run started with
+    /// (`--gnss-sd-factor`): the GNSS coordinates' reference.
+    pub gnss_sd_factor_start: [f64; 2],
 }
 
 /// The online identification's state inside a run.
@@ -396,16 +279,20 @@ impl<T: Real> Adapter<T> {
         let mut eval = |x: &[f64]| -> Result<f64> {
             evaluations += 1;
             let model = apply(&self.base, &self.coords, x);
+            let sd_factor = gnss_factors(args.gnss_sd_factor, &self.coords, x);
             let mut w = if from_start {
                 let mut a = args.clone();
                 a.model = model;
+                a.gnss_sd_factor = sd_factor;
                 match NavLoop::<T>::start(&a, imu, fixes) {
                     Ok((w, _)) => w,
                     Err(_) => return Ok(f64::NEG_INFINITY),
                 }
             } else {
                 let mut w = start.clone();
-                if w.nav_mut().retune_imu_model(model.cast()).is_err() {
+                if w.nav_mut().retune_imu_model(model.cast()).is_err()
+                    || w.set_gnss_sd_factor(sd_factor).is_err()
+                {
                     return Ok(f64::NEG_INFINITY);
                 }
                 w
@@ -443,7 +330,11 @@ impl<T: Real> Adapter<T> {
         } else {
             (&[0.25, 0.125], 3)
         };
-        let is_tau: Vec<bool> = self.coords.iter().map(|c| c.q == Quantity::Tau).collect();
+        let is_tau: Vec<bool> = self
+            .coords
+            .iter()
+            .map(|c| matches!(c.target, Target::Imu(_, Quantity::Tau)))
+            .collect();
         let n_tau = is_tau.iter().filter(|&&t| t).count();
         let tested = self.cfg.taus == TauMode::Tested && n_tau > 0;
         // Tested: the intensities first, the correlation times held where they are.
@@ -515,6 +406,11 @@ impl<T: Real> Adapter<T> {
         lp.nav_mut()
             .retune_imu_model(model.cast())
             .map_err(|e| anyhow::anyhow!("nav --adapt: model at t = {t}: {e:?}"))?;
+        lp.set_gnss_sd_factor(gnss_factors(
+            self.args.gnss_sd_factor,
+            &self.coords,
+            &self.x,
+        ))?;
         self.checkpoints.push_back(lp.clone());
         self.log.push(Search {
             t,
@@ -540,6 +436,7 @@ impl<T: Real> Adapter<T> {
     pub fn finish(self) -> AdaptLog {
         AdaptLog {
             model: apply(&self.base, &self.coords, &self.x),
+            gnss_sd_factor_start: self.args.gnss_sd_factor,
             base: self.base,
             coordinates: self.coords,
             searches: self.log,

@@ -1,7 +1,7 @@
 //! The record of the online identification: `adapt.csv` and the report's section
 //! (`adapt.json` is [`AdaptLog`]'s serialisation).
 
-use super::{apply, AdaptLog, Coordinate, Search};
+use super::{apply, gnss_factors, AdaptLog, Coordinate, Search};
 use anyhow::Result;
 use imu_ident::nav::ImuErrorModel;
 
@@ -9,7 +9,8 @@ impl AdaptLog {
     /// `adapt.csv`: one row per search (time and window start [s], fixes, window
     /// log-likelihoods of the model before, of the best found and of the model taken,
     /// replays, the correlation-time test), then the value of every coordinate's quantity
-    /// after the search in SI units ([`Coordinate::column`]), then every coordinate's
+    /// after the search in SI units ([`Coordinate::column`]; a GNSS coordinate: the factor on
+    /// the fixes' standard deviations), then every coordinate's
     /// Cramér-Rao sd of its log10 factor (`..._sd_log10`).
     pub fn write_csv(&self, path: &std::path::Path) -> Result<()> {
         let mut w =
@@ -52,8 +53,17 @@ impl AdaptLog {
             row.push(t.map_or(String::new(), |t| t.threshold.to_string()));
             row.push(t.map_or(String::new(), |t| u8::from(t.moved).to_string()));
             let m = apply(&self.base, &self.coordinates, &s.log10_factors);
+            let g = gnss_factors(
+                self.gnss_sd_factor_start,
+                &self.coordinates,
+                &s.log10_factors,
+            );
             for c in &self.coordinates {
-                row.push(value(&m, c).to_string());
+                let v = match c.gnss_sd() {
+                    Some(i) => g.get(i).copied().unwrap_or(f64::NAN),
+                    None => value(&m, c),
+                };
+                row.push(v.to_string());
             }
             for sd in &s.cr_sd_log10 {
                 row.push(sd.to_string());
@@ -65,15 +75,31 @@ impl AdaptLog {
     }
 }
 
-/// The value of coordinate `c`'s quantity in `m` (on its first axis).
+/// The value of IMU coordinate `c`'s quantity in `m` (on its first axis; NaN for a GNSS
+/// coordinate, whose value is a factor: [`gnss_factors`]).
 pub fn value(m: &ImuErrorModel<f64>, c: &Coordinate) -> f64 {
-    m.sensor(c.s)[c.axes[0]]
-        .get(c.component)
-        .and_then(|comp| comp.get(c.q))
+    let super::Target::Imu(s, q) = c.target else {
+        return f64::NAN;
+    };
+    c.axes
+        .first()
+        .and_then(|&a| m.sensor(s).get(a))
+        .and_then(|axis| axis.get(c.component))
+        .and_then(|comp| comp.get(q))
         .unwrap_or(f64::NAN)
 }
 
 impl AdaptLog {
+    /// The factors on the GNSS standard deviations in use at the end (`--gnss-sd-factor`
+    /// times the last search's GNSS factors).
+    pub fn gnss_sd_factor_end(&self) -> [f64; 2] {
+        let x = self
+            .searches
+            .last()
+            .map_or(&[][..], |s| &s.log10_factors[..]);
+        gnss_factors(self.gnss_sd_factor_start, &self.coordinates, x)
+    }
+
     /// The coordinates search `s` flagged as not identifiable, with their Cramér-Rao sd
     /// (`none` when all were bounded).
     fn flat_names(&self, s: &Search) -> String {
