@@ -8,7 +8,9 @@
 //! ```
 //! `design=global` is `AdaptConfig::global()`; the environment overrides its window settings
 //! for experiments (`BLOCK`, `WIN`, `FIRST`, `EVERY`, `BUDGET`, `PM` probe factor, `GN` set:
-//! recursion not held, `PEN` the structure test's penalty). `design=probes` is `AdaptConfig::default()`, today's design.
+//! recursion not held, `PEN` the structure test's penalty); `TRACE=1` also prints the exact
+//! start of every run beyond 1.05x (for `structure_bench START=...`: a rounded start can take
+//! another path). `design=probes` is `AdaptConfig::default()`, today's design.
 #![allow(clippy::needless_range_loop)]
 
 use hal_sim::adaptive::{self, tilt_window};
@@ -125,6 +127,11 @@ fn main() -> anyhow::Result<()> {
             outs.push(out * 100.0);
             worst = worst.max(ratio / bar);
             if ratio > 1.05 * bar {
+                if std::env::var_os("TRACE").is_some() {
+                    // The exact start, for `structure_bench START=...` (rounded starts can
+                    // take another path).
+                    println!("  seed {seed} exact start {f:?} -> {ratio:.3}");
+                }
                 line += &format!(
                     " [{:.2},{:.2},{:.2},{:.2}]->{:.3}",
                     f[0], f[1], f[2], f[3], ratio

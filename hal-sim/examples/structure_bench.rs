@@ -12,7 +12,9 @@
 //! `STRUCTURE_PENALTY`); `EVERY`, `BUDGET`, `PEN` (structure penalty, nats per parameter), `FLAT_EVERY`
 //! override it for experiments. `START=ka,kta,kg,ktg` starts from `paper` with its four
 //! parameters multiplied by these factors; `TRACE=1` prints every search (of the run with
-//! switching disabled, or with `TRACE_SWITCHING=1` of the run itself).
+//! switching disabled, or with `TRACE_SWITCHING=1` of the run itself); `HOURLY=1` prints the
+//! run's tilt RMS over the oracle's hour by hour, its `sigma_delta` at each hour's end and its
+//! parameter rows (where a bad run loses).
 
 use hal_sim::adaptive::{self, tilt_window};
 use hal_sim::{replay, sim};
@@ -170,6 +172,25 @@ fn main() -> anyhow::Result<()> {
         };
         let (rms, out) = tilt_window(&log, &r.estimates, t0, t1).unwrap();
         let ratio = rms / oracle;
+        if std::env::var_os("HOURLY").is_some() {
+            // Tilt RMS per hour over the oracle's, the run's sigma_delta at each hour's end,
+            // and the run's params rows: where a bad run loses.
+            let o = replay::estimates::<f64>(&truth, &log)?.0;
+            for h in 0..12 {
+                let (a, b) = (h as f64 * 3600.0, (h + 1) as f64 * 3600.0);
+                let (x, _) = tilt_window(&log, &r.estimates, a, b).unwrap_or((f64::NAN, 0.0));
+                let (y, _) = tilt_window(&log, &o, a, b).unwrap_or((f64::NAN, 0.0));
+                let sd = r
+                    .estimates
+                    .iter()
+                    .rfind(|e| e.t < b)
+                    .map_or(f64::NAN, |e| e.sigma_delta);
+                println!("  hour {h}: tilt/oracle {:.3}, sigma_delta {sd:.3e}", x / y);
+            }
+            for p in &r.params {
+                println!("  {p:?}");
+            }
+        }
         let ec = |p: &&hal_sim::records::ParamRow| p.kind == "exp-cosine";
         let first_gyro = r
             .params
