@@ -172,7 +172,7 @@ fn main() -> Result<()> {
                             memory: adapt_memory,
                             ..cfg.bank
                         },
-                        gnss_sd: adapt_gnss_sd && !bank,
+                        gnss_sd: adapt_gnss_sd,
                         ..cfg
                     })
                 } else {

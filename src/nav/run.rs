@@ -311,12 +311,6 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> NavReplay<T, N, O> {
         Ok(())
     }
 
-    /// The factors on every fix's position and velocity standard deviations
-    /// ([`NavSetup::sd_factor`]).
-    pub fn sd_factor(&self) -> [T; 2] {
-        self.sd_factor
-    }
-
     /// Sets the factors on the fixes' standard deviations (the host's online identification
     /// of the GNSS noise); a factor that is not finite and positive leaves both unchanged and
     /// returns [`ModelError::BadSigma`](crate::model::ModelError::BadSigma).

@@ -116,11 +116,6 @@ impl<T: Real> NavLoop<T> {
         self.run.navigator_mut()
     }
 
-    /// The factors on the fixes' position and velocity standard deviations in use.
-    pub fn gnss_sd_factor(&self) -> [f64; 2] {
-        self.run.sd_factor().map(|f| f.as_f64())
-    }
-
     /// Sets the factors on the fixes' standard deviations (`--gnss-sd-factor`; the online
     /// identification's GNSS coordinates).
     pub fn set_gnss_sd_factor(&mut self, f: [f64; 2]) -> Result<()> {

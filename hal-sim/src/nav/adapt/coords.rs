@@ -3,7 +3,7 @@
 //! standard deviations), the starting model tied over the axes, and a point's model and GNSS
 //! factors.
 
-use super::{AdaptConfig, AdaptMethod, TauMode};
+use super::{AdaptConfig, TauMode};
 use imu_ident::model::{ComponentKind, Quantity};
 use imu_ident::nav::{ImuErrorModel, ImuSensor};
 use serde::Serialize;
@@ -130,7 +130,7 @@ pub fn coordinates(model: &ImuErrorModel<f64>, cfg: &AdaptConfig) -> Vec<Coordin
             }
         }
     }
-    if cfg.gnss_sd && cfg.method == AdaptMethod::Replay {
+    if cfg.gnss_sd {
         for (i, q) in GNSS_SD.into_iter().enumerate() {
             out.push(Coordinate {
                 sensor: "gnss",

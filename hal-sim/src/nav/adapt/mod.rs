@@ -80,7 +80,7 @@ pub struct AdaptConfig {
     pub bank: imu_ident::nav::OnlineConfig,
     /// The window search ([`AdaptMethod::Replay`]) also identifies factors on the GNSS
     /// position and velocity standard deviations ([`GNSS_SD`]; the measurement noise `R`,
-    /// on top of `--gnss-sd-factor`).
+    /// on top of `--gnss-sd-factor`). The bank ignores it: it keeps `--gnss-sd-factor`.
     pub gnss_sd: bool,
 }
 

@@ -59,11 +59,7 @@ impl AdaptLog {
                 &s.log10_factors,
             );
             for c in &self.coordinates {
-                let v = match c.gnss_sd() {
-                    Some(i) => g.get(i).copied().unwrap_or(f64::NAN),
-                    None => value(&m, c),
-                };
-                row.push(v.to_string());
+                row.push(value(&m, g, c).to_string());
             }
             for sd in &s.cr_sd_log10 {
                 row.push(sd.to_string());
@@ -75,11 +71,13 @@ impl AdaptLog {
     }
 }
 
-/// The value of IMU coordinate `c`'s quantity in `m` (on its first axis; NaN for a GNSS
-/// coordinate, whose value is a factor: [`gnss_factors`]).
-pub fn value(m: &ImuErrorModel<f64>, c: &Coordinate) -> f64 {
-    let super::Target::Imu(s, q) = c.target else {
-        return f64::NAN;
+/// The value of coordinate `c` at a point whose model is `m` and whose GNSS factors are `gnss`
+/// ([`gnss_factors`]): an IMU quantity on its first axis, or a factor on the fixes' standard
+/// deviations.
+pub fn value(m: &ImuErrorModel<f64>, gnss: [f64; 2], c: &Coordinate) -> f64 {
+    let (s, q) = match c.target {
+        super::Target::Imu(s, q) => (s, q),
+        super::Target::GnssSd(i) => return gnss.get(i).copied().unwrap_or(f64::NAN),
     };
     c.axes
         .first()
