@@ -48,6 +48,8 @@ cargo clippy --workspace --all-targets -- -D warnings
 
 section "4/8 clippy, $TARGET (library; firmware with --features qemu, --features board)"
 cargo clippy -p imu-ident --target "$TARGET" --lib -- -D warnings
+# The p = 8 capacity (feature `params8`, docs/ADAPTATION.md §7.4) must keep building.
+cargo clippy -p imu-ident --target "$TARGET" --lib --features params8 -- -D warnings
 cargo clippy -p imu-ident --target "$TARGET" --features qemu --bins -- -D warnings
 # Release, as step 6 builds it (the board's features never mix with the QEMU ones).
 cargo clippy --release -p imu-ident --target "$TARGET" --features board --bin imu-ident-board -- -D warnings

@@ -4,8 +4,11 @@
 //! (an offline Nelder-Mead fit of the same structure to hours 0-8, run as a fixed filter).
 //!
 //! ```text
-//! cargo run --release -p hal-sim --example anystart_bench -- [first=9100] [seeds=20] [starts=32] [design=global|probes] [f32]
+//! cargo run --release -p hal-sim --example anystart_bench -- [first=9100] [seeds=20] [starts=32] [design=global|probes] [f32] [scenario=paper] [mlref=1]
 //! ```
+//! `scenario=` is a built-in name or a model TOML: its identified quantities are the `p`
+//! coordinates of the starts (`2p` corners, the rest log-uniform; more than five need the
+//! `imu-ident/params8` feature); `mlref=0` skips the ML reference (then the bar is the oracle).
 //! `design=global` is `AdaptConfig::global()`; the environment overrides its window settings
 //! for experiments (`BLOCK`, `WIN`, `FIRST`, `EVERY`, `BUDGET`, `PM` probe factor, `GN` set:
 //! recursion not held, `PEN` the structure test's penalty); `TRACE=1` also prints the exact
@@ -50,13 +53,17 @@ fn main() -> anyhow::Result<()> {
         cfg.global.after_change = env_or("AFTER", cfg.global.after_change);
         println!("{:?}", cfg.global);
     }
-    let truth = scenario::load("paper")?.to_core()?;
+    let scenario_name: String = arg_or("scenario", "paper".into());
+    let with_ml: bool = arg_or("mlref", 1u8) != 0;
+    let truth = scenario::load(&scenario_name)?.to_core()?;
     let th0 = theta(&truth);
+    let np = th0.len();
+    println!("scenario {scenario_name}: {np} identified parameters");
     let (t0, t1) = (8.0 * 3600.0, 12.0 * 3600.0 + 1.0);
-    let mut corners: Vec<[f64; 4]> = Vec::new();
-    for i in 0..4 {
+    let mut corners: Vec<Vec<f64>> = Vec::new();
+    for i in 0..np {
         for k in [10.0, 0.1] {
-            let mut f = [1.0; 4];
+            let mut f = vec![1.0; np];
             f[i] = k;
             corners.push(f);
         }
@@ -73,23 +80,26 @@ fn main() -> anyhow::Result<()> {
         let log = sim::simulate(&truth, 12 * 3600, seed)?;
         let tilt = |e: &[hal_sim::records::EstimateRow]| tilt_window(&log, e, t0, t1).unwrap();
         let oracle = tilt(&replay::estimates::<f64>(&truth, &log)?.0).0;
-        let (plocal, pglobal, llocal, lglobal) =
-            ml_fit(&truth, &log[..8 * 3600], f64::NEG_INFINITY);
+        let (plocal, pglobal, llocal, lglobal) = if with_ml {
+            ml_fit(&truth, &log[..8 * 3600], f64::NEG_INFINITY)
+        } else {
+            (th0.clone(), th0.clone(), 0.0, 0.0)
+        };
         let pref = if lglobal > llocal { &pglobal } else { &plocal };
         let mlref = tilt(&replay::estimates::<f64>(&set(&truth, pref), &log)?.0).0;
         let ml_local = tilt(&replay::estimates::<f64>(&set(&truth, &plocal), &log)?.0).0;
         let bar = (mlref / oracle).max(1.0);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed * 7919);
-        let mut starts: Vec<[f64; 4]> = corners.clone();
-        while starts.len() < nstarts.max(8) {
-            let mut f = [0.0; 4];
+        let mut starts: Vec<Vec<f64>> = corners.clone();
+        while starts.len() < nstarts.max(2 * np) {
+            let mut f = vec![0.0; np];
             for v in f.iter_mut() {
                 *v = 10f64.powf(rng.gen_range(-1.0..1.0));
             }
             starts.push(f);
         }
         starts.truncate(nstarts);
-        starts.push([1.0; 4]);
+        starts.push(vec![1.0; np]);
         let mut worst: f64 = 0.0;
         let mut line = String::new();
         for (k, f) in starts.iter().enumerate() {
@@ -132,10 +142,8 @@ fn main() -> anyhow::Result<()> {
                     // take another path).
                     println!("  seed {seed} exact start {f:?} -> {ratio:.3}");
                 }
-                line += &format!(
-                    " [{:.2},{:.2},{:.2},{:.2}]->{:.3}",
-                    f[0], f[1], f[2], f[3], ratio
-                );
+                let f: Vec<String> = f.iter().map(|v| format!("{v:.2}")).collect();
+                line += &format!(" [{}]->{:.3}", f.join(","), ratio);
             }
         }
         worst_vs_ref.push(worst);

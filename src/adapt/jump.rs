@@ -10,9 +10,10 @@ use super::{probes, AdaptError, AdaptiveFilter, Found};
 use crate::linalg::is_positive_definite;
 use crate::Real;
 
-/// Half the 95 % quantiles of chi-square with 1 to 5 degrees of freedom [nats]: how much
-/// holding `k` flat coordinates may cost the window's log-likelihood.
-const HOLD_QUANTILE: [f64; MAXP] = [1.921, 2.996, 3.907, 4.744, 5.535];
+/// Half the 95 % quantiles of chi-square with 1 to 8 degrees of freedom [nats] (up to the
+/// `params8` capacity): how much holding `k` flat coordinates may cost the window's
+/// log-likelihood.
+const HOLD_QUANTILE: [f64; 8] = [1.921, 2.996, 3.907, 4.744, 5.535, 6.296, 7.034, 7.754];
 
 impl<T: Real> AdaptiveFilter<T> {
     /// End of a probe epoch: jump to a winning probe (fresh information, the old one describes

@@ -17,8 +17,14 @@ use heapless::Vec;
 /// filters). Five: the paper's two Gauss-Markov components with one of them switched to a
 /// three-parameter exponential-cosine (issue 13). Each unit costs two filters in the bank and
 /// two in the global stage's pass (about 1.7 KB of RAM in `f32`, measured): eight would not
-/// fit the 64 KiB the firmware is held to (`BENCHMARKS.md`).
+/// fit the 64 KiB the firmware is held to (`BENCHMARKS.md`). The feature `params8` raises it to
+/// eight (two components per sensor, both searched on a grid: `window` docs), to measure the
+/// cost law at p = 8 (`docs/ADAPTATION.md` §7.4); the firmware's RAM bar is for five.
+#[cfg(not(feature = "params8"))]
 pub const MAXP: usize = 5;
+/// Largest number of identified parameters, raised by the feature `params8` (see above).
+#[cfg(feature = "params8")]
+pub const MAXP: usize = 8;
 
 /// One identified parameter: which component of which sensor, and which of its quantities.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

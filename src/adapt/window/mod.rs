@@ -32,18 +32,20 @@
 //! caller decides whether to jump (a likelihood-ratio margin).
 //!
 //! # Cost law (`p` identified parameters, window `W` blocks, `n` states)
-//! Filter steps per search: `W (1 + 3^p + (3 TOP + 2 c) (2p + 1))` with `c` about 3-8 scoring
-//! iterations; each is a step of an `n + 1`-state filter. RAM: the ring, `WINDOW_CAP` values,
-//! plus `2p + 1` filters.
-//! The grid is exponential in `p`: it is the price of not depending on the start, and why a
-//! larger system would search per sensor (`p <= 4` per search), one group after another (not
-//! built: `MAXP = 4`).
+//! Filter steps per search: `W (1 + G + (3 TOP + 2 c) (2p + 1))` with `c` about 3-8 scoring
+//! iterations and `G` grid points; each is a step of an `n + 1`-state filter. RAM: the ring,
+//! `WINDOW_CAP` values, plus `2p + 1` filters.
+//! A grid over all `p` would be exponential in `p` (`3^p`): it is the price of not depending on
+//! the start. So the grid spans at most [`GRID_DIMS`] = 4 coordinates at a time, one group
+//! after another ([`grid_points`]): `G = 81` up to p = 5, `81 + 3^(p - 4)` for p = 6-8 (162 at
+//! p = 8, the feature `params8`). The search's cost is then linear in `p` beyond 4.
 
 // Small fixed-size code reads best with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
 mod config;
 mod found;
+mod grid;
 mod monitor;
 pub mod pass;
 mod polish;
@@ -59,6 +61,8 @@ use structure::Alternative;
 
 pub use config::{WindowConfig, AFTER_CHANGE, CHANGE_THRESHOLD, FLAT_EVERY, STRUCTURE_PENALTY};
 pub use found::{Found, Switch};
+use grid::GRID;
+pub use grid::{grid_points, GRID_DIMS};
 
 /// Capacity of the ring of block means: 8 h of 60-s blocks (480) plus the blocks that arrive
 /// while a search over a full window runs (a tenth of the ring, 1 h).
@@ -73,12 +77,6 @@ const SHORT_ITERATIONS: u32 = 3;
 const FINAL: usize = 2;
 /// Scoring iterations per polish at most.
 const MAX_ITERATIONS: u32 = 12;
-/// Parameters the grid spans (the first ones in `theta` order: the accelerometer's and the
-/// gyro's first components); the others sit at the anchor's values and are found by the polish
-/// (and, for a new `beta`, by the structure test's scan).
-pub const GRID_DIMS: usize = 4;
-/// Grid points per search (`3^GRID_DIMS`).
-const GRID: usize = 81;
 /// Filter steps one filter's construction (a discretisation and a block system of 60 ticks) is
 /// counted as in the budget: about 40 filter steps' instructions on the Cortex-M4.
 const PREPARE_COST: usize = 40;
@@ -499,27 +497,7 @@ impl<T: Real> WindowSearch<T> {
         match self.phase {
             Phase::Idle => None,
             Phase::Anchor => Some((self.anchor, false)),
-            Phase::Grid(k) => {
-                let mut t = self.centre;
-                let mut q = k;
-                // Every other search shifts the lattice by half a spacing in every parameter, so
-                // that successive searches sample between each other's points (the anchor carries
-                // the best point found so far from one search to the next).
-                let shift = if self.searches % 2 == 1 {
-                    self.cfg.spacing * T::lit(0.5)
-                } else {
-                    T::zero()
-                };
-                for (v, a) in t.iter_mut().zip(self.anchor.iter()).take(p).skip(GRID_DIMS) {
-                    *v = *a;
-                }
-                for v in t.iter_mut().take(p.min(GRID_DIMS)) {
-                    let level = (q % 3) as i32 - 1;
-                    q /= 3;
-                    *v += T::lit(f64::from(level)) * self.cfg.spacing - shift;
-                }
-                Some((bounds.clamp(&t, p), false))
-            }
+            Phase::Grid(k) => Some((self.grid_point(k, p, bounds), false)),
             Phase::Polish(_)
             | Phase::Refine(_)
             | Phase::AltRefine
@@ -538,7 +516,8 @@ impl<T: Real> WindowSearch<T> {
     ) -> Option<Found<T>> {
         self.evaluations = self.evaluations.saturating_add(1);
         let p = specs.len().min(MAXP);
-        let grid_len = 3usize.pow(p.min(GRID_DIMS) as u32).min(GRID);
+        let (first, second) = grid_points(p);
+        let grid_len = first + second;
         let (theta, ll) = (self.pass.theta, self.pass.ll);
         let next = match self.phase {
             Phase::Idle => Phase::Idle,
