@@ -15,11 +15,13 @@ use heapless::Vec;
 
 /// Largest number of identified parameters (the bank runs `2 p + 1` of its `2 MAXP + 1`
 /// filters). Five: the paper's two Gauss-Markov components with one of them switched to a
-/// three-parameter exponential-cosine (issue 13). Each unit costs two filters in the bank and
-/// two in the global stage's pass (about 1.7 KB of RAM in `f32`, measured): eight would not
-/// fit the 64 KiB the firmware is held to (`BENCHMARKS.md`). The feature `params8` raises it to
-/// eight (two components per sensor, both searched on a grid: `window` docs), to measure the
-/// cost law at p = 8 (`docs/ADAPTATION.md` §7.4); the firmware's RAM bar is for five.
+/// three-parameter exponential-cosine (issue 13). Each unit costs two filters in the bank, two
+/// in the global stage's pass and a row and column of every `MAXP`-sized array: 3.8-4.0 KB of
+/// `.bss` in `f32`, measured (4 -> 5: +4 024 B; 5 -> 8: +11 520 B). Eight do not fit the
+/// 64 KiB the firmware is held to (75 924 B with the stack, `BENCHMARKS.md`). The feature
+/// `params8` raises it to eight (two components per sensor, each sensor's searched on its own
+/// grid: `window` docs), to measure the cost law at p = 8 (`docs/ADAPTATION.md` §7.4); the
+/// firmware's RAM bar is for five.
 #[cfg(not(feature = "params8"))]
 pub const MAXP: usize = 5;
 /// Largest number of identified parameters, raised by the feature `params8` (see above).
