@@ -106,6 +106,8 @@ fn main() -> anyhow::Result<()> {
     let mut cfg = AdaptConfig::<f64>::global();
     cfg.global.every = env_or("EVERY", cfg.global.every);
     cfg.global.budget = env_or("BUDGET", cfg.global.budget);
+    cfg.global.margin = env_or("MARGIN", cfg.global.margin);
+    cfg.global.keep_start = env_or("KEEP", u8::from(cfg.global.keep_start)) != 0;
     cfg.global.structure = env_or("PEN", imu_ident::adapt::window::STRUCTURE_PENALTY);
     cfg.global.flat_every = env_or("FLAT_EVERY", cfg.global.flat_every);
     println!("{:?}", cfg.global);

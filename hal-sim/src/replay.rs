@@ -189,6 +189,7 @@ pub fn adapt_config<T: Real>(c: &AdaptConfig<f64>) -> AdaptConfig<T> {
             after_change: c.global.after_change,
             hold_flat: c.global.hold_flat,
             flat_every: c.global.flat_every,
+            keep_start: c.global.keep_start,
         },
     }
 }

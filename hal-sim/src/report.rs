@@ -371,11 +371,9 @@ pub fn parameter_plots(
             _ => "m/s",
         };
         // params.csv's `sigma`: sqrt(q) for a random walk, the density for white noise.
-        let sigma_unit = match kind {
-            "random-walk" => format!("{base}/sqrt(s)"),
-            "white" => format!("{base}/sqrt(Hz)"),
-            _ => base.to_string(),
-        };
+        let per = imu_ident::model::ComponentKind::from_name(kind)
+            .map_or("", imu_ident::model::ComponentKind::summary_sigma_per);
+        let sigma_unit = format!("{base}{per}");
         let fields: [(&str, &str, Get, GetTrue); 3] = [
             ("tau", "s", |p| (p.tau, p.sd_ln_tau), |r| r.tau),
             (

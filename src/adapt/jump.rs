@@ -78,15 +78,26 @@ impl<T: Real> AdaptiveFilter<T> {
             if self.switch_structure(sw, found.blocks).is_ok() {
                 self.jumps = self.jumps.saturating_add(1);
                 self.switches = self.switches.saturating_add(1);
+                self.at_start = false;
                 // The window's information describes the old structure's parameters.
                 self.last_global.fisher = [[T::zero(); MAXP]; MAXP];
                 self.flat = 0;
                 return true;
             }
         }
-        if !(found.gain.is_finite() && found.gain > self.cfg.global.margin) {
+        // The start model is left only when the window rejects it (`keep_start`): the
+        // likelihood-ratio statistic of the start against the window's maximum, `2 gain`,
+        // beyond its 95 % chi-square quantile with `p` degrees of freedom.
+        let margin = if self.cfg.global.keep_start && self.at_start {
+            let q = HOLD_QUANTILE.get(p.wrapping_sub(1)).copied().unwrap_or(0.0);
+            self.cfg.global.margin.max(T::lit(q))
+        } else {
+            self.cfg.global.margin
+        };
+        if !(found.gain.is_finite() && found.gain > margin) {
             return false;
         }
+        self.at_start = false;
         // Held only where the window cannot tell the held values from its best point: the
         // likelihood-ratio statistic of the hold (the profile likelihood's, `hold_cost`
         // halved) within its 95 % chi-square quantile for k held coordinates. Beyond it the

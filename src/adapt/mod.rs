@@ -100,6 +100,9 @@ pub struct AdaptiveFilter<T: Real> {
     switches: u32,
     /// The coordinates the last search's window did not identify (bit `i`: `theta[i]`).
     flat: u8,
+    /// The filter still runs the start model: nothing has moved it and no change in service
+    /// was found ([`WindowConfig::keep_start`](window::WindowConfig::keep_start)).
+    at_start: bool,
 }
 
 impl<T: Real> AdaptiveFilter<T> {
@@ -131,6 +134,7 @@ impl<T: Real> AdaptiveFilter<T> {
         last_global: Found::BLANK,
         switches: 0,
         flat: 0,
+        at_start: false,
     };
 
     /// Starts from `model` (its parameters are the initial guess).
@@ -204,6 +208,7 @@ impl<T: Real> AdaptiveFilter<T> {
         self.last_global = Found::BLANK;
         self.switches = 0;
         self.flat = 0;
+        self.at_start = true;
         Ok(())
     }
 
@@ -286,6 +291,9 @@ impl<T: Real> AdaptiveFilter<T> {
             }
         }
         moved |= jumped;
+        if moved || switched || changed {
+            self.at_start = false;
+        }
         let clamped = moved && core::mem::take(&mut self.clamped);
         StepReport {
             innovation,

@@ -1,5 +1,5 @@
-//! Unit tests of the adaptive filter: configuration and model errors are values, and bad
-//! observations do not break it.
+//! Unit tests of the adaptive filter: configuration and model errors are values, bad
+//! observations do not break it, and the start model is kept until a window rejects it.
 
 use super::*;
 use crate::model::{Component, RandomConstant};
@@ -53,4 +53,38 @@ fn missing_and_absurd_observations_do_not_break_it() {
     let e = f.estimates();
     assert!(e.sigma_delta.is_finite() && e.sigma_delta > 0.0);
     assert!(f.model().is_ok());
+}
+
+/// `WindowConfig::keep_start` (on in `AdaptConfig::global()`): a search's answer replaces the
+/// start model only when it beats it by half the 95 % chi-square quantile with `p` degrees of
+/// freedom, 9.488 / 2 = 4.744 nats for `paper`'s four parameters (Wilks: twice the gain of the
+/// maximum over the true model is chi-square(p)). Once the filter has left the start, the margin
+/// alone (0) applies.
+#[test]
+fn the_start_is_kept_until_a_window_rejects_it() {
+    let mut f = AdaptiveFilter::new(InsModel::<f64>::paper(), AdaptConfig::global()).unwrap();
+    let start = *f.theta();
+    let mut found = Found::BLANK;
+    found.theta = start;
+    found.theta[0] += 0.5;
+    found.fisher = [[0.0; MAXP]; MAXP];
+    for (i, row) in found.fisher.iter_mut().enumerate() {
+        row[i] = 100.0;
+    }
+    found.gain = 4.7;
+    assert!(!f.global_end(&found), "4.7 nats do not reject the start");
+    assert_eq!(*f.theta(), start);
+    found.gain = 4.8;
+    assert!(f.global_end(&found), "4.8 nats reject it");
+    assert_eq!(f.theta()[0], start[0] + 0.5);
+    // Away from the start, any gain above the margin moves the filter.
+    found.theta[1] += 0.5;
+    found.gain = 0.1;
+    assert!(f.global_end(&found));
+    assert_eq!(f.theta()[1], start[1] + 0.5);
+    // Without the rule the first answer is taken at any gain.
+    let mut cfg = AdaptConfig::global();
+    cfg.global.keep_start = false;
+    let mut g = AdaptiveFilter::new(InsModel::<f64>::paper(), cfg).unwrap();
+    assert!(g.global_end(&found));
 }

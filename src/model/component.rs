@@ -196,6 +196,17 @@ impl ComponentKind {
         }
     }
 
+    /// How the telemetry summary's `sigma` ([`Summary`]) relates to the sensor's unit: the
+    /// suffix to append to it (`sqrt(q)` of a random walk is per `sqrt(s)`, a white noise's
+    /// density per `sqrt(Hz)`, a stationary standard deviation is in the unit itself).
+    pub const fn summary_sigma_per(self) -> &'static str {
+        match self {
+            Self::RandomWalk => "/sqrt(s)",
+            Self::White => "/sqrt(Hz)",
+            Self::GaussMarkov | Self::ExpCosine | Self::RandomConstant => "",
+        }
+    }
+
     /// A component of this kind from its quantities in file order (missing ones zero). Not
     /// validated: the filter validates when it is built.
     pub fn with_quantities<T: Real>(self, v: &[T]) -> Component<T> {
