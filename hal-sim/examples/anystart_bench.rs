@@ -14,7 +14,8 @@
 //! `design=global` is `AdaptConfig::global()`; the environment overrides its window settings
 //! for experiments (`BLOCK`, `WIN`, `FIRST`, `EVERY`, `BUDGET`, `PM` probe factor, `GN` set:
 //! recursion not held, `PEN` the structure test's penalty, `MARGIN` the jump margin [nats],
-//! `KEEP=0` the start model not kept until rejected); `TRACE=1` also prints the exact
+//! `KEEP=0` the start model not kept until rejected, `KEEPID=0` an identified model not kept
+//! against a flat answer); `TRACE=1` also prints the exact
 //! start of every run beyond 1.05x (for `structure_bench START=...`: a rounded start can take
 //! another path). `design=probes` is `AdaptConfig::default()`, today's design.
 #![allow(clippy::needless_range_loop)]
@@ -56,6 +57,7 @@ fn main() -> anyhow::Result<()> {
         cfg.global.after_change = env_or("AFTER", cfg.global.after_change);
         cfg.global.margin = env_or("MARGIN", cfg.global.margin);
         cfg.global.keep_start = env_or("KEEP", u8::from(cfg.global.keep_start)) != 0;
+        cfg.global.keep_identified = env_or("KEEPID", u8::from(cfg.global.keep_identified)) != 0;
         println!("{:?}", cfg.global);
     }
     let scenario_name: String = arg_or("scenario", "paper".into());

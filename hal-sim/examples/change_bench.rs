@@ -48,6 +48,7 @@ fn main() -> anyhow::Result<()> {
     cfg.global.after_change = env_or("AFTER", cfg.global.after_change);
     cfg.global.margin = env_or("MARGIN", cfg.global.margin);
     cfg.global.keep_start = env_or("KEEP", u8::from(cfg.global.keep_start)) != 0;
+    cfg.global.keep_identified = env_or("KEEPID", u8::from(cfg.global.keep_identified)) != 0;
     let a = InsModel::<f64>::paper();
     let (t0, t1) = (12.0 * 3600.0, 18.0 * 3600.0 + 1.0);
     let (mut ratios, mut fixed, mut outs, mut vs_ref) = (vec![], vec![], vec![], vec![]);

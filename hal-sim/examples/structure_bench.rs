@@ -108,6 +108,7 @@ fn main() -> anyhow::Result<()> {
     cfg.global.budget = env_or("BUDGET", cfg.global.budget);
     cfg.global.margin = env_or("MARGIN", cfg.global.margin);
     cfg.global.keep_start = env_or("KEEP", u8::from(cfg.global.keep_start)) != 0;
+    cfg.global.keep_identified = env_or("KEEPID", u8::from(cfg.global.keep_identified)) != 0;
     cfg.global.structure = env_or("PEN", imu_ident::adapt::window::STRUCTURE_PENALTY);
     cfg.global.flat_every = env_or("FLAT_EVERY", cfg.global.flat_every);
     println!("{:?}", cfg.global);

@@ -190,6 +190,7 @@ pub fn adapt_config<T: Real>(c: &AdaptConfig<f64>) -> AdaptConfig<T> {
             hold_flat: c.global.hold_flat,
             flat_every: c.global.flat_every,
             keep_start: c.global.keep_start,
+            keep_identified: c.global.keep_identified,
         },
     }
 }

@@ -73,6 +73,7 @@ impl<T: Real> AdaptiveFilter<T> {
         self.searching = false;
         let p = self.specs.len().min(MAXP);
         // Issue 13, item 2: what the window does not bound is flagged, not left to wander.
+        let was_flat = self.flat;
         self.flat = found.flat(p);
         if let Some(sw) = found.switch.get().filter(|s| self.switch_wins(s)) {
             if self.switch_structure(sw, found.blocks).is_ok() {
@@ -88,13 +89,26 @@ impl<T: Real> AdaptiveFilter<T> {
         // The start model is left only when the window rejects it (`keep_start`): the
         // likelihood-ratio statistic of the start against the window's maximum, `2 gain`,
         // beyond its 95 % chi-square quantile with `p` degrees of freedom.
-        let margin = if self.cfg.global.keep_start && self.at_start {
+        // And an identified model is not left for an answer with a flat coordinate unless the
+        // window rejects it (`keep_identified`): the likelihood is flat along that direction,
+        // so the move would be the wandering issue 13's item 2 forbids. Not after a change in
+        // service, like the revisit of a flat answer (§7.8): the models since are fitted to
+        // windows of a few hours.
+        let keep_flat = self.cfg.global.keep_identified
+            && self.flat != 0
+            && was_flat == 0
+            && self.global.changes() == 0;
+        let margin = if (self.cfg.global.keep_start && self.at_start) || keep_flat {
             let q = HOLD_QUANTILE.get(p.wrapping_sub(1)).copied().unwrap_or(0.0);
             self.cfg.global.margin.max(T::lit(q))
         } else {
             self.cfg.global.margin
         };
         if !(found.gain.is_finite() && found.gain > margin) {
+            if keep_flat {
+                // The filter still runs the identified model: its flags stay.
+                self.flat = was_flat;
+            }
             return false;
         }
         self.at_start = false;

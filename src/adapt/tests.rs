@@ -59,7 +59,7 @@ fn missing_and_absurd_observations_do_not_break_it() {
 /// start model only when it beats it by half the 95 % chi-square quantile with `p` degrees of
 /// freedom, 9.488 / 2 = 4.744 nats for `paper`'s four parameters (Wilks: twice the gain of the
 /// maximum over the true model is chi-square(p)). Once the filter has left the start, the margin
-/// alone (0) applies.
+/// alone (0) applies, except against an answer the window does not bound (`keep_identified`).
 #[test]
 fn the_start_is_kept_until_a_window_rejects_it() {
     let mut f = AdaptiveFilter::new(InsModel::<f64>::paper(), AdaptConfig::global()).unwrap();
@@ -82,9 +82,30 @@ fn the_start_is_kept_until_a_window_rejects_it() {
     found.gain = 0.1;
     assert!(f.global_end(&found));
     assert_eq!(f.theta()[1], start[1] + 0.5);
-    // Without the rule the first answer is taken at any gain.
+    // An identified model (the last answer had no flat coordinate) is kept against an answer
+    // whose first coordinate the window does not bound (sd 10 in `ln`), unless rejected.
+    found.theta[2] += 0.5;
+    found.fisher[0][0] = 0.01;
+    found.gain = 4.7;
+    assert!(
+        !f.global_end(&found),
+        "a flat answer does not replace an identified model"
+    );
+    assert_eq!(f.theta()[2], start[2]);
+    assert_eq!(f.flat(), 0, "the model the filter runs keeps its flags");
+    found.gain = 4.8;
+    assert!(f.global_end(&found));
+    assert_eq!(f.theta()[2], start[2] + 0.5);
+    assert_eq!(f.flat() & 1, 1);
+    // From a flat model, a flat answer is taken at any gain.
+    found.theta[3] += 0.5;
+    found.gain = 0.1;
+    assert!(f.global_end(&found));
+    assert_eq!(f.theta()[3], start[3] + 0.5);
+    // Without the rules the first answer is taken at any gain.
     let mut cfg = AdaptConfig::global();
     cfg.global.keep_start = false;
+    cfg.global.keep_identified = false;
     let mut g = AdaptiveFilter::new(InsModel::<f64>::paper(), cfg).unwrap();
     assert!(g.global_end(&found));
 }
