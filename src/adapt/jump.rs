@@ -12,7 +12,8 @@ use crate::Real;
 
 /// Half the 95 % quantiles of chi-square with 1 to 8 degrees of freedom [nats] (up to the
 /// `params8` capacity): how much holding `k` flat coordinates may cost the window's
-/// log-likelihood.
+/// log-likelihood, and (at `k = p`) what a search must gain to leave a kept model
+/// (`keep_start`, `keep_identified`).
 const HOLD_QUANTILE: [f64; 8] = [1.921, 2.996, 3.907, 4.744, 5.535, 6.296, 7.034, 7.754];
 
 impl<T: Real> AdaptiveFilter<T> {
