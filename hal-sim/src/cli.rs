@@ -181,10 +181,10 @@ pub enum Command {
         /// "A sensor that changes in service".
         #[arg(long, default_value_t = ADAPT.bank.memory)]
         adapt_memory: f64,
-        /// With the window search (`--adapt-method replay`): also identify factors on the
-        /// GNSS position and velocity standard deviations (the measurement noise, on top of
-        /// --gnss-sd-factor), as `--identify` does offline. The bank keeps --gnss-sd-factor.
-        /// BENCHMARKS.md "The GNSS noise online".
+        /// Also identify factors on the GNSS position and velocity standard deviations (the
+        /// measurement noise, on top of --gnss-sd-factor), as `--identify` does offline; with
+        /// either method (the bank's factors scale a fix's default deviations too).
+        /// BENCHMARKS.md "The GNSS noise online" and "The GNSS factors in the bank".
         #[arg(long, default_value_t = ADAPT.gnss_sd, action = clap::ArgAction::Set, value_name = "BOOL")]
         adapt_gnss_sd: bool,
     },

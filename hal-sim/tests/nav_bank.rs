@@ -60,10 +60,13 @@ fn args(dir: &tempfile::TempDir, yaw: f64, scale: f64, adapt: AdaptConfig) -> Na
     }
 }
 
+/// The bank with decisions at `first` and every `every` seconds after it, without the GNSS
+/// factors (they have their own test).
 fn bank(first: f64, every: f64) -> AdaptConfig {
     AdaptConfig {
         method: AdaptMethod::Bank,
         taus: TauMode::Free,
+        gnss_sd: false,
         bank: OnlineConfig {
             first,
             every,
@@ -76,19 +79,41 @@ fn bank(first: f64, every: f64) -> AdaptConfig {
 #[test]
 fn the_centre_shadow_reproduces_the_running_filter() {
     let (dir, yaw, imu, fixes) = drive();
+    for gnss_sd in [false, true] {
+        centre_against_running(&dir, yaw, &imu, &fixes, gnss_sd);
+    }
+}
+
+/// [`the_centre_shadow_reproduces_the_running_filter`] with or without the GNSS factors (their
+/// shadows differ from the centre in the fixes' variances only, by `10^(+-2d)`).
+fn centre_against_running(
+    dir: &tempfile::TempDir,
+    yaw: f64,
+    imu: &[hal_sim::nav_io::ImuSample],
+    fixes: &[hal_sim::nav_io::GnssFix],
+    gnss_sd: bool,
+) {
     // No decision within the drive: every shadow keeps its model, the sums cover every fix.
-    let mut a = args(&dir, yaw, 1.0, bank(1e6, 1e6));
+    let mut a = args(
+        dir,
+        yaw,
+        1.0,
+        AdaptConfig {
+            gnss_sd,
+            ..bank(1e6, 1e6)
+        },
+    );
     a.gate = None;
-    let shifted = shifted_imu(&a, &imu);
+    let shifted = shifted_imu(&a, imu);
     let (mut lp, _) =
-        NavLoop::<f64>::start(&a, &shifted, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+        NavLoop::<f64>::start(&a, &shifted, fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let t0 = lp.time(&shifted);
     let online = a.online().expect("the bank's settings");
     start_bank(online, lp.nav_mut(), t0).unwrap_or_else(|e| panic!("{e:#}"));
     let mut epochs = Vec::new();
     lp.advance(
         &shifted,
-        &fixes,
+        fixes,
         f64::INFINITY,
         &mut epochs,
         "imu.csv",
@@ -96,7 +121,8 @@ fn the_centre_shadow_reproduces_the_running_filter() {
     )
     .unwrap_or_else(|e| panic!("{e:#}"));
     let id = lp.nav().observer().ident.as_ref().expect("the bank");
-    let p = id.coordinates().len();
+    let p = id.log10_factors().len();
+    assert_eq!(p, id.coordinates().len() + if gnss_sd { 2 } else { 0 });
     let sums = id.window_sums();
     let centre = sums[2 * p];
     assert!(lp.fused > 1000, "{} fixes", lp.fused);
@@ -137,4 +163,76 @@ fn from_ten_times_too_large_the_bank_lowers_every_intensity() {
     }
     assert_eq!(intensities, 4, "{:?}", log.coordinates);
     assert!(last.cr_sd_log10.iter().any(|sd| sd.is_finite()));
+}
+
+/// The GNSS factors in the bank (`OnlineConfig::gnss_sd`, `--adapt-gnss-sd true`): the IMU
+/// model right, the receiver's stated standard deviations 4x its true noise
+/// (`--gnss-sd-factor 4,4`); decisions at 10 and 20 min. Both factors should come out at
+/// log10(1/4) = -0.602, and the running filter should take them.
+///
+/// Bound: within 3.29 Cramér-Rao sd (99.9 %, two-sided, Wald) plus 0.01 decade of -0.602.
+/// The factors move by the variance-scale model's maximum (`newton.rs`), exact when the fixes'
+/// noise dominates their innovation variance; the 0.01 decade allows for the filter's own
+/// share of it, which the model's sd (`1 / (ln 10 sqrt(2 n))`, ~0.007 decade with 600 fixes of
+/// three axes) leaves out. A parabola through the shadows at half a decade put the factor at
+/// -0.716 (measured), and a bank without the coordinates is 0.6 decade off: both fail.
+#[test]
+fn the_bank_finds_a_misstated_gnss_noise() {
+    let (dir, yaw, imu, fixes) = drive();
+    let a = NavArgs {
+        gnss_sd_factor: [4.0, 4.0],
+        ..args(
+            &dir,
+            yaw,
+            1.0,
+            AdaptConfig {
+                gnss_sd: true,
+                ..bank(600.0, 600.0)
+            },
+        )
+    };
+    let run = run_with::<f64>(&a, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let log = run.adapt.as_ref().expect("an adapt log");
+    let names: Vec<&str> = log.coordinates.iter().map(|c| c.quantity).collect();
+    let p = names.len();
+    assert_eq!(&names[p - 2..], ["position_sd", "velocity_sd"], "{names:?}");
+    let last = log.searches.last().expect("a decision");
+    for s in &log.searches {
+        println!(
+            "decision at {:.0} s (window from {:.0} s, {} fixes): factors {:.3?}, sd {:.3?}",
+            s.t, s.window_start, s.fixes, s.log10_factors, s.cr_sd_log10
+        );
+    }
+    let want = 0.25f64.log10();
+    for i in [p - 2, p - 1] {
+        let (x, sd) = (last.log10_factors[i], last.cr_sd_log10[i]);
+        assert!(sd.is_finite() && sd > 0.0, "{}: sd {sd}", names[i]);
+        assert!(
+            (x - want).abs() <= 3.29 * sd + 0.01,
+            "{}: {x:+.4} +- {sd:.4}, want {want:+.4}",
+            names[i]
+        );
+    }
+    // The record gives the factors on top of the stated 4.
+    let end = log.gnss_sd_factor_end();
+    for (i, f) in end.iter().enumerate() {
+        let x = last.log10_factors[p - 2 + i];
+        assert!((f - 4.0 * 10f64.powf(x)).abs() < 1e-9, "{end:?}");
+    }
+    // The running filter took them at the first decision: the position NIS of the fixes
+    // after it is a right R's. Each fix's sum of the three per-axis NIS has mean 3 and
+    // variance about 6 (chi-square(3) for independent axes): the mean over n fixes within
+    // 3.29 sd of 3. With the stated R it would be about 3/16.
+    let first = log.searches.first().map_or(f64::INFINITY, |s| s.t);
+    let after: Vec<f64> = run
+        .epochs
+        .iter()
+        .filter(|e| e.t > first && e.fused)
+        .map(|e| e.nis_axis[..3].iter().sum::<f64>())
+        .collect();
+    let n = after.len() as f64;
+    let mean = after.iter().sum::<f64>() / n;
+    println!("{n} fixes after the first decision, mean position NIS {mean:.3}");
+    assert!(n >= 30.0, "{n} fixes");
+    assert!((mean - 3.0).abs() <= 3.29 * (6.0 / n).sqrt(), "{mean}");
 }

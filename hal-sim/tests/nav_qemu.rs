@@ -36,6 +36,7 @@ use hal_sim::nav_qemu::{
     NavFirmwareRun, NAV_ELF_ENV,
 };
 use hal_sim::qemu::QemuConfig;
+use imu_ident::nav::online::FIRMWARE_BANK;
 use imu_ident::nav::replay::{gnss_flags, Decoder, Event, Record};
 use imu_ident::nav::{ImuErrorModel, NavInit, NavReplay, OnlineIdent, NAV_N};
 use nalgebra::Vector3;
@@ -434,7 +435,8 @@ fn nav_replay_with_zero_velocity_updates_is_the_host_run_bit_for_bit() {
 
 /// [`drive`] started with every standard deviation 10x too large, identified online by the
 /// core's bank of shadow filters (`--adapt --adapt-method bank`), decisions every 2 min from
-/// 2 min.
+/// 2 min, with the factors on the fixes' standard deviations (`--adapt-gnss-sd true`, the
+/// default).
 fn drive_online(dir: &std::path::Path) -> NavArgs {
     use hal_sim::nav::adapt::{AdaptConfig, AdaptMethod};
     let args = drive(dir);
@@ -445,11 +447,13 @@ fn drive_online(dir: &std::path::Path) -> NavArgs {
             bank: imu_ident::nav::OnlineConfig {
                 first: 120.0,
                 every: 120.0,
-                // A finite memory: the replay carries it (version 5) and the firmware's
-                // window forgets as the host's does.
+                // A finite memory: the replay carries it (version 5), as it carries the GNSS
+                // factors' flag (version 6), and the firmware's window forgets as the host's
+                // does.
                 memory: 900.0,
                 ..imu_ident::nav::OnlineConfig::DEFAULT
             },
+            gnss_sd: true,
             ..AdaptConfig::DEFAULT
         }),
         ..args
@@ -475,6 +479,9 @@ fn nav_replay_with_the_online_identification_is_the_host_run_bit_for_bit() {
         .filter(|s| s.log10_factors.iter().any(|x| *x != 0.0))
         .count();
     assert!(log.searches.len() >= 3 && moved >= 1, "{:?}", log.searches);
+    // The GNSS factors are the last two coordinates, so the replay covers their shadows too.
+    let gnss = log.coordinates.iter().filter(|c| c.gnss_sd().is_some());
+    assert_eq!(gnss.count(), 2, "{:?}", log.coordinates);
 }
 
 /// The replay of `args` through `NavReplay<f32>` on the host against `run_with::<f32>`:
@@ -486,9 +493,11 @@ fn replay_matches_host_bit_for_bit(args: &NavArgs) -> ([usize; 2], NavRun) {
     let bytes = encode_replay(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let mut dec = Decoder::new();
     // The bank (with `--adapt-method bank`) as the firmware keeps it: started in place.
-    let mut bank = Box::new(OnlineIdent::<f32, NAV_N, 17>::BLANK);
+    let mut bank = Box::new(OnlineIdent::<f32, NAV_N, FIRMWARE_BANK>::BLANK);
     let mut bank_slot = Some(&mut *bank);
-    let mut run: Option<NavReplay<f32, NAV_N, Option<&mut OnlineIdent<f32, NAV_N, 17>>>> = None;
+    let mut run: Option<
+        NavReplay<f32, NAV_N, Option<&mut OnlineIdent<f32, NAV_N, FIRMWARE_BANK>>>,
+    > = None;
     let mut epochs = Vec::new();
     let mut updates = [0, 0];
     for &b in &bytes {

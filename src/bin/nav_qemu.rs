@@ -58,9 +58,8 @@ mod firmware {
     /// Read size: the decoder takes any chunking, so this only trades RAM for host calls.
     const CHUNK: usize = 512;
 
-    /// Shadow filters of the online identification: two per coordinate, the centre and one per
-    /// pair, enough for a white noise and a Gauss-Markov on each sensor, tied (15), plus two.
-    const BANK: usize = 17;
+    /// Shadow filters of the online identification (the core's count for the firmware).
+    const BANK: usize = imu_ident::nav::online::FIRMWARE_BANK;
 
     type Bank = OnlineIdent<f32, NAV_N, BANK>;
 
@@ -89,7 +88,7 @@ mod firmware {
     /// setup has been read.
     static mut RUN: MaybeUninit<Run> = MaybeUninit::uninit();
 
-    /// The online identification's bank (about 52 KB), in the core-coupled memory
+    /// The online identification's bank (about 59 KB), in the core-coupled memory
     /// (`memory/ccmram.x`: the F405's 128 KiB SRAM holds the other statics and the stack).
     /// That section is not zeroed at reset: [`start_bank`] writes it before any read.
     #[link_section = ".ccmram.bank"]

@@ -144,6 +144,9 @@ pub struct Navigator<T: Real, const N: usize, O = ()> {
     rejected: u8,
     rejected_nhc: u8,
     rejected_zupt: u8,
+    /// Factors on every GNSS fix's standard deviations, position and velocity, from the
+    /// observer's decisions ([`NavObserver::gnss_sd_factor`]; ones until one).
+    gnss_sd_factor: [T; 2],
     obs: O,
 }
 
@@ -192,6 +195,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             rejected: 0,
             rejected_nhc: 0,
             rejected_zupt: 0,
+            gnss_sd_factor: [T::one(); 2],
             obs: (),
         })
     }
@@ -223,6 +227,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             rejected: self.rejected,
             rejected_nhc: self.rejected_nhc,
             rejected_zupt: self.rejected_zupt,
+            gnss_sd_factor: self.gnss_sd_factor,
             obs,
         }
     }
@@ -343,10 +348,19 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
     /// decided, if any ([`retune_imu_model`](Self::retune_imu_model)). Returns whether the
     /// model changed.
     pub fn take_observer_model(&mut self, t: f64) -> Result<bool, NavError> {
-        match self.obs.decide(t) {
-            Some(m) => self.retune_imu_model(m).map(|()| true),
-            None => Ok(false),
+        let Some(m) = self.obs.decide(t) else {
+            return Ok(false);
+        };
+        // Factors that are not finite and positive are not taken (the observer's own check
+        // makes them so; a NaN must not reach R).
+        if let Some(f) = self
+            .obs
+            .gnss_sd_factor()
+            .filter(|f| f.iter().all(|v| *v > 0.0 && v.is_finite()))
+        {
+            self.gnss_sd_factor = f.map(T::lit);
         }
+        self.retune_imu_model(m).map(|()| true)
     }
 
     /// Heading alignment (for example from the GNSS course once moving): replaces the yaw,

@@ -3,10 +3,10 @@
 //! the order the host driver processes them. The loop that consumes it is
 //! [`NavReplay`](super::run::NavReplay).
 //!
-//! # Format (version 5, all integers and floats little-endian)
+//! # Format (version 6, all integers and floats little-endian)
 //!
 //! ```text
-//! header     magic "IMUN" | version u16 = 5 | reserved u16 = 0 | record count u32      12 bytes
+//! header     magic "IMUN" | version u16 = 6 | reserved u16 = 0 | record count u32      12 bytes
 //! setup      52 f64, in this order:                                                   424 bytes
 //!              t0 [s] | lat, lon [rad], h [m] | q_b^n w, x, y, z | v N, E, D [m/s]
 //!              | gyro bias x, y, z [rad/s] (NaN: none) | lever arm x, y, z [m, body FRD]
@@ -40,7 +40,8 @@
 //!
 //! With the online identification on ([`OnlineConfig`], setup flags
 //! [`setup_flags::ONLINE_PER_AXIS`], [`setup_flags::ONLINE_TAUS`],
-//! [`setup_flags::ONLINE_CONSERVATIVE`] and [`setup_flags::ONLINE_HOLD_FLAT_TAUS`]), the loop
+//! [`setup_flags::ONLINE_CONSERVATIVE`], [`setup_flags::ONLINE_HOLD_FLAT_TAUS`] and
+//! [`setup_flags::ONLINE_GNSS_SD`]), the loop
 //! runs the bank of shadow filters ([`crate::nav::online`]) and, after every filter step, takes its decision
 //! ([`NavReplay::imu`](super::run::NavReplay::imu)), as the host does (`nav --adapt
 //! --adapt-method bank`).
@@ -48,7 +49,8 @@
 //! Version 2 added the NHC (sd and lever arm) and the setup flags (the byte that was zero
 //! padding in version 1); version 3 the ZUPT (sd and the rest detector's three bounds); version 4
 //! the online identification (seven values and four flags); version 5 its memory
-//! ([`OnlineConfig::memory`], an eighth value, infinite for none). Older
+//! ([`OnlineConfig::memory`], an eighth value, infinite for none); version 6 its GNSS factors
+//! ([`OnlineConfig::gnss_sd`], a fifth flag). Older
 //! replays are rejected ([`NavReplayError::BadVersion`]), not read with the new aiding off:
 //! the replay is an intermediate file that `hal_sim::nav_qemu` writes afresh for every run, so there is nothing to migrate, and one layout keeps the
 //! firmware's decoder to one panic-free path.
@@ -75,8 +77,8 @@ use crate::strapdown::{Geodetic, Quat};
 
 /// First four bytes.
 pub const MAGIC: [u8; 4] = *b"IMUN";
-/// Format version (5: the online identification's memory; module docs).
-pub const VERSION: u16 = 5;
+/// Format version (6: the online identification's GNSS factors; module docs).
+pub const VERSION: u16 = 6;
 /// Header length.
 pub const HEADER_LEN: usize = 12;
 /// Setup block length (51 `f64`, then `max_rejections`, six counts and the setup flags).
@@ -118,9 +120,18 @@ pub mod setup_flags {
     ///
     /// [`OnlineConfig::hold_flat_taus`]: crate::nav::OnlineConfig::hold_flat_taus
     pub const ONLINE_HOLD_FLAT_TAUS: u8 = 16;
+    /// The online identification identifies factors on the GNSS fixes' standard deviations
+    /// ([`OnlineConfig::gnss_sd`]).
+    ///
+    /// [`OnlineConfig::gnss_sd`]: crate::nav::OnlineConfig::gnss_sd
+    pub const ONLINE_GNSS_SD: u8 = 32;
     /// Every defined bit.
-    pub const ALL: u8 =
-        HEADING_KNOWN | ONLINE_PER_AXIS | ONLINE_TAUS | ONLINE_CONSERVATIVE | ONLINE_HOLD_FLAT_TAUS;
+    pub const ALL: u8 = HEADING_KNOWN
+        | ONLINE_PER_AXIS
+        | ONLINE_TAUS
+        | ONLINE_CONSERVATIVE
+        | ONLINE_HOLD_FLAT_TAUS
+        | ONLINE_GNSS_SD;
 }
 
 /// Bits of [`GnssRecord::flags`].
@@ -364,6 +375,10 @@ pub fn encode(
         | flag(
             s.online.is_some_and(|o| o.hold_flat_taus),
             setup_flags::ONLINE_HOLD_FLAT_TAUS,
+        )
+        | flag(
+            s.online.is_some_and(|o| o.gnss_sd),
+            setup_flags::ONLINE_GNSS_SD,
         )]);
     for c in axes(&s.imu).into_iter().flat_map(|a| a.iter()) {
         let kind = c.kind();

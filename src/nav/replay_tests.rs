@@ -67,6 +67,7 @@ fn setup() -> NavSetup {
             per_axis: true,
             taus: true,
             hold_flat_taus: true,
+            gnss_sd: true,
         }),
         heading_known: true,
     }
@@ -204,24 +205,24 @@ fn header_errors_are_specific() {
     bad[HEADER_LEN + SETUP_LEN - 7] = 9; // gyro x: 9 components
     assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
     let mut bad = good;
-    bad[HEADER_LEN + SETUP_LEN - 1] = 32; // an undefined setup flag
+    bad[HEADER_LEN + SETUP_LEN - 1] = 64; // an undefined setup flag
     assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
 }
 
-/// Version-1 to version-3 replays (shorter setups: no constraint, zero-velocity update or
-/// online identification)
+/// Version-1 to version-5 replays (shorter setups: no constraint, zero-velocity update or
+/// online identification; the online identification without its memory or GNSS factors)
 /// are refused at their header with the version they have, before their setup could be
 /// misread; the message says which one is read.
 #[test]
 fn older_versions_are_refused_with_their_number() {
-    for v in [1u16, 2, 3, 4] {
+    for v in [1u16, 2, 3, 4, 5] {
         let mut old = encoded(&setup(), &records(2));
         old[4..6].copy_from_slice(&v.to_le_bytes());
         let e = decoded(&old).err();
         assert_eq!(e, Some(NavReplayError::BadVersion(v)));
         let msg = std::format!("{}", NavReplayError::BadVersion(v));
         assert!(
-            msg.contains(&std::format!("version {v}")) && msg.contains("version 5"),
+            msg.contains(&std::format!("version {v}")) && msg.contains("version 6"),
             "{msg}"
         );
         let mut dec = Decoder::new();
@@ -234,7 +235,7 @@ fn older_versions_are_refused_with_their_number() {
 /// zero-velocity update's sd and bounds, then the online identification's eight values are
 /// the last sixteen `f64` of the block, the setup flags its last byte.
 #[test]
-fn version_5_fields_are_at_their_documented_offsets() {
+fn version_6_fields_are_at_their_documented_offsets() {
     let s = setup();
     let bytes = encoded(&s, &[]);
     let f64_at = |k: usize| {
@@ -258,6 +259,7 @@ fn version_5_fields_are_at_their_documented_offsets() {
             | setup_flags::ONLINE_PER_AXIS
             | setup_flags::ONLINE_TAUS
             | setup_flags::ONLINE_HOLD_FLAT_TAUS
+            | setup_flags::ONLINE_GNSS_SD
     );
     let mut off = s.clone();
     off.nhc_sd = None;

@@ -112,6 +112,7 @@ impl NavArgs {
             per_axis: c.per_axis,
             taus: c.taus != adapt::TauMode::Held,
             hold_flat_taus: c.taus == adapt::TauMode::Tested,
+            gnss_sd: c.gnss_sd,
             ..c.bank
         })
     }

@@ -90,11 +90,17 @@ impl<T: Real> NavObserver<T, NAV_N> for Shadows<T> {
                 fixes,
                 log10_factors: id.log10_factors().to_vec(),
                 cr_sd: id.cr_sd().to_vec(),
-                identifiable: (0..id.coordinates().len())
+                identifiable: (0..id.log10_factors().len())
                     .map(|i| id.identifiable(i))
                     .collect(),
             });
         }
         m
+    }
+
+    fn gnss_sd_factor(&self) -> Option<[f64; 2]> {
+        self.ident
+            .as_deref()
+            .and_then(NavObserver::<T, NAV_N>::gnss_sd_factor)
     }
 }

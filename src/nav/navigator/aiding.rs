@@ -49,6 +49,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
         let v_ant = v + c * self.w_b.cross(&self.model.lever_arm);
         let mut z = [T::zero(); NAV_Z];
         let mut r = r0;
+        let [fp, fv] = self.gnss_sd_factor;
         for i in 0..3 {
             z[i] = T::lit(d[i]);
             z[3 + i] = v_ant[i] - fix.vel[i];
@@ -59,10 +60,20 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
             if sv.is_finite() && sv > T::zero() {
                 r[3 + i] = sv * sv;
             }
+            // The observer's factors (ones unless it identifies them), on the stated and the
+            // default standard deviations alike, so that the shadows' relative factors hold.
+            r[i] *= fp * fp;
+            r[3 + i] *= fv * fv;
         }
         let fused = self.fuse_gated(ObservationKind::Gnss, &z, &h, &r);
         self.close_loop()?;
         Ok(fused)
+    }
+
+    /// The factors on the GNSS fixes' standard deviations (position, velocity) taken from the
+    /// observer ([`NavObserver::gnss_sd_factor`]); ones until it decides any.
+    pub fn gnss_sd_factor(&self) -> [T; 2] {
+        self.gnss_sd_factor
     }
 
     /// Zero-velocity update with standard deviation `sd` [m/s] on each axis, with its own count

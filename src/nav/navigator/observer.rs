@@ -75,6 +75,14 @@ pub trait NavObserver<T: Real, const N: usize> {
         let _ = t;
         None
     }
+
+    /// After a decision ([`decide`](Self::decide) returned a model): the factors on the GNSS
+    /// fixes' standard deviations (position, velocity) for the running filter to take
+    /// ([`Navigator::gnss_sd_factor`](super::Navigator::gnss_sd_factor)), if the observer
+    /// identifies them.
+    fn gnss_sd_factor(&self) -> Option<[f64; 2]> {
+        None
+    }
 }
 
 /// No observer.
@@ -128,6 +136,10 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> NavObserver<T, N> for Option
     fn decide(&mut self, t: f64) -> Option<ImuErrorModel<T>> {
         self.as_mut().and_then(|o| o.decide(t))
     }
+
+    fn gnss_sd_factor(&self) -> Option<[f64; 2]> {
+        self.as_ref().and_then(|o| o.gnss_sd_factor())
+    }
 }
 
 /// An observer held elsewhere (the firmware keeps a bank in its own static).
@@ -167,5 +179,9 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> NavObserver<T, N> for &mut O
 
     fn decide(&mut self, t: f64) -> Option<ImuErrorModel<T>> {
         (**self).decide(t)
+    }
+
+    fn gnss_sd_factor(&self) -> Option<[f64; 2]> {
+        (**self).gnss_sd_factor()
     }
 }

@@ -24,8 +24,16 @@ use crate::nav::{ImuErrorModel, ImuSensor};
 use crate::Real;
 use heapless::Vec;
 
-/// Most coordinates (for example three quantities on each of the six axes, per axis).
+/// Most coordinates of the IMU model (for example three quantities on each of the six axes,
+/// per axis).
 pub const MAX_COORDS: usize = 18;
+
+/// Coordinates on the GNSS fixes' standard deviations, when identified: a factor on the
+/// position's and one on the velocity's ([`OnlineConfig::gnss_sd`](super::OnlineConfig::gnss_sd)).
+pub const GNSS_COORDS: usize = 2;
+
+/// Most coordinates in all: the IMU model's and the GNSS factors.
+pub const MAX_PARAMS: usize = MAX_COORDS + GNSS_COORDS;
 
 /// One identified quantity.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -59,7 +59,7 @@
 //! # Cost (p coordinates, q pairs, N filter states)
 //! RAM: `2p + 1 + q` filters of `N^2 + N` scalars each, plus each one's model (p = 6, q = 2
 //! for a white noise and a Gauss-Markov on each sensor, tied: 15 filters, about 3 kB each in
-//! f32 at N = 24; the firmware's 17-filter static is 52 kB). Per 1-Hz step:
+//! f32 at N = 24; the firmware's 19-filter static is 58.6 kB). Per 1-Hz step:
 //! `2p + 1 + q` predictions and, for the `t` correlation-time coordinates, the pairs and the
 //! centre, `2t + q + 1` full discretisations; the `p - t` intensity coordinates share the
 //! centre's `Phi` and add a multiple of one `Q` series each to its `Qd` (`shared.rs`): all
@@ -69,7 +69,9 @@
 //!
 //! [`Navigator::retune_imu_model`]: crate::nav::Navigator::retune_imu_model
 
+mod config;
 pub mod coords;
+mod gnss;
 mod newton;
 mod shadow;
 mod shared;
@@ -82,7 +84,13 @@ use crate::nav::error_model::StrapdownErrorModel;
 use crate::nav::navigator::{NavObserver, Navigator, ObservationKind};
 use crate::nav::ImuErrorModel;
 use crate::Real;
-use coords::{Coordinate, MAX_COORDS};
+pub use config::OnlineConfig;
+
+/// Shadow filters in the firmware's bank (`imu-ident-nav-qemu`): two per coordinate, the
+/// centre and one per pair, for a white noise and a Gauss-Markov on each sensor, tied, and the
+/// two GNSS factors (`2 (6 + 2) + 1 + 2`; 58.6 kB in `f32` at 24 states).
+pub const FIRMWARE_BANK: usize = 19;
+use coords::{Coordinate, GNSS_COORDS, MAX_COORDS, MAX_PARAMS};
 use heapless::Vec;
 use newton::Quad;
 use shadow::Shadow;
@@ -94,110 +102,26 @@ use shadow::Shadow;
 /// ([`OnlineConfig::min_gain`]).
 pub use crate::model::IDENTIFIABLE_SD;
 
-/// Settings of the online identification.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct OnlineConfig {
-    /// First decision, seconds after the start.
-    pub first: f64,
-    /// Interval between decisions [s]: each scores the fixes since the last move.
-    pub every: f64,
-    /// Starting offset `d` of the shadow filters from the current model [decades].
-    pub offset: f64,
-    /// Smallest offset [decades].
-    pub min_offset: f64,
-    /// Largest distance of a coordinate from the starting model [decades].
-    pub bound: f64,
-    /// Likelihood gain [nats] a coordinate's move must promise.
-    pub min_gain: f64,
-    /// GNSS fixes needed for a decision.
-    pub min_fixes: u32,
-    /// Time constant [s] with which the window's sums forget: each step multiplies them by
-    /// `exp(-dt / memory)`, so a sensor that changes in service is followed sooner. Infinite
-    /// (the default): the window keeps every fix since the shadows last moved. With 1800 s
-    /// the bank followed a 1.5x rise and a 3x fall of the noise better (tactical attitude
-    /// 1.04x against 1.85x the reference), but on stationary noise it passed about as many
-    /// runs with longer tails (BENCHMARKS.md "A sensor that changes in service").
-    pub memory: f64,
-    /// The running filter takes each intensity at the upper end of its one-sigma interval
-    /// ([`OnlineIdent::running_model`]), not at the estimate. On by default: on the tactical
-    /// IMU the estimate alone left the filter overconfident (up to 5 % of epochs outside
-    /// 3 sigma on the development seeds; BENCHMARKS.md "Online identification on the MCU").
-    pub conservative: bool,
-    /// One coordinate per axis instead of per sensor.
-    pub per_axis: bool,
-    /// Identify the correlation times too.
-    pub taus: bool,
-    /// Hold a correlation time whose marginal Cramér-Rao sd in its pair is above
-    /// [`IDENTIFIABLE_SD`] (`newton.rs`: the sigma then takes its own step). Off by default:
-    /// it cut the tactical attitude tail (worst 1.23x against 1.59x the true-model filter on
-    /// seeds 9701-9706) but passed fewer runs, 96 of 144 against 102 (BENCHMARKS.md "Online
-    /// identification on the MCU"). `hal-sim nav --adapt-taus tested` with the bank.
-    pub hold_flat_taus: bool,
-}
-
-impl OnlineConfig {
-    /// The defaults.
-    pub const DEFAULT: Self = Self {
-        first: 600.0,
-        every: 600.0,
-        offset: 0.5,
-        min_offset: 0.0625,
-        bound: 2.0,
-        min_gain: 1.0,
-        min_fixes: 60,
-        memory: f64::INFINITY,
-        conservative: true,
-        per_axis: false,
-        taus: true,
-        hold_flat_taus: false,
-    };
-}
-
-impl OnlineConfig {
-    /// This configuration when every value is usable ([`ModelError::BadDt`] for a time,
-    /// [`ModelError::BadSigma`] for an offset, bound or gain that is not).
-    pub fn checked(self) -> Result<Self, ModelError> {
-        let time = |v: f64| v.is_finite() && v >= 0.0;
-        if !(time(self.first) && time(self.every) && self.every > 0.0) {
-            return Err(ModelError::BadDt);
-        }
-        let ok = self.offset.is_finite()
-            && self.offset > 0.0
-            && self.min_offset > 0.0
-            && self.min_offset <= self.offset
-            && self.bound.is_finite()
-            && self.bound > 0.0
-            && self.min_gain.is_finite()
-            && self.min_gain >= 0.0
-            && self.memory > 0.0;
-        if ok {
-            Ok(self)
-        } else {
-            Err(ModelError::BadSigma)
-        }
-    }
-}
-
-impl Default for OnlineConfig {
-    fn default() -> Self {
-        Self::DEFAULT
-    }
-}
-
 /// The online identification with a bank of at most `M` shadow filters of `N` states
 /// (`M >= 2 p + 1 + q` for `p` coordinates and `q` pairs).
 #[derive(Debug, Clone)]
 pub struct OnlineIdent<T: Real, const N: usize, const M: usize> {
     cfg: OnlineConfig,
     coords: Vec<Coordinate, MAX_COORDS>,
+    /// Coordinates on the GNSS fixes' standard deviations after the IMU's (0 or
+    /// [`GNSS_COORDS`]: position, velocity; [`OnlineConfig::gnss_sd`]).
+    gnss: usize,
     /// The coordinate pairs of one component (a Gauss-Markov sigma and tau), each with a
     /// shadow at `(+d, +d)` for their cross curvature.
     pairs: Vec<(usize, usize), MAX_COORDS>,
     base: ImuErrorModel<T>,
     /// The shadows' centre: log10 factors on `base`, one per coordinate.
-    x: [f64; MAX_COORDS],
+    x: [f64; MAX_PARAMS],
     /// The estimate, the running filter's point: the centre plus the last decision's step.
-    est: [f64; MAX_COORDS],
+    est: [f64; MAX_PARAMS],
+    /// The running filter's GNSS factors (log10, position and velocity): what it was last
+    /// handed ([`running_gnss`](Self::running_gnss)).
+    run_gnss: [f64; GNSS_COORDS],
     shadows: Vec<Shadow<T, N>, M>,
     /// Each shadow's summed log-likelihood of the GNSS fixes since the last move [nats].
     sums: [f64; M],
@@ -205,7 +129,7 @@ pub struct OnlineIdent<T: Real, const N: usize, const M: usize> {
     since: f64,
     /// The offset of the shadows [decades].
     d: f64,
-    cr_sd: [f64; MAX_COORDS],
+    cr_sd: [f64; MAX_PARAMS],
     next: f64,
     fixes: u32,
     decisions: u32,
@@ -229,17 +153,20 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
             per_axis: false,
             taus: false,
             hold_flat_taus: false,
+            gnss_sd: false,
         },
         coords: Vec::new(),
+        gnss: 0,
         pairs: Vec::new(),
         base: ImuErrorModel::EMPTY,
-        x: [0.0; MAX_COORDS],
-        est: [0.0; MAX_COORDS],
+        x: [0.0; MAX_PARAMS],
+        est: [0.0; MAX_PARAMS],
+        run_gnss: [0.0; GNSS_COORDS],
         shadows: Vec::new(),
         sums: [0.0; M],
         since: 0.0,
         d: 0.0,
-        cr_sd: [0.0; MAX_COORDS],
+        cr_sd: [0.0; MAX_PARAMS],
         next: 0.0,
         fixes: 0,
         decisions: 0,
@@ -271,32 +198,41 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         let start = &nav.model().imu;
         let coords = coords::coordinates(start, cfg.per_axis, cfg.taus)?;
         let pairs = newton::pairs(&coords);
-        if 2 * coords.len() + 1 + pairs.len() > M {
+        let gnss = if cfg.gnss_sd { GNSS_COORDS } else { 0 };
+        if 2 * (coords.len() + gnss) + 1 + pairs.len() > M {
             return Err(ModelError::TooManyStates);
         }
         self.base = coords::tie(start, &coords);
         self.cfg = cfg;
         self.coords = coords;
+        self.gnss = gnss;
         self.pairs = pairs;
-        self.x = [0.0; MAX_COORDS];
-        self.est = [0.0; MAX_COORDS];
+        self.x = [0.0; MAX_PARAMS];
+        self.est = [0.0; MAX_PARAMS];
+        self.run_gnss = [0.0; GNSS_COORDS];
         self.sums = [0.0; M];
         self.since = t;
         self.d = cfg.offset;
-        self.cr_sd = [f64::INFINITY; MAX_COORDS];
+        self.cr_sd = [f64::INFINITY; MAX_PARAMS];
         self.next = t + cfg.first;
         self.fixes = 0;
         self.decisions = 0;
         self.faults = 0;
         self.shadows.clear();
-        for k in 0..=2 * self.coords.len() + self.pairs.len() {
+        for k in 0..=2 * self.p() + self.pairs.len() {
             let mut model = nav.model().clone();
             model.imu = self.shadow_imu(k);
             self.shadows
                 .push(Shadow::new(model, nav.kalman().clone()))
                 .map_err(|_| ModelError::TooManyStates)?;
         }
+        self.sync_gnss();
         Ok(())
+    }
+
+    /// The number of coordinates: the IMU's and the GNSS factors.
+    fn p(&self) -> usize {
+        self.coords.len() + self.gnss
     }
 
     /// The starting model, tied: the factors' reference.
@@ -304,25 +240,26 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         &self.base
     }
 
-    /// The coordinates.
+    /// The IMU's coordinates; with [`OnlineConfig::gnss_sd`] the factors, estimates and
+    /// sds below have [`gnss_coordinates`](Self::gnss_coordinates) more after them.
     pub fn coordinates(&self) -> &[Coordinate] {
         &self.coords
     }
 
     /// The estimate: log10 factors on the starting model (tied), one per coordinate.
     pub fn log10_factors(&self) -> &[f64] {
-        self.est.get(..self.coords.len()).unwrap_or(&[])
+        self.est.get(..self.p()).unwrap_or(&[])
     }
 
     /// The shadows' centre: log10 factors on the starting model, one per coordinate.
     pub fn centre(&self) -> &[f64] {
-        self.x.get(..self.coords.len()).unwrap_or(&[])
+        self.x.get(..self.p()).unwrap_or(&[])
     }
 
     /// The Cramér-Rao standard deviation of each coordinate [decades] at the last decision
     /// (infinite before the first, or where the data do not bound it).
     pub fn cr_sd(&self) -> &[f64] {
-        self.cr_sd.get(..self.coords.len()).unwrap_or(&[])
+        self.cr_sd.get(..self.p()).unwrap_or(&[])
     }
 
     /// Coordinate `i` is identifiable from the data so far (its Cramér-Rao sd is at most
@@ -363,9 +300,9 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
     /// The factors of shadow `k`: for `k < 2p` coordinate `k / 2` offset by `+d` for even `k`,
     /// `-d` for odd; `k = 2p` the centre; for `k > 2p` both coordinates of pair `k - 2p - 1`
     /// offset by `+d`.
-    fn factors(&self, k: usize) -> [T; MAX_COORDS] {
-        let p2 = 2 * self.coords.len();
-        let mut f = [T::zero(); MAX_COORDS];
+    fn factors(&self, k: usize) -> [T; MAX_PARAMS] {
+        let p2 = 2 * self.p();
+        let mut f = [T::zero(); MAX_PARAMS];
         for (fi, xi) in f.iter_mut().zip(self.x.iter()) {
             *fi = T::lit(*xi);
         }
@@ -406,11 +343,11 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
             return None;
         }
         self.decisions = self.decisions.saturating_add(1);
-        let p = self.coords.len();
+        let p = self.p();
         let q = Quad::from_sums(self.d, p, &self.pairs, &self.sums);
         let step = newton::step(
             &self.cfg,
-            self.d,
+            p,
             &self.coords,
             &self.pairs,
             &q,
@@ -433,7 +370,7 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
             // solution's corrections, which are known when the fix arrives.
             let moved = est != self.est;
             self.est = est;
-            return (moved || self.cfg.conservative).then(|| self.running_model());
+            return (moved || self.cfg.conservative).then(|| self.hand_over());
         }
         // The estimate is outside the grid: the shadows move about it and the window restarts.
         // The pattern search's offset doubles (up to the start's) when the move reached its
@@ -454,7 +391,29 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
                 sh.retune(imu);
             }
         }
-        Some(self.running_model())
+        Some(self.hand_over())
+    }
+
+    /// The running model handed to the caller at a decision; the running filter's GNSS
+    /// factors move with it, and the shadows' relative factors follow.
+    fn hand_over(&mut self) -> ImuErrorModel<T> {
+        self.run_gnss = self.running_gnss();
+        self.sync_gnss();
+        self.running_model()
+    }
+
+    /// How far [`OnlineConfig::conservative`] raises coordinate `i` in the running model: its
+    /// Cramér-Rao sd, at most the offset `d`, for an intensity (a GNSS factor is one); 0 for
+    /// a correlation time or without the option.
+    fn raise(&self, i: usize) -> f64 {
+        let intensity = self
+            .coords
+            .get(i)
+            .map_or(i < self.p(), |c| c.quantity.is_intensity());
+        match self.cr_sd.get(i) {
+            Some(sd) if self.cfg.conservative && intensity => sd.min(self.d),
+            _ => 0.0,
+        }
     }
 
     /// The running filter's model: the bank's point, with [`OnlineConfig::conservative`] each
@@ -462,15 +421,9 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
     /// by its Cramér-Rao sd, at most the current offset `d` (the same offset where the
     /// likelihood is not concave or not bounded). The bank keeps searching about its point.
     pub fn running_model(&self) -> ImuErrorModel<T> {
-        let mut f = [T::zero(); MAX_COORDS];
+        let mut f = [T::zero(); MAX_PARAMS];
         for (i, (fi, xi)) in f.iter_mut().zip(self.est.iter()).enumerate() {
-            let up = match (self.coords.get(i), self.cr_sd.get(i)) {
-                (Some(c), Some(sd)) if self.cfg.conservative && c.quantity.is_intensity() => {
-                    sd.min(self.d)
-                }
-                _ => 0.0,
-            };
-            *fi = T::lit(*xi + up);
+            *fi = T::lit(*xi + self.raise(i));
         }
         coords::apply(&self.base, &self.coords, &f)
     }
@@ -497,7 +450,7 @@ impl<T: Real, const N: usize, const M: usize> NavObserver<T, N> for OnlineIdent<
         x: &[T; N],
         p0: &Arr<T, N>,
     ) {
-        let p2 = 2 * self.coords.len();
+        let p2 = 2 * self.p();
         let mut faults = 0u32;
         // Shadows `0..2p` are the coordinates' `+d, -d`, then the centre and the pairs'.
         if let Some((coords, rest)) = self.shadows.split_at_mut_checked(p2) {
@@ -510,13 +463,25 @@ impl<T: Real, const N: usize, const M: usize> NavObserver<T, N> for OnlineIdent<
             if centre.is_none() {
                 faults += 1;
             }
-            for (two, coord) in coords.chunks_exact_mut(2).zip(self.coords.iter()) {
+            for (i, two) in coords.chunks_exact_mut(2).enumerate() {
                 let [plus, minus] = two else {
                     continue;
                 };
+                let coord = self.coords.get(i);
+                // A GNSS factor's shadows have the centre's noise model: its Phi and Qd.
+                if coord.is_none() {
+                    match centre.as_ref() {
+                        Some(c) => c.propagate_same([plus, minus], x, p0),
+                        None => {
+                            faults += shared::propagate_each([plus, minus], model, scale, x, p0)
+                        }
+                    }
+                    continue;
+                }
                 // A correlation time moves `A`: its shadows are not offered for sharing (the
                 // test would build a continuous system only to refuse it).
-                faults += match centre.as_ref().filter(|_| coord.quantity != Quantity::Tau) {
+                let tau = coord.is_some_and(|c| c.quantity == Quantity::Tau);
+                faults += match centre.as_ref().filter(|_| !tau) {
                     Some(c) => c.propagate_coordinate(plus, minus, model, scale, x, p0),
                     None => shared::propagate_each([plus, minus], model, scale, x, p0),
                 };
@@ -542,8 +507,9 @@ impl<T: Real, const N: usize, const M: usize> NavObserver<T, N> for OnlineIdent<
         H: &[[T; N]; Z],
         R: &[T; Z],
     ) {
+        let gnss = kind == ObservationKind::Gnss;
         for sh in self.shadows.iter_mut() {
-            sh.fuse(z, H, R);
+            sh.fuse(z, H, R, gnss);
         }
         // Only measured data score the models: the pseudo-observations' standard deviations
         // are the user's assumptions, not the sensors'.
@@ -572,5 +538,9 @@ impl<T: Real, const N: usize, const M: usize> NavObserver<T, N> for OnlineIdent<
 
     fn decide(&mut self, t: f64) -> Option<ImuErrorModel<T>> {
         OnlineIdent::decide(self, t)
+    }
+
+    fn gnss_sd_factor(&self) -> Option<[f64; 2]> {
+        (self.gnss == GNSS_COORDS).then(|| self.running_gnss_sd())
     }
 }

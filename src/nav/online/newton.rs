@@ -16,7 +16,7 @@
 //! ridge `sigma^2 / tau` = const that short windows leave, tau otherwise drifted to the bound
 //! (seed 9701, tactical: +1.96 decades, attitude 1.59x the true-model filter).
 
-use super::coords::{Coordinate, MAX_COORDS};
+use super::coords::{Coordinate, MAX_COORDS, MAX_PARAMS};
 use super::{OnlineConfig, IDENTIFIABLE_SD};
 use crate::model::Quantity;
 use heapless::Vec;
@@ -41,17 +41,20 @@ pub(super) fn pairs(coords: &[Coordinate]) -> Vec<(usize, usize), MAX_COORDS> {
 /// curvature `cx` of each pair.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Quad {
-    pub g: [f64; MAX_COORDS],
-    pub c: [f64; MAX_COORDS],
+    pub g: [f64; MAX_PARAMS],
+    pub c: [f64; MAX_PARAMS],
     pub cx: [f64; MAX_COORDS],
+    /// The shadows' offset [decades] at which it was measured.
+    pub d: f64,
 }
 
 impl Quad {
     /// No information.
     pub const ZERO: Self = Self {
-        g: [0.0; MAX_COORDS],
-        c: [0.0; MAX_COORDS],
+        g: [0.0; MAX_PARAMS],
+        c: [0.0; MAX_PARAMS],
         cx: [0.0; MAX_COORDS],
+        d: 0.0,
     };
 
     /// The model of the shadows' window sums `sums` (shadow `2i` at `+d`, `2i + 1` at `-d` on
@@ -64,7 +67,7 @@ impl Quad {
     ) -> Self {
         let sum = |k: usize| sums.get(k).copied().unwrap_or(f64::NAN);
         let centre = sum(2 * p);
-        let mut q = Self::ZERO;
+        let mut q = Self { d, ..Self::ZERO };
         for (i, (g, c)) in q.g.iter_mut().zip(q.c.iter_mut()).enumerate().take(p) {
             let (plus, minus) = (sum(2 * i), sum(2 * i + 1));
             *g = (plus - minus) / (2.0 * d);
@@ -78,7 +81,9 @@ impl Quad {
     }
 }
 
-/// The step of the `p` coordinates at `x` from the quadratic model `q`: each to its
+/// The step of the `p` coordinates at `x` from the quadratic model `q` measured at the offset
+/// `d = q.d` (`coords` the IMU's,
+/// the first ones; the rest, the GNSS factors, are intensities of no pair): each to its
 /// parabola's vertex when it is concave, at most `2 d` away (a pattern search's extension), or
 /// `2 d` up the slope when it is not; only when that promises [`OnlineConfig::min_gain`] nats;
 /// within [`OnlineConfig::bound`] of the start; the pairs by their 2x2 Newton step (module
@@ -87,25 +92,41 @@ impl Quad {
 /// for a pair with a positive definite curvature matrix), infinite where not concave.
 pub(super) fn step(
     cfg: &OnlineConfig,
-    d: f64,
+    p: usize,
     coords: &[Coordinate],
     pairs: &[(usize, usize)],
     q: &Quad,
-    x: &[f64; MAX_COORDS],
-    cr_sd: &mut [f64; MAX_COORDS],
-) -> [f64; MAX_COORDS] {
-    let p = coords.len().min(MAX_COORDS);
+    x: &[f64; MAX_PARAMS],
+    cr_sd: &mut [f64; MAX_PARAMS],
+) -> [f64; MAX_PARAMS] {
+    let (p, d) = (p.min(MAX_PARAMS), q.d);
     let is_tau = |i: usize| coords.get(i).is_some_and(|c| c.quantity == Quantity::Tau);
-    *cr_sd = [f64::INFINITY; MAX_COORDS];
-    let at = |a: &[f64; MAX_COORDS], i: usize| a.get(i).copied().unwrap_or(0.0);
-    let mut out = [0.0; MAX_COORDS];
-    let mut gains = [0.0; MAX_COORDS];
+    *cr_sd = [f64::INFINITY; MAX_PARAMS];
+    let at = |a: &[f64], i: usize| a.get(i).copied().unwrap_or(0.0);
+    let mut out = [0.0; MAX_PARAMS];
+    let mut gains = [0.0; MAX_PARAMS];
     let clamp = |s: f64, i: usize| {
         let xi = at(x, i);
         within(s, -cfg.bound - xi, cfg.bound - xi)
     };
     for i in 0..p {
         let (g, c) = (at(&q.g, i), at(&q.c, i));
+        // A factor on the fixes' standard deviations: the variance-scale model's maximum
+        // when the shadows fit it (`variance_scale`), else the parabola's as any coordinate.
+        if i >= coords.len() {
+            if let Some((s, gain, sd)) = variance_scale(g, c, d) {
+                if let Some(v) = cr_sd.get_mut(i) {
+                    *v = sd;
+                }
+                if gain >= cfg.min_gain {
+                    if let (Some(o), Some(gv)) = (out.get_mut(i), gains.get_mut(i)) {
+                        *o = clamp(s, i);
+                        *gv = gain;
+                    }
+                }
+                continue;
+            }
+        }
         let s = if c > 0.0 {
             g / c
         } else if g >= 0.0 {
@@ -187,6 +208,36 @@ pub(super) fn step(
         }
     }
     out
+}
+
+/// The move of a factor on the variance of the observations, from its parabola's gradient `g`
+/// and curvature `c` at offset `d` (which give back the shadows' differences from the centre,
+/// `D+- = +-g d - c d^2 / 2`): `(step, gain, Cramér-Rao sd)`, or `None` when the shadows do not
+/// fit the model.
+///
+/// When the fixes' noise dominates their innovation variance, `n` Gaussian innovations whose
+/// variance is scaled by `10^(2u)` have the log-likelihood
+/// `l(u) = l0 - n/2 (2 a u + K exp(-2 a u))` about the centre (`a = ln 10`, `K` their sum of
+/// squares over the centre's variances, per observation): far from a parabola over the
+/// shadows' half-decade offset (a 10x variance), whose vertex fell 0.1-0.4 decade off the
+/// maximum (BENCHMARKS.md "The GNSS factors in the bank"). The two differences give `K` and
+/// `n`, and the maximum is at `u* = ln K / (2 a)`, where the curvature is `2 n a^2`. The step
+/// is at most `2 d`, as any coordinate's.
+pub(super) fn variance_scale(g: f64, c: f64, d: f64) -> Option<(f64, f64, f64)> {
+    let a = core::f64::consts::LN_10;
+    let (dp, dm) = (g * d - 0.5 * c * d * d, -g * d - 0.5 * c * d * d);
+    let e = libm::exp(-2.0 * a * d);
+    // D+ = -n/2 (2 a d + K (E - 1)),  D- = -n/2 (-2 a d + K (1/E - 1)).
+    let den = dp * (1.0 / e - 1.0) - dm * (e - 1.0);
+    let k = 2.0 * a * d * (dp + dm) / den;
+    let n = -2.0 * dp / (2.0 * a * d + k * (e - 1.0));
+    if !(k.is_finite() && k > 0.0 && n.is_finite() && n > 0.0) {
+        return None;
+    }
+    let s = within(libm::log(k) / (2.0 * a), -2.0 * d, 2.0 * d);
+    let gain = -0.5 * n * (2.0 * a * s + k * (libm::exp(-2.0 * a * s) - 1.0));
+    let sd = 1.0 / (a * libm::sqrt(2.0 * n));
+    (s.is_finite() && gain.is_finite()).then_some((s, gain, sd))
 }
 
 /// `v` limited to `[lo, hi]` (`max` then `min`: unlike `f64::clamp`, no panic path when the

@@ -17,6 +17,10 @@ pub(super) struct Shadow<T: Real, const N: usize> {
     pub(super) kf: Kalman<T, N>,
     /// Log-likelihood of the last observation fused [nats].
     pub(super) loglik: f64,
+    /// Factors on the variances of the GNSS fixes the running filter fuses, its position rows
+    /// and its velocity rows: this shadow's GNSS noise relative to the running filter's
+    /// ([`OnlineConfig::gnss_sd`](super::OnlineConfig::gnss_sd); ones without).
+    pub(super) r_gain: [T; 2],
 }
 
 impl<T: Real, const N: usize> Shadow<T, N> {
@@ -25,6 +29,7 @@ impl<T: Real, const N: usize> Shadow<T, N> {
             model,
             kf,
             loglik: 0.0,
+            r_gain: [T::one(); 2],
         }
     }
 
@@ -81,10 +86,25 @@ impl<T: Real, const N: usize> Shadow<T, N> {
         }
     }
 
-    /// Fuses `z = H x + v` ungated; keeps its log-likelihood.
+    /// Fuses `z = H x + v` ungated; keeps its log-likelihood. A GNSS fix (`gnss`: its rows
+    /// the position's three, then the velocity's, [`NAV_Z`]) under this shadow's factors on
+    /// the variances ([`r_gain`](Self::r_gain)).
     #[allow(non_snake_case)]
-    pub(super) fn fuse<const Z: usize>(&mut self, z: &[T; Z], H: &[[T; N]; Z], R: &[T; Z]) {
-        let f = fuse(&mut self.kf, z, H, R, None);
+    pub(super) fn fuse<const Z: usize>(
+        &mut self,
+        z: &[T; Z],
+        H: &[[T; N]; Z],
+        R: &[T; Z],
+        gnss: bool,
+    ) {
+        let mut r = *R;
+        if gnss && Z == NAV_Z {
+            let [gp, gv] = self.r_gain;
+            for (i, v) in r.iter_mut().enumerate() {
+                *v *= if i < 3 { gp } else { gv };
+            }
+        }
+        let f = fuse(&mut self.kf, z, H, &r, None);
         self.loglik = f.loglik.as_f64();
     }
 

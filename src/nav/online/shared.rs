@@ -64,6 +64,19 @@ impl<T: Real, const N: usize> Centre<T, N> {
         })
     }
 
+    /// Predicts a GNSS factor's `+d` and `-d` shadows, whose noise model is the centre's: its
+    /// `Phi` and `Qd`.
+    pub(super) fn propagate_same(
+        &self,
+        shadows: [&mut Shadow<T, N>; 2],
+        x_run: &[T; N],
+        p0: &Arr<T, N>,
+    ) {
+        for sh in shadows {
+            sh.predict(&self.phi, &self.qd, x_run, p0);
+        }
+    }
+
     /// Predicts a coordinate's `+d` and `-d` shadows, sharing this centre's discretisation
     /// when they differ from it in `Qc` only, along one direction (module docs); otherwise
     /// each in full. Returns the number of shadows that could not be predicted.

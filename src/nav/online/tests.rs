@@ -1,6 +1,6 @@
 //! Unit tests of the decision rule ([`super::newton`]) on exact quadratic log-likelihoods.
 
-use super::coords::{coordinates, MAX_COORDS};
+use super::coords::{coordinates, MAX_PARAMS};
 use super::newton::{pairs, step, Quad};
 use super::OnlineConfig;
 use crate::model::{Component, GaussMarkov};
@@ -45,15 +45,15 @@ fn a_coupled_pair_moves_to_the_vertex_of_an_exact_quadratic() {
     let h = [[400.0, 360.0], [360.0, 400.0]];
     let top = [0.3, -0.2];
     let s = sums(h, top, 0.5);
-    let mut sd = [0.0; MAX_COORDS];
+    let mut sd = [0.0; MAX_PARAMS];
     let q = Quad::from_sums(0.5, 2, &pr, &s);
     let out = step(
         &OnlineConfig::DEFAULT,
-        0.5,
+        2,
         &c,
         &pr,
         &q,
-        &[0.0; MAX_COORDS],
+        &[0.0; MAX_PARAMS],
         &mut sd,
     );
     for i in 0..2 {
@@ -66,7 +66,7 @@ fn a_coupled_pair_moves_to_the_vertex_of_an_exact_quadratic() {
         hold_flat_taus: true,
         ..OnlineConfig::DEFAULT
     };
-    let _ = step(&hold, 0.5, &c, &pr, &q, &[0.0; MAX_COORDS], &mut sd);
+    let _ = step(&hold, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut sd);
     assert!(
         (sd[0] - (400.0f64 / 30_400.0).sqrt()).abs() < 1e-12,
         "{sd:?}"
@@ -83,19 +83,19 @@ fn with_the_option_a_tau_the_data_do_not_bound_is_held() {
     let h = [[400.0, 398.0], [398.0, 400.0]];
     let top = [0.3, 0.3];
     let q = Quad::from_sums(0.5, 2, &pr, &sums(h, top, 0.5));
-    let mut sd = [0.0; MAX_COORDS];
+    let mut sd = [0.0; MAX_PARAMS];
     let hold = OnlineConfig {
         hold_flat_taus: true,
         ..OnlineConfig::DEFAULT
     };
-    let out = step(&hold, 0.5, &c, &pr, &q, &[0.0; MAX_COORDS], &mut sd);
+    let out = step(&hold, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut sd);
     let g0 = h[0][0] * top[0] + h[0][1] * top[1];
     assert!((out[0] - g0 / h[0][0]).abs() < 1e-9, "{out:?}");
     assert_eq!(out[1], 0.0, "the tau moved: {out:?}");
     assert!(sd[1] > super::IDENTIFIABLE_SD, "{sd:?}");
     // Without the option the pair takes its joint Newton step (to the vertex, within 2d).
     let cfg = OnlineConfig::DEFAULT;
-    let out = step(&cfg, 0.5, &c, &pr, &q, &[0.0; MAX_COORDS], &mut sd);
+    let out = step(&cfg, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut sd);
     assert!((out[0] - top[0]).abs() < 1e-9, "{out:?}");
     assert!((out[1] - top[1]).abs() < 1e-9, "{out:?}");
 }
@@ -108,18 +108,18 @@ fn a_flat_likelihood_holds_and_a_bound_clamps() {
     let cfg = OnlineConfig::DEFAULT;
     // A maximum 0.4 decade away along a likelihood this flat gains under 1 nat: held.
     let flat = sums([[2.0, 0.0], [0.0, 2.0]], [0.4, 0.0], 0.5);
-    let mut sd = [0.0; MAX_COORDS];
+    let mut sd = [0.0; MAX_PARAMS];
     let q = Quad::from_sums(0.5, 2, &pr, &flat);
-    let out = step(&cfg, 0.5, &c, &pr, &q, &[0.0; MAX_COORDS], &mut sd);
+    let out = step(&cfg, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut sd);
     assert_eq!(&out[..2], &[0.0, 0.0]);
     // A steep one far away: the step is at most 2d, and stops at the bound.
     let steep = sums([[100.0, 0.0], [0.0, 100.0]], [5.0, 0.0], 0.5);
     let q = Quad::from_sums(0.5, 2, &pr, &steep);
-    let mut x = [0.0; MAX_COORDS];
-    let out = step(&cfg, 0.5, &c, &pr, &q, &x, &mut sd);
+    let mut x = [0.0; MAX_PARAMS];
+    let out = step(&cfg, 2, &c, &pr, &q, &x, &mut sd);
     assert!((out[0] - 1.0).abs() < 1e-12, "{out:?}");
     x[0] = 1.6;
-    let out = step(&cfg, 0.5, &c, &pr, &q, &x, &mut sd);
+    let out = step(&cfg, 2, &c, &pr, &q, &x, &mut sd);
     assert!((out[0] - 0.4).abs() < 1e-12, "{out:?}");
 }
 
@@ -303,4 +303,44 @@ fn shadows_that_differ_in_an_intensity_share_the_centres_discretisation() {
         let got = c.shared_qd(plus, minus, &model, &scale).is_some();
         assert_eq!(got, !is_tau, "coordinate {i}: {:?}", id.coords[i]);
     }
+}
+
+/// A factor on the fixes' variances moves by the variance-scale model (`newton.rs`): on that
+/// model's own log-likelihood, `-n/2 (2 a u + K exp(-2 a u))`, the shadows at `+-d` give back
+/// its maximum `ln K / (2 a)` (at most `2 d` away) and its Cramér-Rao sd `1 / (a sqrt(2 n))`
+/// to rounding, also at a half-decade offset where a parabola's vertex is 0.1 decade off; data
+/// unlike the model
+/// (a likelihood falling on both sides but convex) fall back to the parabola.
+#[test]
+fn a_variance_factor_moves_to_the_maximum_of_its_model() {
+    use super::newton::variance_scale;
+    let a = core::f64::consts::LN_10;
+    let (n, top) = (1800.0, -0.45);
+    let k = libm::exp(2.0 * a * top);
+    let l = |u: f64| -0.5 * n * (2.0 * a * u + k * libm::exp(-2.0 * a * u));
+    for d in [0.5, 0.25, 0.0625] {
+        let (p, m, c) = (l(d), l(-d), l(0.0));
+        let (g, cv) = ((p - m) / (2.0 * d), -(p + m - 2.0 * c) / (d * d));
+        let (s, gain, sd) = variance_scale(g, cv, d).unwrap_or_else(|| panic!("d {d}"));
+        // At most 2d, as any coordinate's step.
+        let want = top.max(-2.0 * d).min(2.0 * d);
+        assert!((s - want).abs() < 1e-9, "d {d}: {s} against {want}");
+        assert!(
+            (gain - (l(want) - c)).abs() < 1e-6 * gain.abs(),
+            "d {d}: gain {gain}"
+        );
+        assert!(
+            (sd - 1.0 / (a * (2.0 * n).sqrt())).abs() < 1e-12,
+            "d {d}: sd {sd}"
+        );
+        if d == 0.5 {
+            assert!(
+                (g / cv - top).abs() > 0.1,
+                "the parabola's vertex {}",
+                g / cv
+            );
+        }
+    }
+    // Sums that rise on both sides of the centre: no variance scale fits.
+    assert!(variance_scale(0.0, -10.0, 0.25).is_none());
 }

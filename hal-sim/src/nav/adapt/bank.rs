@@ -22,11 +22,17 @@ pub fn start_bank<T: Real>(online: OnlineConfig, nav: &mut NavOf<T>, t: f64) -> 
     Ok(())
 }
 
-/// The record of a run identified by the bank, which ran with the GNSS sd factors
-/// `gnss_sd_factor` (`--gnss-sd-factor`; the bank does not identify them).
+/// The record of a run identified by the bank, which started with the GNSS sd factors
+/// `gnss_sd_factor` (`--gnss-sd-factor`; with `--adapt-gnss-sd` the bank's own factors
+/// multiply them, as in the window search's record).
 pub fn bank_log<T: Real>(shadows: &Shadows<T>, gnss_sd_factor: [f64; 2]) -> Option<AdaptLog> {
     let id = shadows.ident.as_ref()?;
-    let coordinates = id.coordinates().iter().map(Coordinate::of_bank).collect();
+    let coordinates = id
+        .coordinates()
+        .iter()
+        .map(Coordinate::of_bank)
+        .chain((0..id.gnss_coordinates()).map(Coordinate::gnss))
+        .collect();
     let nan = f64::NAN;
     let searches = shadows
         .log

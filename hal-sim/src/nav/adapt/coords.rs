@@ -55,6 +55,18 @@ impl Coordinate {
         }
     }
 
+    /// The factor on the GNSS fixes' position (`i = 0`) or velocity (1) standard deviations.
+    pub fn gnss(i: usize) -> Self {
+        Self {
+            sensor: "gnss",
+            axes: vec![0, 1, 2],
+            component: 0,
+            kind: "fix",
+            quantity: GNSS_SD.get(i).copied().unwrap_or("sd"),
+            target: Target::GnssSd(i),
+        }
+    }
+
     /// The GNSS standard deviation it scales (0 position, 1 velocity), if any.
     pub fn gnss_sd(&self) -> Option<usize> {
         match self.target {
@@ -131,16 +143,7 @@ pub fn coordinates(model: &ImuErrorModel<f64>, cfg: &AdaptConfig) -> Vec<Coordin
         }
     }
     if cfg.gnss_sd {
-        for (i, q) in GNSS_SD.into_iter().enumerate() {
-            out.push(Coordinate {
-                sensor: "gnss",
-                axes: vec![0, 1, 2],
-                component: 0,
-                kind: "fix",
-                quantity: q,
-                target: Target::GnssSd(i),
-            });
-        }
+        out.extend((0..GNSS_SD.len()).map(Coordinate::gnss));
     }
     out
 }

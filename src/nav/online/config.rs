@@ -1,0 +1,105 @@
+//! The settings of the online identification ([`OnlineConfig`]).
+
+#[cfg(doc)]
+use super::{OnlineIdent, GNSS_COORDS, IDENTIFIABLE_SD};
+use crate::model::ModelError;
+#[cfg(doc)]
+use crate::nav::navigator::NavObserver;
+
+/// Settings of the online identification.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OnlineConfig {
+    /// First decision, seconds after the start.
+    pub first: f64,
+    /// Interval between decisions [s]: each scores the fixes since the last move.
+    pub every: f64,
+    /// Starting offset `d` of the shadow filters from the current model [decades].
+    pub offset: f64,
+    /// Smallest offset [decades].
+    pub min_offset: f64,
+    /// Largest distance of a coordinate from the starting model [decades].
+    pub bound: f64,
+    /// Likelihood gain [nats] a coordinate's move must promise.
+    pub min_gain: f64,
+    /// GNSS fixes needed for a decision.
+    pub min_fixes: u32,
+    /// Time constant [s] with which the window's sums forget: each step multiplies them by
+    /// `exp(-dt / memory)`, so a sensor that changes in service is followed sooner. Infinite
+    /// (the default): the window keeps every fix since the shadows last moved. With 1800 s
+    /// the bank followed a 1.5x rise and a 3x fall of the noise better (tactical attitude
+    /// 1.04x against 1.85x the reference), but on stationary noise it passed about as many
+    /// runs with longer tails (BENCHMARKS.md "A sensor that changes in service").
+    pub memory: f64,
+    /// The running filter takes each intensity at the upper end of its one-sigma interval
+    /// ([`OnlineIdent::running_model`]), not at the estimate. On by default: on the tactical
+    /// IMU the estimate alone left the filter overconfident (up to 5 % of epochs outside
+    /// 3 sigma on the development seeds; BENCHMARKS.md "Online identification on the MCU").
+    pub conservative: bool,
+    /// One coordinate per axis instead of per sensor.
+    pub per_axis: bool,
+    /// Identify the correlation times too.
+    pub taus: bool,
+    /// Hold a correlation time whose marginal Cramér-Rao sd in its pair is above
+    /// [`IDENTIFIABLE_SD`] (`newton.rs`: the sigma then takes its own step). Off by default:
+    /// it cut the tactical attitude tail (worst 1.23x against 1.59x the true-model filter on
+    /// seeds 9701-9706) but passed fewer runs, 96 of 144 against 102 (BENCHMARKS.md "Online
+    /// identification on the MCU"). `hal-sim nav --adapt-taus tested` with the bank.
+    pub hold_flat_taus: bool,
+    /// Identify two factors on the GNSS fixes' standard deviations too, one on the position's
+    /// and one on the velocity's ([`GNSS_COORDS`] coordinates after the IMU's): each has its
+    /// two shadows, which differ from the centre only in the fixes' `R`. The running filter
+    /// takes them through [`NavObserver::gnss_sd_factor`]. A receiver's stated standard
+    /// deviations were the larger part of the model error on the real drive (BENCHMARKS.md
+    /// "The GNSS noise online").
+    pub gnss_sd: bool,
+}
+
+impl OnlineConfig {
+    /// The defaults.
+    pub const DEFAULT: Self = Self {
+        first: 600.0,
+        every: 600.0,
+        offset: 0.5,
+        min_offset: 0.0625,
+        bound: 2.0,
+        min_gain: 1.0,
+        min_fixes: 60,
+        memory: f64::INFINITY,
+        conservative: true,
+        per_axis: false,
+        taus: true,
+        hold_flat_taus: false,
+        gnss_sd: false,
+    };
+}
+
+impl OnlineConfig {
+    /// This configuration when every value is usable ([`ModelError::BadDt`] for a time,
+    /// [`ModelError::BadSigma`] for an offset, bound or gain that is not).
+    pub fn checked(self) -> Result<Self, ModelError> {
+        let time = |v: f64| v.is_finite() && v >= 0.0;
+        if !(time(self.first) && time(self.every) && self.every > 0.0) {
+            return Err(ModelError::BadDt);
+        }
+        let ok = self.offset.is_finite()
+            && self.offset > 0.0
+            && self.min_offset > 0.0
+            && self.min_offset <= self.offset
+            && self.bound.is_finite()
+            && self.bound > 0.0
+            && self.min_gain.is_finite()
+            && self.min_gain >= 0.0
+            && self.memory > 0.0;
+        if ok {
+            Ok(self)
+        } else {
+            Err(ModelError::BadSigma)
+        }
+    }
+}
+
+impl Default for OnlineConfig {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
