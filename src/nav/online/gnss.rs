@@ -21,17 +21,19 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
     /// running filter's (position rows, velocity rows): `10^(2 (x_k - x_run))` for shadow
     /// `k`'s GNSS coordinates `x_k` and the running filter's `x_run`. Called whenever either
     /// moves, so that every shadow scores the fixes under its own factors.
+    /// Without the GNSS factors every shadow keeps the ones it was built with.
     pub(super) fn sync_gnss(&mut self) {
+        if self.gnss != GNSS_COORDS {
+            return;
+        }
         let imu = self.coords.len();
         for k in 0..self.shadows.len() {
             let f = self.factors(k);
             let mut gain = [T::one(); GNSS_COORDS];
-            if self.gnss == GNSS_COORDS {
-                for (i, g) in gain.iter_mut().enumerate() {
-                    let xk = f.get(imu + i).map_or(0.0, |v| v.as_f64());
-                    let xr = self.run_gnss.get(i).copied().unwrap_or(0.0);
-                    *g = T::lit(libm::pow(10.0, 2.0 * (xk - xr)));
-                }
+            for (i, g) in gain.iter_mut().enumerate() {
+                let xk = f.get(imu + i).map_or(0.0, |v| v.as_f64());
+                let xr = self.run_gnss.get(i).copied().unwrap_or(0.0);
+                *g = T::lit(libm::pow(10.0, 2.0 * (xk - xr)));
             }
             if let Some(sh) = self.shadows.get_mut(k) {
                 sh.r_gain = gain;
@@ -52,9 +54,9 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         out
     }
 
-    /// The factors (not log10) the running filter applies to the fixes' stated standard
-    /// deviations, position and velocity ([`NavObserver::gnss_sd_factor`]); ones without
-    /// [`OnlineConfig::gnss_sd`].
+    /// The factors (not log10) the running filter applies to the fixes' standard deviations,
+    /// stated or the model's default, position and velocity ([`NavObserver::gnss_sd_factor`]);
+    /// ones without [`OnlineConfig::gnss_sd`].
     pub fn running_gnss_sd(&self) -> [f64; GNSS_COORDS] {
         self.run_gnss.map(|x| libm::pow(10.0, x))
     }

@@ -84,16 +84,17 @@ use crate::nav::error_model::StrapdownErrorModel;
 use crate::nav::navigator::{NavObserver, Navigator, ObservationKind};
 use crate::nav::ImuErrorModel;
 use crate::Real;
+use coords::{Coordinate, GNSS_COORDS, MAX_COORDS, MAX_PARAMS};
+use heapless::Vec;
+use newton::Quad;
+use shadow::Shadow;
+
 pub use config::OnlineConfig;
 
 /// Shadow filters in the firmware's bank (`imu-ident-nav-qemu`): two per coordinate, the
 /// centre and one per pair, for a white noise and a Gauss-Markov on each sensor, tied, and the
 /// two GNSS factors (`2 (6 + 2) + 1 + 2`; 58.6 kB in `f32` at 24 states).
 pub const FIRMWARE_BANK: usize = 19;
-use coords::{Coordinate, GNSS_COORDS, MAX_COORDS, MAX_PARAMS};
-use heapless::Vec;
-use newton::Quad;
-use shadow::Shadow;
 
 /// Cramér-Rao standard deviation [decades] above which a coordinate is flagged "not
 /// identifiable from these data yet" (the component table's threshold). The flag is
