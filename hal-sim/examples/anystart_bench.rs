@@ -28,7 +28,7 @@ use rand::{Rng, SeedableRng};
 #[path = "bench_args/mod.rs"]
 mod bench_args;
 use bench_args::ml::{ml_fit, set, theta};
-use bench_args::{arg_or, env_or, flag, pct};
+use bench_args::{arg_or, flag, pct};
 
 fn main() -> anyhow::Result<()> {
     let first: u64 = arg_or("first", 9100);
@@ -45,19 +45,7 @@ fn main() -> anyhow::Result<()> {
         if std::env::var("GN").is_ok() {
             cfg.global.hold_recursion = false;
         }
-        cfg.global.block = env_or("BLOCK", cfg.global.block);
-        cfg.global.window = env_or("WIN", cfg.global.window);
-        cfg.global.first = env_or("FIRST", cfg.global.first);
-        cfg.global.every = env_or("EVERY", cfg.global.every);
-        cfg.global.budget = env_or("BUDGET", cfg.global.budget);
-        cfg.global.structure = env_or("PEN", cfg.global.structure);
-        cfg.global.change = env_or("CHANGE", cfg.global.change);
-        cfg.global.hold_flat = env_or("HOLD", u8::from(cfg.global.hold_flat)) != 0;
-        cfg.global.flat_every = env_or("FLAT_EVERY", cfg.global.flat_every);
-        cfg.global.after_change = env_or("AFTER", cfg.global.after_change);
-        cfg.global.margin = env_or("MARGIN", cfg.global.margin);
-        cfg.global.keep_start = env_or("KEEP", u8::from(cfg.global.keep_start)) != 0;
-        cfg.global.keep_identified = env_or("KEEPID", u8::from(cfg.global.keep_identified)) != 0;
+        bench_args::window_env(&mut cfg.global);
         println!("{:?}", cfg.global);
     }
     let scenario_name: String = arg_or("scenario", "paper".into());

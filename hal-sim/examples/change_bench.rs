@@ -25,7 +25,7 @@ use rand::{Rng, SeedableRng};
 #[path = "bench_args/mod.rs"]
 mod bench_args;
 use bench_args::ml::{ml_fit, set};
-use bench_args::{arg_or, env_or, pct};
+use bench_args::{arg_or, pct};
 
 fn main() -> anyhow::Result<()> {
     let first: u64 = arg_or("first", 9700);
@@ -40,15 +40,7 @@ fn main() -> anyhow::Result<()> {
     } else {
         AdaptConfig::default()
     };
-    cfg.global.every = env_or("EVERY", cfg.global.every);
-    cfg.global.budget = env_or("BUDGET", cfg.global.budget);
-    cfg.global.change = env_or("CHANGE", cfg.global.change);
-    cfg.global.hold_flat = env_or("HOLD", u8::from(cfg.global.hold_flat)) != 0;
-    cfg.global.flat_every = env_or("FLAT_EVERY", cfg.global.flat_every);
-    cfg.global.after_change = env_or("AFTER", cfg.global.after_change);
-    cfg.global.margin = env_or("MARGIN", cfg.global.margin);
-    cfg.global.keep_start = env_or("KEEP", u8::from(cfg.global.keep_start)) != 0;
-    cfg.global.keep_identified = env_or("KEEPID", u8::from(cfg.global.keep_identified)) != 0;
+    bench_args::window_env(&mut cfg.global);
     let a = InsModel::<f64>::paper();
     let (t0, t1) = (12.0 * 3600.0, 18.0 * 3600.0 + 1.0);
     let (mut ratios, mut fixed, mut outs, mut vs_ref) = (vec![], vec![], vec![], vec![]);

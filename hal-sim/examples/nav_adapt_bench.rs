@@ -41,7 +41,6 @@ use bench_args::nav::score;
 use bench_args::{arg, arg_or, pct};
 use hal_sim::nav::adapt::{AdaptConfig, AdaptMethod, TauMode};
 use hal_sim::nav::{run_with, NavArgs};
-use hal_sim::nav_io::outages::OutageSpec;
 use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
 use hal_sim::trajectory::gnss::GnssConfig;
 use hal_sim::trajectory::profile::Profile;
@@ -155,18 +154,8 @@ fn main() {
         .unwrap_or_else(|e| panic!("{e:#}"));
         let (imu, fixes, truth) =
             write_and_read_drive(dir.path(), &drive).unwrap_or_else(|e| panic!("{e:#}"));
-        let base = |model: ImuErrorModel<f64>, name: &str| NavArgs {
-            outages: Some(OutageSpec::every_20_min(
-                0.0,
-                fixes.first().map_or(0.0, |f| f.t),
-            )),
-            ..NavArgs::simulated(
-                dir.path().join("imu.csv"),
-                dir.path().join("gnss.csv"),
-                model,
-                name,
-                truth[0].rpy_deg[2],
-            )
+        let base = |model: ImuErrorModel<f64>, name: &str| {
+            bench_args::nav::simulated(dir.path(), &fixes, &truth, model, name)
         };
         let t = std::time::Instant::now();
         let oracle = run_with::<f64>(&base(truth_model.clone(), "true"), &imu, &fixes)

@@ -26,7 +26,6 @@ use bench_args::nav::score;
 use bench_args::{arg, arg_or, pct};
 use hal_sim::nav::adapt::{AdaptConfig, AdaptMethod};
 use hal_sim::nav::{run_with, NavArgs};
-use hal_sim::nav_io::outages::OutageSpec;
 use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
 use hal_sim::trajectory::gnss::GnssConfig;
 use hal_sim::trajectory::profile::Profile;
@@ -91,18 +90,8 @@ fn main() {
             write_and_read_drive(dir.path(), &spliced).unwrap_or_else(|e| panic!("{e:#}"));
         let before_model = sim.to_core().unwrap_or_else(|e| panic!("{e:#}"));
         let after_model = after.to_core().unwrap_or_else(|e| panic!("{e:#}"));
-        let base = |model: imu_ident::nav::ImuErrorModel<f64>, name: &str| NavArgs {
-            outages: Some(OutageSpec::every_20_min(
-                0.0,
-                fixes.first().map_or(0.0, |f| f.t),
-            )),
-            ..NavArgs::simulated(
-                dir.path().join("imu.csv"),
-                dir.path().join("gnss.csv"),
-                model,
-                name,
-                truth[0].rpy_deg[2],
-            )
+        let base = |model: imu_ident::nav::ImuErrorModel<f64>, name: &str| {
+            bench_args::nav::simulated(dir.path(), &fixes, &truth, model, name)
         };
         let run = |args: &NavArgs| {
             run_with::<f64>(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"))

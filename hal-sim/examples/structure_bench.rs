@@ -24,7 +24,7 @@ use imu_ident::model::{Component, ExpCosine, InsModel};
 #[path = "bench_args/mod.rs"]
 mod bench_args;
 use bench_args::ml::{set, theta};
-use bench_args::{arg_or, env_or, flag, pct};
+use bench_args::{arg_or, flag, pct};
 
 /// Prints every finished search (its best alternative structure included): for diagnosis.
 fn trace(
@@ -104,13 +104,9 @@ fn main() -> anyhow::Result<()> {
     let truth_name: String = arg_or("truth", "ec".into());
     let f32_mode = flag("f32");
     let mut cfg = AdaptConfig::<f64>::global();
-    cfg.global.every = env_or("EVERY", cfg.global.every);
-    cfg.global.budget = env_or("BUDGET", cfg.global.budget);
-    cfg.global.margin = env_or("MARGIN", cfg.global.margin);
-    cfg.global.keep_start = env_or("KEEP", u8::from(cfg.global.keep_start)) != 0;
-    cfg.global.keep_identified = env_or("KEEPID", u8::from(cfg.global.keep_identified)) != 0;
-    cfg.global.structure = env_or("PEN", imu_ident::adapt::window::STRUCTURE_PENALTY);
-    cfg.global.flat_every = env_or("FLAT_EVERY", cfg.global.flat_every);
+    // The structure test on (the default `global()` has it off).
+    cfg.global.structure = imu_ident::adapt::window::STRUCTURE_PENALTY;
+    bench_args::window_env(&mut cfg.global);
     println!("{:?}", cfg.global);
     // `START=ka,kta,kg,ktg`: the start's sigma_a, tau_a, sigma_g, tau_g as factors of `paper`'s
     // (the any-start bench's corners and draws), for tracing a wrong start's structure test.

@@ -32,6 +32,27 @@ pub fn env_or<T: std::str::FromStr>(key: &str, default: T) -> T {
         .unwrap_or(default)
 }
 
+/// The global stage's settings overridden from the environment, each key over the value `w`
+/// already holds (so a bench sets its own defaults first): `BLOCK`, `WIN`, `FIRST`, `EVERY`,
+/// `BUDGET`, `PEN` (structure penalty), `CHANGE`, `HOLD` (0/1), `FLAT_EVERY`, `AFTER`,
+/// `MARGIN`, `KEEP` (0/1), `KEEPID` (0/1). The one list for `anystart_bench`,
+/// `structure_bench` and `change_bench`.
+pub fn window_env(w: &mut imu_ident::adapt::window::WindowConfig<f64>) {
+    w.block = env_or("BLOCK", w.block);
+    w.window = env_or("WIN", w.window);
+    w.first = env_or("FIRST", w.first);
+    w.every = env_or("EVERY", w.every);
+    w.budget = env_or("BUDGET", w.budget);
+    w.structure = env_or("PEN", w.structure);
+    w.change = env_or("CHANGE", w.change);
+    w.hold_flat = env_or("HOLD", u8::from(w.hold_flat)) != 0;
+    w.flat_every = env_or("FLAT_EVERY", w.flat_every);
+    w.after_change = env_or("AFTER", w.after_change);
+    w.margin = env_or("MARGIN", w.margin);
+    w.keep_start = env_or("KEEP", u8::from(w.keep_start)) != 0;
+    w.keep_identified = env_or("KEEPID", u8::from(w.keep_identified)) != 0;
+}
+
 /// The `q`-quantile of `v` (nearest rank; NaN when empty). Sorts `v`.
 pub fn pct(v: &mut [f64], q: f64) -> f64 {
     if v.is_empty() {
