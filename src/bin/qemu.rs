@@ -9,7 +9,7 @@
 //! - Input (semihosting, relative to QEMU's working directory): the arguments after the program
 //!   name are the model file (written by `hal-sim qemu`: model and run options, see
 //!   [`imu_ident::model::wire`]) and the binary replay log; defaults `model.bin`, `replay.bin`.
-//! - Output: defmt frames on semihosting stdout (this file's logger, panic-free through
+//! - Output: defmt frames on semihosting stdout (`semihost/mod.rs`, panic-free through
 //!   `imu_ident::defmt_frame`): `tlm` per tick, `par` per component at each re-identification,
 //!   `acf` on schedule, then `icount` and `stack` summaries.
 //! - Exit: status 0 after a complete, checksum-valid log; 1 for anything else.
@@ -34,14 +34,17 @@ fn main() {
 }
 
 #[cfg(all(target_arch = "arm", target_os = "none"))]
+#[path = "semihost/mod.rs"]
+mod semihost;
+
+#[cfg(all(target_arch = "arm", target_os = "none"))]
 mod firmware {
     use core::ffi::CStr;
 
-    use cortex_m::peripheral::syst::SystClkSource;
+    use super::semihost::{self, Counts, HostError, HostFile};
     use cortex_m::peripheral::SYST;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
-    use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
-    use cortex_m_semihosting::{nr, syscall, syscall1};
+    use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS};
     use imu_ident::model::wire::{self, WireError};
     use imu_ident::replay::{Decoder, ReplayError};
     use imu_ident::step::{Estimator, StepConfig, StepError};
@@ -50,22 +53,14 @@ mod firmware {
     /// File names used when QEMU passes no arguments.
     const DEFAULT_MODEL: &CStr = c"model.bin";
     const DEFAULT_LOG: &CStr = c"replay.bin";
-    /// Longest accepted command line and file name (bytes, including the terminating NUL).
-    const CMDLINE_LEN: usize = 256;
     /// Read size: the decoder takes any chunking, so this only trades RAM for host calls.
     const CHUNK: usize = 512;
-    /// Stack paint pattern.
-    const PAINT: u32 = 0xC0DE_5AFE;
 
     /// Why a replay failed.
     #[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
     enum FirmwareError {
-        /// The command line could not be read, or a file name is too long.
-        BadArgument,
-        /// A file could not be opened.
-        Open,
-        /// Reading a file failed.
-        Read,
+        /// Argument or file access.
+        Host(HostError),
         /// The model file is not valid.
         Model(WireError),
         /// The model or its options were rejected by the estimator.
@@ -74,38 +69,9 @@ mod firmware {
         Log(ReplayError),
     }
 
-    /// Instruction counts of one class of ticks (SysTick counts x 40).
-    #[derive(Default)]
-    struct Counts {
-        n: u32,
-        sum: u64,
-        worst: u32,
-        worst_k: u32,
-    }
-
-    impl Counts {
-        fn add(&mut self, instr: u32, k: u32) {
-            self.n = self.n.saturating_add(1);
-            self.sum = self.sum.saturating_add(u64::from(instr));
-            if instr > self.worst {
-                self.worst = instr;
-                self.worst_k = k;
-            }
-        }
-        fn log(&self, class: &str) {
-            let mean = if self.n == 0 {
-                0
-            } else {
-                self.sum / u64::from(self.n)
-            };
-            defmt::info!(
-                "icount class={=str} n={=u32} mean={=u64} worst={=u32} worst_k={=u32}",
-                class,
-                self.n,
-                mean,
-                self.worst,
-                self.worst_k
-            );
+    impl From<HostError> for FirmwareError {
+        fn from(e: HostError) -> Self {
+            Self::Host(e)
         }
     }
 
@@ -115,7 +81,7 @@ mod firmware {
 
     #[entry]
     fn main() -> ! {
-        paint_stack();
+        semihost::paint_stack();
         let status = match run() {
             Ok(rows) => {
                 defmt::info!("replay done rows={=u32}", rows);
@@ -126,27 +92,20 @@ mod firmware {
                 EXIT_FAILURE
             }
         };
-        report_stack("run");
-        exit(status)
-    }
-
-    fn exit(status: debug::ExitStatus) -> ! {
-        debug::exit(status);
-        // Only reached without a semihosting host (e.g. on a board): park the core.
-        loop {
-            cortex_m::asm::wfi();
-        }
+        semihost::report_stack("run");
+        semihost::exit(status)
     }
 
     #[inline(never)]
     fn run() -> Result<u32, FirmwareError> {
-        let mut names = [[0u8; CMDLINE_LEN]; 2];
+        let mut names = [[0u8; semihost::CMDLINE_LEN]; 2];
         let [model_name, log_name] = &mut names;
-        let (model_path, log_path) = paths(model_name, log_name)?;
+        let model_path = semihost::arg(0, model_name, DEFAULT_MODEL)?;
+        let log_path = semihost::arg(1, log_name, DEFAULT_LOG)?;
 
         let mut model_bytes = [0u8; wire::MAX_LEN];
         let n = read_all(model_path, &mut model_bytes)?;
-        let bytes = model_bytes.get(..n).ok_or(FirmwareError::Read)?;
+        let bytes = model_bytes.get(..n).ok_or(HostError::Read)?;
         let (model, opts) = wire::decode_options::<f32>(bytes).map_err(FirmwareError::Model)?;
         let cfg = if opts & wire::OPT_STRUCTURE != 0 {
             StepConfig::adaptive_structure()
@@ -161,8 +120,8 @@ mod firmware {
         let epoch = cfg.adapt.map_or(0, |a| a.epoch);
         let nav = init(model, cfg)?;
         // Start-up and steady state are measured apart: paint again for the ticks.
-        report_stack("init");
-        paint_stack();
+        semihost::report_stack("init");
+        semihost::paint_stack();
         replay(nav, log_path, block, epoch)
     }
 
@@ -188,7 +147,7 @@ mod firmware {
         epoch: u32,
     ) -> Result<u32, FirmwareError> {
         let mut file = HostFile::open(log_path)?;
-        let _syst = timer();
+        let _syst = semihost::timer();
         let mut sink = DefmtSink;
         let mut decoder = Decoder::new();
         let mut buf = [0u8; CHUNK];
@@ -209,8 +168,7 @@ mod firmware {
                 let t0 = SYST::get_current();
                 nav.push(row.t, row.z, &mut counting);
                 let t1 = SYST::get_current();
-                // SysTick counts down and wraps at 2^24.
-                let instr = (t0.wrapping_sub(t1) & 0x00FF_FFFF) * 40;
+                let instr = semihost::instructions(t0, t1);
                 let boundary = |p: u32| p != 0 && (k + 1) % p == 0;
                 if boundary(block) || boundary(epoch) {
                     reident.add(instr, k);
@@ -270,22 +228,12 @@ mod firmware {
         }
     }
 
-    fn timer() -> SYST {
-        // SAFETY: the only user of the core peripherals.
-        let mut p = unsafe { cortex_m::Peripherals::steal() };
-        p.SYST.set_clock_source(SystClkSource::Core);
-        p.SYST.set_reload(0x00FF_FFFF);
-        p.SYST.clear_current();
-        p.SYST.enable_counter();
-        p.SYST
-    }
-
     /// Reads a whole (small) file into `buf`; returns its length.
     fn read_all(path: &CStr, buf: &mut [u8]) -> Result<usize, FirmwareError> {
         let mut f = HostFile::open(path)?;
         let mut n = 0;
         loop {
-            let rest = buf.get_mut(n..).ok_or(FirmwareError::Read)?;
+            let rest = buf.get_mut(n..).ok_or(HostError::Read)?;
             if rest.is_empty() {
                 // Longer than any valid model: let the decoder reject it by length.
                 return Ok(n);
@@ -298,210 +246,17 @@ mod firmware {
         }
     }
 
-    /// The model and log names: the first two arguments after the program name, else the
-    /// defaults. Each is copied into its buffer to add the NUL that semihosting's open needs.
-    fn paths<'a>(
-        model: &'a mut [u8; CMDLINE_LEN],
-        log: &'a mut [u8; CMDLINE_LEN],
-    ) -> Result<(&'a CStr, &'a CStr), FirmwareError> {
-        let mut line = [0u8; CMDLINE_LEN];
-        let line = cmdline(&mut line)?;
-        let mut it = Words(line).skip(1);
-        let mut name = |buf: &'a mut [u8; CMDLINE_LEN], default: &'static CStr| {
-            let Some(arg) = it.next() else {
-                return Ok(default);
-            };
-            let dst = buf.get_mut(..arg.len()).ok_or(FirmwareError::BadArgument)?;
-            dst.copy_from_slice(arg);
-            // `buf` was zeroed, so the name is followed by a NUL unless it filled the buffer.
-            CStr::from_bytes_until_nul(buf).map_err(|_| FirmwareError::BadArgument)
-        };
-        let m = name(model, DEFAULT_MODEL)?;
-        let l = name(log, DEFAULT_LOG)?;
-        Ok((m, l))
-    }
-
-    /// The semihosting command line (SYS_GET_CMDLINE), without its NUL.
-    fn cmdline(buf: &mut [u8; CMDLINE_LEN]) -> Result<&[u8], FirmwareError> {
-        // The parameter block: buffer address and size in; the host writes the length back.
-        let mut block = [buf.as_mut_ptr() as usize, CMDLINE_LEN];
-        // SAFETY: the host writes at most CMDLINE_LEN bytes into `buf` and one word of `block`.
-        let r = unsafe { syscall1(nr::GET_CMDLINE, block.as_mut_ptr() as usize) };
-        if r != 0 {
-            return Err(FirmwareError::BadArgument);
-        }
-        let [_, len] = block;
-        buf.get(..len).ok_or(FirmwareError::BadArgument)
-    }
-
-    /// The words of a command line: separated by blanks (space, tab); a word that starts with
-    /// `"` or `'` runs to the matching quote (as the `semihosting` crate splits it).
-    struct Words<'a>(&'a [u8]);
-
-    impl<'a> Iterator for Words<'a> {
-        type Item = &'a [u8];
-        fn next(&mut self) -> Option<&'a [u8]> {
-            let is_blank = |b: &u8| *b == b' ' || *b == b'\t';
-            let start = self.0.iter().position(|b| !is_blank(b))?;
-            let rest = self.0.get(start..)?;
-            let (word, after) = match rest.split_first() {
-                Some((&q, tail)) if q == b'"' || q == b'\'' => {
-                    let end = tail.iter().position(|&b| b == q).unwrap_or(tail.len());
-                    (
-                        tail.get(..end)?,
-                        tail.get(end.saturating_add(1)..).unwrap_or(&[]),
-                    )
-                }
-                _ => {
-                    let end = rest.iter().position(is_blank).unwrap_or(rest.len());
-                    (rest.get(..end)?, rest.get(end..).unwrap_or(&[]))
-                }
-            };
-            self.0 = after;
-            Some(word)
-        }
-    }
-
-    /// A host file opened for reading through raw semihosting calls (SYS_OPEN, SYS_READ,
-    /// SYS_CLOSE): the `semihosting` crate's `File` carries panic paths.
-    struct HostFile(usize);
-
-    impl HostFile {
-        fn open(path: &CStr) -> Result<Self, FirmwareError> {
-            let len = path.to_bytes().len();
-            // SAFETY: `path` is NUL-terminated and `len` excludes the NUL, as SYS_OPEN expects.
-            let fd = unsafe { syscall!(OPEN, path.as_ptr(), nr::open::R_BINARY, len) };
-            if fd as isize == -1 {
-                return Err(FirmwareError::Open);
-            }
-            Ok(Self(fd))
-        }
-
-        /// Reads up to `buf.len()` bytes; 0 at the end of the file.
-        fn read(&mut self, buf: &mut [u8]) -> Result<usize, FirmwareError> {
-            // SAFETY: the host writes at most `buf.len()` bytes into `buf`.
-            let not_read = unsafe { syscall!(READ, self.0, buf.as_mut_ptr(), buf.len()) };
-            // SYS_READ returns the number of bytes *not* read.
-            buf.len().checked_sub(not_read).ok_or(FirmwareError::Read)
-        }
-    }
-
-    impl Drop for HostFile {
-        fn drop(&mut self) {
-            // SAFETY: closes the handle this value owns.
-            unsafe { syscall!(CLOSE, self.0) };
-        }
-    }
-
-    /// The global defmt logger: the encoded frames go to semihosting stdout (`:tt`), the bytes
-    /// `defmt-semihosting` writes, but without its panics. A frame started while another is
-    /// being written (a logger re-entered from an exception handler) is dropped instead. This
-    /// module is the transport (`write_stdout`); the frame handling is the library's
-    /// `imu_ident::defmt_frame`, shared with the board firmware.
-    mod stdout_log {
-        use core::cell::UnsafeCell;
-        use cortex_m_semihosting::hio::{self, HostStream};
-        use imu_ident::defmt_frame;
-
-        #[defmt::global_logger]
-        struct Logger;
-
-        /// Semihosting stdout, opened on first use by [`write_stdout`].
-        struct Stdout(UnsafeCell<Option<HostStream>>);
-
-        // SAFETY: only touched by `write_stdout`, with interrupts disabled (see there).
-        unsafe impl Sync for Stdout {}
-
-        static STDOUT: Stdout = Stdout(UnsafeCell::new(None));
-
-        /// Writes `bytes` to stdout, opening it on first use; errors are ignored (there is
-        /// nowhere to report them). Only the sink given to `defmt_frame`, which calls it
-        /// between `acquire` and `release` (interrupts disabled) and never for a nested frame.
-        fn write_stdout(bytes: &[u8]) {
-            // SAFETY: interrupts are disabled (single core) and the sink is not re-entered, so
-            // no other reference to `STDOUT` is live.
-            let stdout = unsafe { &mut *STDOUT.0.get() };
-            if stdout.is_none() {
-                *stdout = hio::hstdout().ok();
-            }
-            if let Some(h) = stdout {
-                let _ = h.write_all(bytes);
-            }
-        }
-
-        // SAFETY: frames are written with interrupts disabled; nested frames are dropped
-        // (`imu_ident::defmt_frame`).
-        unsafe impl defmt::Logger for Logger {
-            fn acquire() {
-                defmt_frame::acquire(write_stdout);
-            }
-
-            unsafe fn flush() {}
-
-            unsafe fn release() {
-                // SAFETY: called after `acquire`, as the `Logger` contract requires.
-                unsafe { defmt_frame::release(write_stdout) }
-            }
-
-            unsafe fn write(bytes: &[u8]) {
-                // SAFETY: called between `acquire` and `release`, as the `Logger` contract
-                // requires.
-                unsafe { defmt_frame::write(bytes, write_stdout) }
-            }
-        }
-    }
-
-    extern "C" {
-        static mut __sheap: u32;
-        static mut _stack_start: u32;
-    }
-
-    /// Fills the unused stack (from the end of static RAM up to just below the current stack
-    /// pointer) with [`PAINT`].
-    #[inline(never)]
-    fn paint_stack() {
-        let sp = cortex_m::register::msp::read() as usize;
-        let lo = core::ptr::addr_of_mut!(__sheap) as usize;
-        let mut p = lo;
-        // Leave 256 bytes below the current frame untouched.
-        while p + 4 <= sp.saturating_sub(256) {
-            // SAFETY: [__sheap, sp - 256) is RAM not used by anything yet (no heap).
-            unsafe { core::ptr::write_volatile(p as *mut u32, PAINT) };
-            p += 4;
-        }
-    }
-
-    /// Reports the deepest stack use since the last paint: the lowest word that no longer holds
-    /// [`PAINT`].
-    #[inline(never)]
-    fn report_stack(phase: &str) {
-        let lo = core::ptr::addr_of_mut!(__sheap) as usize;
-        let hi = core::ptr::addr_of_mut!(_stack_start) as usize;
-        let mut p = lo;
-        // SAFETY: reads of RAM between the statics and the stack top.
-        while p < hi && unsafe { core::ptr::read_volatile(p as *const u32) } == PAINT {
-            p += 4;
-        }
-        defmt::info!(
-            "stack phase={=str} high_water={=u32} statics_end={=u32} ram_top={=u32}",
-            phase,
-            (hi - p) as u32,
-            lo as u32,
-            hi as u32
-        );
-    }
-
     #[cfg(not(feature = "prove-no-panic"))]
     #[panic_handler]
     fn panic(_info: &core::panic::PanicInfo) -> ! {
         // No defmt here: the panic may come from inside the logger, which is not re-entrant.
-        exit(EXIT_FAILURE)
+        semihost::exit(EXIT_FAILURE)
     }
 
     // With `prove-no-panic` the panic handler is the library's (`imu_ident::panic_proof`).
 
     #[exception]
     unsafe fn HardFault(_frame: &ExceptionFrame) -> ! {
-        exit(EXIT_FAILURE)
+        semihost::exit(EXIT_FAILURE)
     }
 }

@@ -1,6 +1,7 @@
-//! Board wiring shared by the QEMU firmware binaries that include it (`#[path]`): host files
-//! and the command line over raw semihosting calls, the defmt logger on semihosting stdout,
-//! the SysTick instruction counter, the painted stack and the exit. Raw calls because the
+//! Board wiring shared by the QEMU firmware binaries (`imu-ident-qemu`, `imu-ident-nav-qemu`;
+//! each includes it with `#[path]`): host files and the command line over raw semihosting
+//! calls, the defmt logger on semihosting stdout, the SysTick instruction counter, the painted
+//! stack and the exit. Raw calls because the
 //! `semihosting` and `defmt-semihosting` crates carry panic paths (the binaries must pass the
 //! `prove-no-panic` link check). No navigation or filter logic lives here.
 
@@ -180,8 +181,9 @@ impl Drop for HostFile {
     }
 }
 
-/// The global defmt logger on semihosting stdout, through `imu_ident::defmt_frame` (as in
-/// `src/bin/qemu.rs`: nested frames are dropped, no panics).
+/// The global defmt logger on semihosting stdout, through `imu_ident::defmt_frame` (shared
+/// with the board firmware): a frame started while another is being written (a logger
+/// re-entered from an exception handler) is dropped; no panics.
 mod stdout_log {
     use core::cell::UnsafeCell;
     use cortex_m_semihosting::hio::{self, HostStream};
