@@ -262,6 +262,27 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         self.zero_inactive();
         true
     }
+
+    /// The estimate in physical units, `S x`, for the states' scales `scale` (the filter
+    /// runs on scaled states: `x_si = S x`).
+    pub fn state_si(&self, scale: &[T; N]) -> [T; N] {
+        let mut x = self.x;
+        for (v, s) in x.iter_mut().zip(scale.iter()) {
+            *v *= *s;
+        }
+        x
+    }
+
+    /// Each state's standard deviation in physical units, `sqrt(P_ii) S_i` (0 where `P_ii`
+    /// is not positive).
+    pub fn sigma_si(&self, scale: &[T; N]) -> [T; N] {
+        let mut out = [T::zero(); N];
+        for (i, (o, s)) in out.iter_mut().zip(scale.iter()).enumerate() {
+            let p = self.P.get(i).and_then(|r| r.get(i)).copied();
+            *o = p.unwrap_or_else(T::zero).max(T::zero()).sqrt() * *s;
+        }
+        out
+    }
 }
 
 /// Kalman predict over the leading `K` states of capacity `N`: `x = Phi x`,

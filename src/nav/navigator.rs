@@ -286,23 +286,14 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
         (self.s_g, self.s_a)
     }
 
-    /// Physical state estimate `S x`.
+    /// Physical state estimate `S x` ([`Kalman::state_si`]).
     pub fn state_si(&self) -> [T; N] {
-        let mut x = self.kf.x;
-        for (v, s) in x.iter_mut().zip(self.scale.iter()) {
-            *v *= *s;
-        }
-        x
+        self.kf.state_si(&self.scale)
     }
 
-    /// Physical standard deviation of each state.
+    /// Physical standard deviation of each state, `sqrt(P_ii) S_i` ([`Kalman::sigma_si`]).
     pub fn sigma_si(&self) -> [T; N] {
-        let mut out = [T::zero(); N];
-        for (i, (o, s)) in out.iter_mut().zip(self.scale.iter()).enumerate() {
-            let p = self.kf.P.get(i).and_then(|r| r.get(i)).copied();
-            *o = p.unwrap_or_else(T::zero).max(T::zero()).sqrt() * *s;
-        }
-        out
+        self.kf.sigma_si(&self.scale)
     }
 
     /// Replaces the gate multiplier on [`CHI2_9999`] (`None`: no gate). The online
