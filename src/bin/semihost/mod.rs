@@ -1,9 +1,9 @@
 //! Board wiring shared by the QEMU firmware binaries (`imu-ident-qemu`, `imu-ident-nav-qemu`;
 //! each includes it with `#[path]`): host files and the command line over raw semihosting
 //! calls, the defmt logger on semihosting stdout, the SysTick instruction counter, the painted
-//! stack and the exit. Raw calls because the
-//! `semihosting` and `defmt-semihosting` crates carry panic paths (the binaries must pass the
-//! `prove-no-panic` link check). No navigation or filter logic lives here.
+//! stack and the exit. Raw calls because the `semihosting` and `defmt-semihosting` crates carry
+//! panic paths (the binaries must pass the `prove-no-panic` link check). No navigation or
+//! filter logic lives here.
 
 use core::ffi::CStr;
 
