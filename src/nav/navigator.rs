@@ -18,8 +18,9 @@
 //! - [`Navigator::gnss`]: a fix is fused at its own time `t_f <= t` (the solution is moved back
 //!   along its velocity by `t - t_f`, at most one IMU interval); the filter is first propagated
 //!   over the part of the step already elapsed. The first fix after a step restarts the step
-//!   clock, so fixes at the filter rate land on the steps, and faster fixes (4-Hz RTK) each
-//!   propagate over part of a step while the steps keep their cadence. The six axes pass a
+//!   clock at its time of validity, so fixes at the filter rate land on the steps, and faster
+//!   fixes (4-Hz RTK) each propagate over part of a step while the steps keep their cadence,
+//!   on a jittered IMU too (one propagation per fix). The six axes pass a
 //!   vector chi-square gate, then are fused one by one ([`crate::filter::fuse`]); the estimated
 //!   navigation errors are then removed from the mechanisation ([`Strapdown::correct`]) and
 //!   zeroed in `x` ([`aiding`]).
@@ -123,9 +124,12 @@ pub struct Navigator<T: Real, const N: usize, O = ()> {
     kf: Kalman<T, N>,
     cfg: NavConfig<T>,
     t: f64,
+    /// Time of the IMU sample before the last one (the start of the last sample).
+    t_prev: f64,
     /// Time the filter was last propagated to (a step, or a fix between steps).
     t_kf: f64,
-    /// Time the step clock last started: the last filter step, or the first fix after it.
+    /// Time the step clock last started: the last filter step, or the time of validity of the
+    /// first fix after it (`gnss`).
     t_step: f64,
     /// A GNSS fix (fused or gated) has propagated the filter since the last filter step.
     fix_since_step: bool,
@@ -178,6 +182,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             kf,
             cfg,
             t,
+            t_prev: t,
             t_kf: t,
             t_step: t,
             fix_since_step: false,
@@ -210,6 +215,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             kf: self.kf,
             cfg: self.cfg,
             t: self.t,
+            t_prev: self.t_prev,
             t_kf: self.t_kf,
             t_step: self.t_step,
             fix_since_step: self.fix_since_step,
@@ -418,16 +424,18 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
         let c = self.ins.dcm();
         self.c_sample = c;
         self.ins.step(&comp, dt)?;
+        self.t_prev = self.t;
         self.t = t;
         self.sum_fn += c * comp.dv;
         self.sum_dt += dt;
         self.sum_dtheta += comp.dtheta;
         self.sum_dv += comp.dv;
         self.w_b = comp.dtheta / dt;
-        // The step clock runs from the last step (or the first fix after it, `gnss`), not
-        // from the last propagation: the fixes between steps propagate over the part elapsed
-        // without moving the next step, so the steps (and the constraint after each,
-        // `run::Nhc`) stay at the filter rate however often fixes arrive.
+        // The step clock runs from the last step (or the first fix after it, at its time of
+        // validity, `gnss`), not from the last propagation: the fixes between steps propagate
+        // over the part elapsed without moving the next step, so the steps (and the
+        // constraint after each, `run::Nhc`) stay at the filter rate however often fixes
+        // arrive.
         if self.t - self.t_step >= self.cfg.step.as_f64() - 1e-6 {
             self.propagate()?;
             self.t_step = self.t;

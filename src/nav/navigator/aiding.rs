@@ -23,8 +23,15 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
         // The first fix after a step restarts the step clock: fixes at the filter rate then
         // land on the steps and propagate nothing (one propagation per step, not two);
         // faster fixes propagate over the part of the step elapsed, one step in k per fix.
+        // The clock starts at the fix's time of validity when the fix falls in the last IMU
+        // sample (the usual case): the next step is then the sample that passes the fix a
+        // step later, whatever the IMU's jitter. From the sample's time instead, a jittered
+        // IMU put the step a sample after that fix, the clock restarted at the fix after,
+        // and steps came up to a fix interval late (1.24 s apart with 4-Hz fixes, test
+        // `fixes_at_4_hz_on_a_jittered_imu_propagate_once_each`). A late fix (a receiver's
+        // latency) restarts it at the sample, so a step never comes more than one IMU sample early.
         if !self.fix_since_step {
-            self.t_step = self.t;
+            self.t_step = if fix.t > self.t_prev { fix.t } else { self.t };
             self.fix_since_step = true;
         }
         self.linearise();

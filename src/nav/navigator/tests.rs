@@ -151,3 +151,78 @@ fn zupt_gated_counter_is_separate() {
     assert!(!f.gated);
     assert_eq!((nav.rejected_zupt, nav.rejected), (0, 2));
 }
+
+/// Counts the running filter's propagations.
+struct Propagations(u32);
+
+impl NavObserver<f64, 9> for Propagations {
+    fn propagated(
+        &mut self,
+        _: &StrapdownErrorModel<f64>,
+        _: &[f64; 9],
+        _: &[f64; 9],
+        _: &Arr<f64, 9>,
+    ) {
+        self.0 += 1;
+    }
+}
+
+/// 4-Hz fixes off the IMU's grid, on an IMU whose sample intervals jitter (8-11 ms, as the real
+/// drive's): the steps keep their 1-s cadence, and each step lands on the sample that passes
+/// a fix, so the filter propagates once per fix (the step, and three fixes over the parts of
+/// the step elapsed), not once more whenever the jitter puts the step a sample after the fix.
+#[test]
+fn fixes_at_4_hz_on_a_jittered_imu_propagate_once_each() {
+    let nav = navigator(
+        Quat::from_euler(0.0, 0.0, 0.0),
+        Vector3::zeros(),
+        Vector3::zeros(),
+    );
+    let pos = nav.ins.position();
+    let mut nav = nav.with_observer(Propagations(0));
+    // Intervals [ms] of the drive's histogram (8: 2 %, 9: 9 %, 10: 74 %, 11: 14 %), cycled.
+    let jitter = [10, 10, 11, 10, 9, 10, 10, 11, 10, 8, 10, 10, 9, 10, 11, 10];
+    let f = Vector3::new(
+        0.0,
+        0.0,
+        -crate::strapdown::earth::normal_gravity(0.6, 100.0),
+    );
+    let (mut t, mut k, mut next_fix, mut fixes, mut steps) = (0.0, 0usize, 0.2531, 0u32, 0u32);
+    let mut last_step = 0.0;
+    while t < 100.0 {
+        let dt = f64::from(jitter[k % jitter.len()]) * 1e-3;
+        k += 1;
+        t += dt;
+        let inc = Increment::from_rates(&Vector3::zeros(), &f, dt);
+        if nav.imu(t, &inc).unwrap_or_else(|e| panic!("{e:?}")) {
+            if steps > 0 {
+                // The cadence: one step a second, to within a sample's interval.
+                assert!(
+                    (t - last_step - 1.0).abs() <= 0.0115,
+                    "steps at {last_step}, {t}"
+                );
+            }
+            steps += 1;
+            last_step = t;
+        }
+        while next_fix <= t {
+            let fix = GnssFix {
+                t: next_fix,
+                pos,
+                vel: Vector3::zeros(),
+                sd_pos: Vector3::repeat(1.0),
+                sd_vel: Vector3::repeat(0.1),
+            };
+            nav.gnss(&fix).unwrap_or_else(|e| panic!("{e:?}"));
+            fixes += 1;
+            next_fix += 0.25;
+        }
+    }
+    // Before the first fix the steps propagate alone; after it, exactly one per fix.
+    assert!((99..=100).contains(&steps), "{steps} steps");
+    assert!(
+        nav.observer().0 <= fixes + 1,
+        "{} propagations for {fixes} fixes and {steps} steps",
+        nav.observer().0
+    );
+}
