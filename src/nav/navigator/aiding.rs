@@ -29,7 +29,8 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
         // IMU put the step a sample after that fix, the clock restarted at the fix after,
         // and steps came up to a fix interval late (1.24 s apart with 4-Hz fixes, test
         // `fixes_at_4_hz_on_a_jittered_imu_propagate_once_each`). A late fix (a receiver's
-        // latency) restarts it at the sample, so a step never comes more than one IMU sample early.
+        // latency) restarts it at the sample, so a step never comes more than one IMU sample
+        // early.
         if !self.fix_since_step {
             self.t_step = if fix.t > self.t_prev { fix.t } else { self.t };
             self.fix_since_step = true;
