@@ -27,7 +27,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
         // sample (the usual case): the next step is then the sample that passes the fix a
         // step later, whatever the IMU's jitter. From the sample's time instead, a jittered
         // IMU put the step a sample after that fix, the clock restarted at the fix after,
-        // and steps came up to a fix interval late (1.24 s apart with 4-Hz fixes, test
+        // and steps came up to a fix interval late (1.25 s apart with 4-Hz fixes, test
         // `fixes_at_4_hz_on_a_jittered_imu_propagate_once_each`). A late fix (a receiver's
         // latency) restarts it at the sample, so a step never comes more than one IMU sample
         // early.
