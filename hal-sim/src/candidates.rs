@@ -149,7 +149,13 @@ impl Candidate {
 
     /// Starting points in log space, scaled to the model's own magnitudes.
     pub fn starts(&self, model: &InsModel<f64>) -> Vec<Vec<f64>> {
-        let s = sensor_scale(model, self.sensor).ln();
+        self.starts_at(sensor_scale(model, self.sensor))
+    }
+
+    /// Starting points in log space for a sensor whose typical error magnitude is `scale`
+    /// (the sensor's units; `nav --diagnose` takes it from the navigator's model).
+    pub fn starts_at(&self, scale: f64) -> Vec<Vec<f64>> {
+        let s = scale.ln();
         let ln = f64::ln;
         match self.kind {
             // A white density comparable to the low-frequency level of a 100 s process of the

@@ -117,6 +117,15 @@ pub enum Command {
         /// First identify the noise model on this log (maximum likelihood), then run with it.
         #[arg(long)]
         identify: bool,
+        /// Name the effect the model lacks: each candidate (a Gauss-Markov, random walk or
+        /// random constant on the gyros or the accelerometers) is added, fitted by maximum
+        /// likelihood and tested against the model (likelihood ratio, 1 % false alarms over
+        /// the candidates); the significant one with the largest excess is added and the run
+        /// repeated with it. Writes diagnosis.json and diagnosed-model.toml. With --identify
+        /// the model's magnitudes are identified first and the identified model is diagnosed
+        /// (otherwise a candidate may stand in for a magnitude that is only wrong).
+        #[arg(long, conflicts_with_all = ["adapt", "qemu_elf"])]
+        diagnose: bool,
         /// Non-holonomic constraint: the body lateral and vertical velocity at --nhc-lever are
         /// zero with this standard deviation [m/s], every filter step while moving faster than
         /// 1 m/s with the heading known (also during outages). Off by default; with --identify
@@ -135,9 +144,9 @@ pub enum Command {
         /// its speed bound. Off by default; with --qemu-elf the firmware applies it too.
         #[arg(long)]
         zupt: Option<f64>,
-        /// The rest detector's bounds: rate magnitude [rad/s], departure of the specific-force
-        /// magnitude from normal gravity [m/s^2] (both on every sample of the step), and the
-        /// solution's speed [m/s].
+        /// The rest detector's bounds: rate magnitude [rad/s], departure of the specific force
+        /// resolved in NED from (0, 0, -g), normal gravity [m/s^2] (both on every sample of the
+        /// step), and the solution's speed [m/s].
         #[arg(long, value_delimiter = ',', default_values_t = [0.15, 0.6, 0.5])]
         zupt_detector: Vec<f64>,
         /// Factors on the GNSS position,velocity standard deviations.

@@ -42,6 +42,7 @@ fn main() -> Result<()> {
             max_q,
             gnss_sd_factor,
             identify,
+            diagnose,
             nhc,
             nhc_lever,
             zupt,
@@ -179,6 +180,24 @@ fn main() -> Result<()> {
                     None
                 },
             };
+            if diagnose {
+                let d = hal_sim::nav::diagnose::run_diagnosed(
+                    &args,
+                    identify,
+                    truth_rows.as_deref(),
+                    truth.as_deref(),
+                    &out,
+                )?;
+                eprintln!(
+                    "diagnosis: {}{} (loglik {:.1} -> {:.1}, {} runs); diagnosis.json, diagnosed-model.toml",
+                    d.verdict,
+                    d.named.as_ref().map(|n| format!(": {n}")).unwrap_or_default(),
+                    d.loglik_model,
+                    d.after.as_ref().or(d.before.as_ref()).map_or(f64::NAN, |s| s.loglik),
+                    d.evaluations
+                );
+                return Ok(());
+            }
             let (mut run, id) = if identify {
                 let (run, id) = hal_sim::nav::run_identified(&args, &out)?;
                 eprintln!(
@@ -199,7 +218,7 @@ fn main() -> Result<()> {
                 (Some(p), Some(rows)) => Some(hal_sim::nav::truth::attach(&mut run, rows, p)?),
                 _ => None,
             };
-            hal_sim::nav::records::write_outputs(&out, &run, cmp.as_ref(), id.as_ref())?;
+            hal_sim::nav::records::write_outputs(&out, &run, cmp.as_ref(), id.as_ref(), &[])?;
             println!("{}", serde_json::to_string_pretty(&run.summary)?);
             if let Some(elf) = qemu_elf {
                 let imu = hal_sim::nav_io::read_imu_csv(&args.imu)?;

@@ -183,7 +183,7 @@ fn online_search_finds_the_likelihood_maximum_from_a_wrong_start_and_reads_no_fu
     // The outputs: adapt.csv (one row per search, the coordinates' values), adapt.json, the
     // model TOML (read back as the final model) and the report's section.
     let out = dir.path().join("out");
-    hal_sim::nav::records::write_outputs(&out, &run, None, None)
+    hal_sim::nav::records::write_outputs(&out, &run, None, None, &[])
         .unwrap_or_else(|e| panic!("{e:#}"));
     let csv = std::fs::read_to_string(out.join("adapt.csv")).unwrap_or_else(|e| panic!("{e}"));
     let lines: Vec<&str> = csv.lines().collect();
@@ -326,7 +326,7 @@ fn online_search_finds_a_misstated_gnss_noise() {
     // The rest of the drive runs with the factors found: adapt.csv gives them on top of the
     // stated 4, and the position NIS after the search is a right R's.
     let out = dir.path().join("out");
-    hal_sim::nav::records::write_outputs(&out, &run, None, None)
+    hal_sim::nav::records::write_outputs(&out, &run, None, None, &[])
         .unwrap_or_else(|e| panic!("{e:#}"));
     let csv = std::fs::read_to_string(out.join("adapt.csv")).unwrap_or_else(|e| panic!("{e}"));
     let mut rd = csv::Reader::from_reader(csv.as_bytes());

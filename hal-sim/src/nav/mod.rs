@@ -15,6 +15,7 @@
 //!    estimated sensor errors.
 
 pub mod adapt;
+pub mod diagnose;
 pub mod drive;
 pub mod identify;
 pub mod model;
@@ -220,7 +221,25 @@ pub fn run_identified(
 ) -> Result<(NavRun, identify::Identified)> {
     let imu = nav_io::read_imu_csv(&args.imu)?;
     let fixes = nav_io::read_gnss_any(&args.gnss, args.max_q)?;
-    let id = identify::identify(args, &imu, &fixes)?;
+    let (a, id) = identify_and_write(args, &imu, &fixes, out)?;
+    let bar = records::imu_progress(imu.len());
+    let run = if a.single {
+        run_observed::<f32>(&a, &imu, &fixes, &bar)?
+    } else {
+        run_observed::<f64>(&a, &imu, &fixes, &bar)?
+    };
+    Ok((run, id))
+}
+
+/// Identifies the noise model on the log and writes the identification's three files into
+/// `out` ([`run_identified`]); returns the options of the identified run.
+pub fn identify_and_write(
+    args: &NavArgs,
+    imu: &[ImuSample],
+    fixes: &[GnssFix],
+    out: &std::path::Path,
+) -> Result<(NavArgs, identify::Identified)> {
+    let id = identify::identify(args, imu, fixes)?;
     let mut a = args.clone();
     a.model = id.model.clone();
     a.model_name = format!(
@@ -233,12 +252,6 @@ pub fn run_identified(
     ];
     a.imu_time_shift = id.imu_time_shift;
     a.nhc = id.nhc_sd;
-    let bar = records::imu_progress(imu.len());
-    let run = if a.single {
-        run_observed::<f32>(&a, &imu, &fixes, &bar)?
-    } else {
-        run_observed::<f64>(&a, &imu, &fixes, &bar)?
-    };
     std::fs::create_dir_all(out)?;
     crate::output::write_string(
         &out.join("identified.json"),
@@ -271,7 +284,7 @@ pub fn run_identified(
         );
     }
     crate::output::write_string(&out.join("identified-options.txt"), &(opts + "\n"))?;
-    Ok((run, id))
+    Ok((a, id))
 }
 
 /// The run on samples and fixes already read.

@@ -447,18 +447,19 @@ struct Row {
 }
 
 /// Everything `hal-sim nav` writes: [`write_all`], `errors.csv` (with a truth comparison) and
-/// `report.html`.
+/// `report.html` (with the further `(title, HTML)` `sections`, [`super::report::html`]).
 pub fn write_outputs(
     out: &Path,
     run: &super::NavRun,
     cmp: Option<&super::truth::TruthComparison>,
     id: Option<&super::identify::Identified>,
+    sections: &[(String, String)],
 ) -> Result<()> {
     write_all(out, run)?;
     if let Some(c) = cmp {
         super::truth::write_errors_csv(&out.join("errors.csv"), &c.rows)?;
     }
-    super::report::write(out, run, cmp, id)
+    super::report::write(out, run, cmp, id, sections)
 }
 
 /// Writes `estimates.csv`, `solution.pos` and `summary.json` (and `outages.json`) into `out`.

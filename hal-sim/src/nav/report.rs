@@ -432,10 +432,13 @@ fn identified_table(id: &Identified) -> String {
 }
 
 /// The whole page.
+/// `sections`: further `(title, HTML)` sections after the identification's (the diagnosis of
+/// `nav --diagnose`).
 pub fn html(
     run: &NavRun,
     cmp: Option<&TruthComparison>,
     id: Option<&Identified>,
+    sections: &[(String, String)],
 ) -> Result<String> {
     let title = "hal-sim nav: strapdown INS/GNSS";
     let t0 = run.epochs.first().map_or(0.0, |e| e.t);
@@ -463,6 +466,10 @@ pub fn html(
     if let Some(id) = id {
         h += "<h2>Identified noise model</h2>";
         h += &identified_table(id);
+    }
+    for (title, body) in sections {
+        h += &format!("<h2>{title}</h2>");
+        h += body;
     }
     if let Some(a) = &run.adapt {
         h += "<h2>Online identification</h2>";
@@ -499,12 +506,13 @@ pub fn html(
     Ok(h)
 }
 
-/// Writes `report.html` into `out`.
+/// Writes `report.html` into `out` ([`html`]).
 pub fn write(
     out: &Path,
     run: &NavRun,
     cmp: Option<&TruthComparison>,
     id: Option<&Identified>,
+    sections: &[(String, String)],
 ) -> Result<()> {
-    crate::output::write_string(&out.join("report.html"), &html(run, cmp, id)?)
+    crate::output::write_string(&out.join("report.html"), &html(run, cmp, id, sections)?)
 }

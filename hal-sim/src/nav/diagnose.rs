@@ -1,0 +1,650 @@
+//! `hal-sim nav --diagnose`: which physical effect the navigator's noise model lacks, named by
+//! the innovation likelihood of the GNSS fixes, added, and the run repeated with it.
+//!
+//! The one-channel `diagnose` (issue 4) cannot separate an accelerometer random constant, an
+//! accelerometer random walk and a slow accelerometer Gauss-Markov from tilt; under the
+//! manoeuvres of a strapdown INS/GNSS log they are separable (BENCHMARKS.md "The one-channel
+//! blind spots under manoeuvres"), so here they are candidates like the others.
+//!
+//! Method (nested likelihood-ratio tests, one per candidate):
+//! 1. `L0`: the total innovation log-likelihood of the fused fixes under the model as given
+//!    ([`super::identify::loglik`]: the gate off, so that the likelihood is continuous in the
+//!    parameters; withheld fixes are not in it).
+//! 2. Candidates: the table of component kinds' sensor candidates ([`crate::candidates::LIBRARY`])
+//!    on the gyros and the accelerometers, each added to the three axes of its sensor with
+//!    one set of parameters (tied): a Gauss-Markov (sigma, tau), a random walk (q), a random
+//!    constant (sigma). A kind the sensor already carries is left out, except a second
+//!    Gauss-Markov (another time scale); so is a candidate that does not fit the filter's
+//!    [`imu_ident::nav::NAV_N`] states. White noise is a magnitude, not a missing effect
+//!    (`--identify` fits it), and the exp-cosine's three parameters would triple the cost;
+//!    neither is a candidate here.
+//! 3. Each candidate's parameters maximise the likelihood: every start of the table
+//!    ([`crate::candidates::Candidate::starts_at`], scaled to the sensor's magnitude in the
+//!    model) is evaluated, and a pattern search ([`super::pattern`]) runs from the best, in
+//!    natural-log steps 2, 1, 0.5, 0.25, within three decades of its start (correlation times
+//!    within [10 s, 1e5 s]).
+//! 4. The test: with the model right, twice a candidate's gain `L1 - L0` is asymptotically at
+//!    most chi-square(k) (Wilks; `k` its free parameters; the component's magnitude on its
+//!    boundary at zero makes it a mixture with a point mass at zero, which only lowers the
+//!    tail). With `m` candidates tested, a candidate is significant when its gain exceeds
+//!    half the chi-square(k) `1 - ALPHA / m` quantile (Bonferroni): a right model is called
+//!    inadequate in at most `ALPHA` of logs. The named effect is the significant candidate with
+//!    the largest gain over its own threshold (so that a 2-parameter candidate must explain
+//!    more than a 1-parameter one); but a simpler significant candidate of the same sensor
+//!    that the winner contains as a limit is named instead unless the winner gains more than
+//!    half the chi-square(dk) `1 - ALPHA` quantile over it (a Gauss-Markov whose correlation
+//!    time runs past the log is a random walk: on 1 of 8 seeds with a hidden walk the
+//!    Gauss-Markov led the walk by 1.8 nats, within the 3.3 nats of that test).
+//! 5. The model with the named effect is run again (gated, as any run) and its outputs are the
+//!    command's; `diagnosis.json` keeps the scores before and after.
+//!
+//! Diagnose a model whose magnitudes are fitted: `--identify --diagnose` identifies them first
+//! (or `--model identified-model.toml $(cat identified-options.txt) --diagnose` after an
+//! identification). Otherwise a candidate can win by standing in for a white density that is
+//! only too small: on the real drive the datasheet model "lacks" an accelerometer
+//! Gauss-Markov of 17 mg over 16 s (a gain of 1.2e5 nats), and with it the error at the
+//! outage ends rises from 7.0 to 24 m; the identified model is adequate (BENCHMARKS.md
+//! "Naming a missing effect on the strapdown navigator").
+
+use super::identify::loglik;
+use super::{run_with, NavArgs, NavRun};
+use crate::candidates::{Candidate, LIBRARY};
+use crate::nav_io::truth_csv::TruthRow;
+use crate::nav_io::{self, GnssFix, ImuSample};
+use anyhow::Result;
+use imu_ident::model::{Component, ComponentKind, ErrorSource};
+use imu_ident::nav::{ImuErrorModel, ImuSensor, NAV_N};
+use serde::Serialize;
+use std::path::Path;
+
+/// Family-wise probability of calling a right model inadequate (item 4 of the module docs).
+pub const ALPHA: f64 = 0.01;
+/// Navigation error states ahead of the sensor states (attitude, velocity, position).
+const NAV_STATES: usize = 9;
+/// Pattern-search steps [natural-log units].
+const STEPS: [f64; 4] = [2.0, 1.0, 0.5, 0.25];
+/// Half-width of a coordinate's interval about its start [natural-log units]: three decades.
+const HALF_WIDTH: f64 = 6.907_755_278_982_137;
+/// Interval of a correlation time [s].
+const TAU_RANGE: (f64, f64) = (10.0, 1e5);
+
+/// One candidate effect, fitted (or why it was left out).
+#[derive(Debug, Clone, Serialize)]
+pub struct NavCandidate {
+    /// `sensor/kind`, e.g. `accel/random-walk`.
+    pub label: String,
+    /// Free parameters (tied over the three axes).
+    pub n_params: usize,
+    /// The fitted component (its quantities by name, SI units: rad/s for gyros, m/s^2 for
+    /// accelerometers, s for correlation times).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub component: Option<ComponentJson>,
+    /// Log-likelihood with the candidate added (gate off).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub loglik: Option<f64>,
+    /// `loglik - loglik_model` [nats].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gain_nats: Option<f64>,
+    /// Half the chi-square(`n_params`) `1 - ALPHA / m` quantile [nats].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub threshold_nats: Option<f64>,
+    /// Gain above the threshold.
+    pub significant: bool,
+    /// Filter runs spent on it.
+    pub evaluations: usize,
+    /// What the fitted effect means physically.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub explanation: Option<String>,
+    /// Why it was not tested.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub skipped: Option<&'static str>,
+}
+
+/// A component's quantities, for `diagnosis.json`.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct ComponentJson {
+    /// Kind name (model TOML).
+    pub kind: &'static str,
+    /// Standard deviation (stationary, constant or initial).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sigma: Option<f64>,
+    /// Correlation time [s].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tau: Option<f64>,
+    /// Random-walk intensity.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub q: Option<f64>,
+}
+
+impl ComponentJson {
+    fn of(c: &Component<f64>) -> Self {
+        let (sigma, tau, q) = match *c {
+            Component::GaussMarkov(g) => (Some(g.sigma), Some(g.tau), None),
+            Component::RandomWalk(r) => (Some(r.sigma0), None, Some(r.q)),
+            Component::RandomConstant(r) => (Some(r.sigma), None, None),
+            Component::ExpCosine(e) => (Some(e.sigma), Some(e.tau), None),
+            Component::White(w) => (Some(w.density), None, None),
+        };
+        Self {
+            kind: c.kind().name(),
+            sigma,
+            tau,
+            q,
+        }
+    }
+}
+
+/// The scores of one run, before or after the named effect is added.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunScores {
+    /// Innovation log-likelihood, gate off (the test's).
+    pub loglik: f64,
+    /// Mean per-axis NIS of the run (gated, as written): pos N, E, D, vel N, E, D.
+    pub mean_nis_axis: [f64; 6],
+    /// Horizontal error at the outage ends, RMS and max [m] (with `--outages`).
+    pub outage_rms_m: Option<f64>,
+    /// Max [m].
+    pub outage_max_m: Option<f64>,
+    /// RMS horizontal error against the truth [m] (with `--truth`).
+    pub truth_rms_horizontal_m: Option<f64>,
+    /// RMS roll, pitch, yaw error against the truth [deg] (with `--truth`).
+    pub truth_rms_att_deg: Option<[f64; 3]>,
+    /// The largest fraction of epochs outside 3 sigma over the nine position, velocity and
+    /// attitude axes (with `--truth`; 0.0027 for a consistent filter).
+    pub truth_outside_3sigma_max: Option<f64>,
+    /// Mean NEES of the nine navigation errors (with `--truth`; 9 for a consistent filter).
+    pub truth_nees_mean: Option<f64>,
+    /// The mean NEES inside its 99 % band for the series' effective number of independent
+    /// epochs (with `--truth`; `TruthSummary::nees_consistent`).
+    pub truth_nees_consistent: Option<bool>,
+}
+
+impl RunScores {
+    /// The scores of `run` (its truth summary, if attached) with the ungated `loglik`.
+    pub fn of(run: &NavRun, loglik: f64) -> Self {
+        let s = &run.summary;
+        Self {
+            loglik,
+            mean_nis_axis: s.mean_nis_axis,
+            outage_rms_m: s.outage_rms_m,
+            outage_max_m: s.outage_max_m,
+            truth_rms_horizontal_m: s.truth.as_ref().map(|t| t.rms_horizontal_m),
+            truth_rms_att_deg: s.truth.as_ref().map(|t| t.rms_att_deg),
+            truth_outside_3sigma_max: s.truth.as_ref().map(|t| {
+                t.outside_3sigma_pos
+                    .iter()
+                    .chain(&t.outside_3sigma_vel)
+                    .chain(&t.outside_3sigma_att)
+                    .fold(0.0f64, |a, b| a.max(*b))
+            }),
+            truth_nees_mean: s.truth.as_ref().map(|t| t.nees_mean),
+            truth_nees_consistent: s.truth.as_ref().map(|t| t.nees_consistent),
+        }
+    }
+}
+
+/// The verdict.
+#[derive(Debug, Clone, Serialize)]
+pub struct NavDiagnosis {
+    /// `"adequate"` or `"missing-effect"`.
+    pub verdict: &'static str,
+    /// The named effect's label.
+    pub named: Option<String>,
+    /// Family-wise false-alarm probability of the tests.
+    pub alpha: f64,
+    /// Log-likelihood of the model as given (gate off).
+    pub loglik_model: f64,
+    /// Every candidate, tested or not.
+    pub candidates: Vec<NavCandidate>,
+    /// Filter runs in all.
+    pub evaluations: usize,
+    /// The model as given.
+    pub before: Option<RunScores>,
+    /// With the named effect.
+    pub after: Option<RunScores>,
+    /// The model with the named effect (the model as given when adequate).
+    #[serde(skip)]
+    pub model: ImuErrorModel<f64>,
+}
+
+impl NavDiagnosis {
+    /// The report's section: the verdict, the candidates, the scores before and after.
+    pub fn html(&self) -> String {
+        let num = |v: Option<f64>, d: usize| v.map_or("-".to_string(), |x| format!("{x:.d$}"));
+        let mut h =
+            format!(
+            "<p>Verdict: <b>{}</b>{}. Each candidate is added to the three axes of its sensor, \
+             fitted by maximum likelihood and tested against the model: significant when its \
+             gain exceeds half the chi-square(k) quantile at {} / m (m candidates tested; \
+             <code>diagnosis.json</code>, <code>diagnosed-model.toml</code>). A candidate can \
+             stand in for a magnitude that is only too small: diagnose a model whose \
+             magnitudes are fitted (<code>--identify --diagnose</code>).</p><table><tr>\
+             <th>candidate</th><th>k</th><th>fitted</th><th>gain [nats]</th>\
+             <th>threshold [nats]</th><th>runs</th></tr>",
+            self.verdict,
+            self.named.as_ref().map(|n| format!(": {n} added")).unwrap_or_default(),
+            self.alpha
+        );
+        for c in &self.candidates {
+            let fitted = match (&c.component, c.skipped) {
+                (_, Some(why)) => format!("not tested: {why}"),
+                (Some(j), None) => [("sigma", j.sigma), ("tau", j.tau), ("q", j.q)]
+                    .iter()
+                    .filter_map(|(n, v)| v.map(|v| format!("{n} {v:.3e}")))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                (None, None) => "-".to_string(),
+            };
+            let class = if c.significant { " class=\"bad\"" } else { "" };
+            h += &format!(
+                "<tr><td>{}</td><td>{}</td><td>{fitted}</td><td{class}>{}</td><td>{}</td><td>{}</td></tr>",
+                c.label,
+                c.n_params,
+                num(c.gain_nats, 1),
+                num(c.threshold_nats, 1),
+                c.evaluations
+            );
+        }
+        h += "</table><table><tr><th></th><th>log-likelihood</th><th>mean NIS per axis (pos N, E, D, vel N, E, D)</th><th>outage ends RMS / max [m]</th><th>horizontal RMS vs truth [m]</th><th>outside 3 sigma, worst axis</th><th>mean NEES (9)</th></tr>";
+        for (name, s) in [
+            ("model", &self.before),
+            ("with the named effect", &self.after),
+        ] {
+            if let Some(s) = s {
+                let nis: Vec<String> = s.mean_nis_axis.iter().map(|v| format!("{v:.2}")).collect();
+                h += &format!(
+                    "<tr><td>{name}</td><td>{:.1}</td><td>{}</td><td>{} / {}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                    s.loglik,
+                    nis.join(", "),
+                    num(s.outage_rms_m, 2),
+                    num(s.outage_max_m, 2),
+                    num(s.truth_rms_horizontal_m, 2),
+                    s.truth_outside_3sigma_max
+                        .map_or("-".to_string(), |v| format!("{:.2} %", 100.0 * v)),
+                    num(s.truth_nees_mean, 2)
+                );
+            }
+        }
+        h + "</table>"
+    }
+}
+
+fn imu_sensor(s: ErrorSource) -> Option<ImuSensor> {
+    match s {
+        ErrorSource::Gyro => Some(ImuSensor::Gyro),
+        ErrorSource::Accel => Some(ImuSensor::Accel),
+        ErrorSource::Observation => None,
+    }
+}
+
+/// The typical error magnitude of one sensor in `m`: the largest over its axes of the sum of
+/// the components' magnitudes (the one-channel table's `sensor_scale`), with the same defaults
+/// when it has none.
+fn sensor_scale(m: &ImuErrorModel<f64>, s: ImuSensor) -> f64 {
+    let v = m
+        .sensor(s)
+        .iter()
+        .map(|a| a.iter().map(|c| c.magnitude()).sum::<f64>())
+        .fold(0.0, f64::max);
+    match s {
+        _ if v > 0.0 && v.is_finite() => v,
+        ImuSensor::Accel => 1e-3,
+        ImuSensor::Gyro => 0.1f64.to_radians() / 3600.0,
+    }
+}
+
+/// `m` with `c` on every axis of sensor `s`; `None` when an axis is full.
+fn with_component(
+    m: &ImuErrorModel<f64>,
+    s: ImuSensor,
+    c: Component<f64>,
+) -> Option<ImuErrorModel<f64>> {
+    let mut out = m.clone();
+    for axis in out.sensor_mut(s).iter_mut() {
+        axis.push(c).ok()?;
+    }
+    out.validate().ok()?;
+    Some(out)
+}
+
+/// Why `cand` is not tested on `m`, if it is not.
+fn skip_reason(m: &ImuErrorModel<f64>, cand: &Candidate) -> Option<&'static str> {
+    let Some(s) = imu_sensor(cand.sensor) else {
+        return Some("not a sensor of the strapdown model");
+    };
+    match cand.kind {
+        ComponentKind::White => return Some("a magnitude: fitted by --identify"),
+        ComponentKind::ExpCosine => return Some("not a candidate of the navigator's diagnosis"),
+        _ => {}
+    }
+    let has = m
+        .sensor(s)
+        .iter()
+        .flat_map(|a| a.iter())
+        .any(|c| c.kind() == cand.kind);
+    if has && cand.kind != ComponentKind::GaussMarkov {
+        return Some("the model has one (its magnitude is --identify's)");
+    }
+    let probe = cand
+        .starts_at(1.0)
+        .into_iter()
+        .next()
+        .and_then(|p| cand.component(&p));
+    let fits = probe
+        .and_then(|c| with_component(m, s, c))
+        .is_some_and(|m2| NAV_STATES + m2.states() <= NAV_N);
+    (!fits).then_some("does not fit the filter's states")
+}
+
+/// Half the chi-square(`dk`) `1 - ALPHA` quantile: how much a candidate must gain over a
+/// simpler one it contains as a limit (a Gauss-Markov holds a random walk as `tau -> inf` with
+/// `2 sigma^2 / tau = q`, and a random constant as `tau -> inf` with `sigma` fixed) to be named
+/// instead of it.
+fn threshold_nested(dk: usize) -> Result<f64> {
+    half_chi2_quantile(1.0 - ALPHA, dk)
+}
+
+/// Half the chi-square(`k`) quantile at `p` ([`crate::allan::chi2_quantile`]: accurate to
+/// ~1e-14, where statrs's inverse is a coarse numerical one).
+fn half_chi2_quantile(p: f64, k: usize) -> Result<f64> {
+    crate::allan::chi2_quantile(p, k as f64)
+        .map(|x| 0.5 * x)
+        .ok_or_else(|| anyhow::anyhow!("chi-square quantile at {p} with {k} degrees of freedom"))
+}
+
+/// Half the chi-square(`k`) `1 - alpha / m` quantile.
+fn threshold(k: usize, m: usize) -> Result<f64> {
+    half_chi2_quantile(1.0 - ALPHA / m.max(1) as f64, k)
+}
+
+/// Tests every candidate on `args.model` (module docs). Does not run the model after.
+pub fn diagnose(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<NavDiagnosis> {
+    let l0 = loglik(args, imu, fixes)?;
+    let tested = LIBRARY
+        .iter()
+        .filter(|c| skip_reason(&args.model, c).is_none())
+        .count();
+    let mut evaluations = 1usize;
+    let mut candidates = Vec::with_capacity(LIBRARY.len());
+    let bar = indicatif::ProgressBar::new(tested as u64);
+    for cand in LIBRARY.iter() {
+        let mut out = NavCandidate {
+            label: cand.label(),
+            n_params: cand.n_params(),
+            component: None,
+            loglik: None,
+            gain_nats: None,
+            threshold_nats: None,
+            significant: false,
+            evaluations: 0,
+            explanation: None,
+            skipped: skip_reason(&args.model, cand),
+        };
+        let sensor = imu_sensor(cand.sensor);
+        if let (None, Some(s)) = (out.skipped, sensor) {
+            bar.set_message(out.label.clone());
+            let (p, ll, n) = fit(args, imu, fixes, cand, s)?;
+            bar.inc(1);
+            evaluations += n;
+            let th = threshold(cand.n_params(), tested)?;
+            let comp = cand.component(&p);
+            out.component = comp.as_ref().map(ComponentJson::of);
+            out.explanation = comp.as_ref().map(|c| cand.explain(c));
+            out.loglik = Some(ll);
+            out.gain_nats = Some(ll - l0);
+            out.threshold_nats = Some(th);
+            out.significant = ll - l0 > th;
+            out.evaluations = n;
+            if let Some(c) = comp {
+                candidates.push((out, Some((s, c))));
+                continue;
+            }
+        }
+        candidates.push((out, None));
+    }
+    bar.finish_and_clear();
+    // The named effect: the largest gain above its own threshold, then the simplest of its
+    // sensor's significant candidates that it does not beat significantly (item 4).
+    let excess = |c: &NavCandidate| c.gain_nats.zip(c.threshold_nats).map(|(g, t)| g - t);
+    let order =
+        |a: Option<f64>, b: Option<f64>| a.partial_cmp(&b).unwrap_or(std::cmp::Ordering::Equal);
+    let significant = || {
+        candidates
+            .iter()
+            .filter(|(c, p)| c.significant && p.is_some())
+    };
+    let mut best = significant().max_by(|a, b| order(excess(&a.0), excess(&b.0)));
+    if let Some((b, Some((sb, _)))) = best {
+        let simpler = significant()
+            .filter(|(c, p)| {
+                p.as_ref().is_some_and(|(s, _)| s == sb)
+                    && c.n_params < b.n_params
+                    && c.gain_nats.zip(b.gain_nats).is_some_and(|(g, gb)| {
+                        threshold_nested(b.n_params - c.n_params).is_ok_and(|t| gb - g <= t)
+                    })
+            })
+            .max_by(|a, b| order(a.0.gain_nats, b.0.gain_nats));
+        if simpler.is_some() {
+            best = simpler;
+        }
+    }
+    let (verdict, named, model) = match best {
+        Some((c, Some((s, comp)))) => (
+            "missing-effect",
+            Some(c.label.clone()),
+            with_component(&args.model, *s, *comp)
+                .ok_or_else(|| anyhow::anyhow!("nav --diagnose: {} no longer fits", c.label))?,
+        ),
+        _ => ("adequate", None, args.model.clone()),
+    };
+    Ok(NavDiagnosis {
+        verdict,
+        named,
+        alpha: ALPHA,
+        loglik_model: l0,
+        candidates: candidates.into_iter().map(|(c, _)| c).collect(),
+        evaluations,
+        before: None,
+        after: None,
+        model,
+    })
+}
+
+/// The maximum-likelihood parameters of `cand` on sensor `s` (module docs, item 3): the
+/// log-parameters, their log-likelihood and the runs spent.
+fn fit(
+    args: &NavArgs,
+    imu: &[ImuSample],
+    fixes: &[GnssFix],
+    cand: &Candidate,
+    s: ImuSensor,
+) -> Result<(Vec<f64>, f64, usize)> {
+    let mut a = args.clone();
+    let mut n = 0usize;
+    let mut eval = |p: &[f64]| -> Result<f64> {
+        n += 1;
+        match cand
+            .component(p)
+            .and_then(|c| with_component(&args.model, s, c))
+        {
+            Some(m) => {
+                a.model = m;
+                loglik(&a, imu, fixes)
+            }
+            None => Ok(f64::NEG_INFINITY),
+        }
+    };
+    let starts = cand.starts_at(sensor_scale(&args.model, s));
+    let mut best: Option<(Vec<f64>, f64)> = None;
+    for p in starts {
+        let ll = eval(&p)?;
+        if best.as_ref().is_none_or(|(_, b)| ll > *b) {
+            best = Some((p, ll));
+        }
+    }
+    let Some((mut x, mut ll)) = best else {
+        return Ok((Vec::new(), f64::NEG_INFINITY, n));
+    };
+    let centre = x.clone();
+    let is_tau = |i: usize| cand.kind == ComponentKind::GaussMarkov && i == 1;
+    let bounds = |i: usize| {
+        let c = centre.get(i).copied()?;
+        Some(if is_tau(i) {
+            (TAU_RANGE.0.ln(), TAU_RANGE.1.ln())
+        } else {
+            (c - HALF_WIDTH, c + HALF_WIDTH)
+        })
+    };
+    super::pattern::maximise(&mut x, &mut ll, &STEPS, 4, &bounds, &mut eval)?;
+    Ok((x, ll, n))
+}
+
+/// One run of `args` (f32 or f64 core) with the truth attached when given.
+fn run_scored(
+    args: &NavArgs,
+    imu: &[ImuSample],
+    fixes: &[GnssFix],
+    truth: Option<(&[TruthRow], &Path)>,
+) -> Result<(NavRun, Option<super::truth::TruthComparison>)> {
+    let mut run = if args.single {
+        run_with::<f32>(args, imu, fixes)?
+    } else {
+        run_with::<f64>(args, imu, fixes)?
+    };
+    let cmp = truth
+        .map(|(rows, p)| super::truth::attach(&mut run, rows, p))
+        .transpose()?;
+    Ok((run, cmp))
+}
+
+/// `hal-sim nav --diagnose [--identify]`: reads the inputs; with `identify`, first identifies
+/// the model's magnitudes ([`super::identify_and_write`], its files written); diagnoses the
+/// model, runs it and, when an effect is named, the model with it; writes the last run's
+/// outputs (as `nav`), `diagnosis.json` (the candidates, the verdict, the scores before and
+/// after) and `diagnosed-model.toml` into `out`.
+pub fn run_diagnosed(
+    args: &NavArgs,
+    identify: bool,
+    truth: Option<&[TruthRow]>,
+    truth_path: Option<&Path>,
+    out: &Path,
+) -> Result<NavDiagnosis> {
+    let imu = nav_io::read_imu_csv(&args.imu)?;
+    let fixes = nav_io::read_gnss_any(&args.gnss, args.max_q)?;
+    let truth = truth.zip(truth_path);
+    let (identified, id) = if identify {
+        let (a, id) = super::identify_and_write(args, &imu, &fixes, out)?;
+        eprintln!(
+            "identified: factors {:?} ({}), IMU time shift {:+.4} s, loglik {:.1} -> {:.1} in {} runs",
+            id.factors,
+            super::identify::FACTORS.join(", "),
+            id.imu_time_shift,
+            id.loglik_start,
+            id.loglik,
+            id.evaluations
+        );
+        (a, Some(id))
+    } else {
+        (args.clone(), None)
+    };
+    let args = &identified;
+    let mut d = diagnose(args, &imu, &fixes)?;
+    let (before, cmp_before) = run_scored(args, &imu, &fixes, truth)?;
+    d.before = Some(RunScores::of(&before, d.loglik_model));
+    let (run, cmp) = match &d.named {
+        Some(name) => {
+            let mut a = args.clone();
+            a.model = d.model.clone();
+            a.model_name = format!("{} + {name} (nav --diagnose)", args.model_name);
+            let ll = d
+                .candidates
+                .iter()
+                .find(|c| &c.label == name)
+                .and_then(|c| c.loglik)
+                .unwrap_or(f64::NAN);
+            let (r, c) = run_scored(&a, &imu, &fixes, truth)?;
+            d.after = Some(RunScores::of(&r, ll));
+            (r, c)
+        }
+        None => (before, cmp_before),
+    };
+    let section = ("Diagnosis: a missing effect?".to_string(), d.html());
+    super::records::write_outputs(out, &run, cmp.as_ref(), id.as_ref(), &[section])?;
+    crate::output::write_string(
+        &out.join("diagnosis.json"),
+        &serde_json::to_string_pretty(&d)?,
+    )?;
+    let toml = super::model::to_toml(&d.model)?;
+    crate::output::write_string(
+        &out.join("diagnosed-model.toml"),
+        &toml.to_text(&format!(
+            "# hal-sim nav --diagnose of {} on {}: {}{}\n",
+            args.model_name,
+            args.imu.display(),
+            d.verdict,
+            d.named
+                .as_ref()
+                .map(|n| format!(", {n} added"))
+                .unwrap_or_default()
+        ))?,
+    )?;
+    println!("{}", serde_json::to_string_pretty(&run.summary)?);
+    Ok(d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thresholds_are_half_the_chi_square_quantiles() {
+        // chi-square(2): P(X > x) = exp(-x / 2), so half its 1 - a quantile is -ln a.
+        let t = threshold(2, 5).unwrap_or(f64::NAN);
+        assert!((t - (-(ALPHA / 5.0).ln())).abs() < 1e-9, "{t}");
+        // chi-square(1) 0.99 quantile 6.634897 (tables).
+        let n = threshold_nested(1).unwrap_or(f64::NAN);
+        assert!((n - 0.5 * 6.634_897).abs() < 1e-6, "{n}");
+    }
+
+    #[test]
+    fn candidates_the_model_has_or_cannot_hold_are_skipped() {
+        use imu_ident::model::{RandomWalk, WhiteNoise};
+        let mut m = ImuErrorModel::default();
+        let white = Component::White(WhiteNoise { density: 1e-3 });
+        let walk = Component::RandomWalk(RandomWalk {
+            q: 1e-10,
+            sigma0: 0.0,
+        });
+        assert!(m.set_all_gyro(&[white, walk]).is_ok());
+        assert!(m.set_all_accel(&[white]).is_ok());
+        let reason =
+            |m: &ImuErrorModel<f64>, sensor, kind| skip_reason(m, &Candidate { sensor, kind });
+        assert!(reason(&m, ErrorSource::Gyro, ComponentKind::RandomWalk).is_some());
+        assert!(reason(&m, ErrorSource::Gyro, ComponentKind::White).is_some());
+        assert!(reason(&m, ErrorSource::Observation, ComponentKind::GaussMarkov).is_some());
+        assert_eq!(
+            reason(&m, ErrorSource::Accel, ComponentKind::RandomWalk),
+            None
+        );
+        assert_eq!(
+            reason(&m, ErrorSource::Gyro, ComponentKind::GaussMarkov),
+            None
+        );
+        // 9 + 3 (gyro walk) + 3 per added component: a 24-state filter holds four more.
+        let gm = Component::GaussMarkov(imu_ident::model::GaussMarkov {
+            sigma: 1e-3,
+            tau: 100.0,
+        });
+        assert!(m.set_all_accel(&[white, gm, gm, gm]).is_ok());
+        assert_eq!(NAV_STATES + m.states(), 21);
+        assert_eq!(
+            reason(&m, ErrorSource::Gyro, ComponentKind::RandomConstant),
+            None
+        );
+        assert!(m.set_all_gyro(&[white, walk, gm]).is_ok());
+        assert_eq!(
+            reason(&m, ErrorSource::Accel, ComponentKind::RandomWalk),
+            Some("does not fit the filter's states")
+        );
+    }
+}

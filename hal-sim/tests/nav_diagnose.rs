@@ -1,0 +1,276 @@
+//! `hal-sim nav --diagnose` on simulated drives (`hal_sim::nav::diagnose`): an accelerometer
+//! bias that drifts (a random walk) hidden from a model that calls it constant, on a
+//! manoeuvring course; the diagnosis must name it, and with it added the error against the
+//! truth must fall. On a log without the hidden effect the diagnosis must find the model
+//! adequate.
+//!
+//! The IMU (per axis), the MEMS preset's gyros and accelerometer white noise: gyro white
+//! 0.15 deg/sqrt(h) + Gauss-Markov 10 deg/h over 300 s; accelerometer white 0.1 m/s/sqrt(h)
+//! plus a random constant of 3 mg (turn-on bias), and, hidden,
+//! a random walk whose 1-h drift is 2 mg (from zero). Course: the figure-eight of
+//! `nav_blind_spots.rs` (IMU 50 Hz, GNSS 1 Hz, 60-s outages every 20 min from 10 min), 40 min.
+//!
+//! What the bounds rest on:
+//! - the verdict's false-alarm rate is at most `ALPHA` = 1 % over the candidates (Wilks and
+//!   Bonferroni, module docs of `diagnose`), so the null test fails on at most 1 % of seeds;
+//! - the fitted random walk's `q` is checked within a factor of 10 of the truth only as a
+//!   sanity bound (its Cramér-Rao coverage is `nav_blind_spots.rs`'s).
+//!
+//! Benchmark (ignored): `NAVDIAG_SEEDS=10 NAVDIAG_FIRST_SEED=8801 NAVDIAG_DRIFT_MG=2 cargo test
+//! --release -p hal-sim --test nav_diagnose -- --ignored --nocapture` prints, per seed, the
+//! verdict on the log with the hidden walk (its 1-h drift `NAVDIAG_DRIFT_MG`) and on the log
+//! without it, the gains and the errors before and after.
+
+use hal_sim::nav::diagnose::{diagnose, run_diagnosed, NavDiagnosis, RunScores};
+use hal_sim::nav::{run_with, NavArgs};
+use hal_sim::nav_io::outages::OutageSpec;
+use hal_sim::nav_io::truth_csv::TruthRow;
+use hal_sim::nav_io::{GnssFix, ImuSample};
+use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
+use hal_sim::trajectory::gnss::GnssConfig;
+use hal_sim::trajectory::profile::Profile;
+use hal_sim::trajectory::write::{simulate_drive, write_and_read_drive};
+use imu_ident::model::{Component, RandomConstant, RandomWalk};
+use imu_ident::strapdown::Geodetic;
+
+const MG: f64 = 1e-3 * imu_ident::model::ins::G0;
+const DT: f64 = 0.02;
+const HOURS: f64 = 40.0 / 60.0;
+/// The hidden walk: 2 mg of drift in 1 h.
+const WALK_Q: f64 = 4.0 * MG * MG / 3600.0;
+
+/// The accelerometers: white, the turn-on bias, and a walk of intensity `walk` when given.
+fn sensors(walk: Option<f64>) -> SimModel {
+    // The MEMS preset's gyros and accelerometer white noise (its accelerometer Gauss-Markov
+    // replaced by the turn-on bias).
+    let mems = SimModel::mems();
+    let mut accel = vec![
+        mems.accel[0][0],
+        Component::RandomConstant(RandomConstant { sigma: 3.0 * MG }),
+    ];
+    if let Some(q) = walk {
+        accel.push(Component::RandomWalk(RandomWalk { q, sigma0: 0.0 }));
+    }
+    SimModel::same_on_all_axes(&mems.gyro[0], &accel)
+}
+
+struct Drive {
+    dir: tempfile::TempDir,
+    args: NavArgs,
+    imu: Vec<ImuSample>,
+    fixes: Vec<GnssFix>,
+    truth: Vec<TruthRow>,
+}
+
+/// A drive simulated with `sim` and the navigator's arguments with the model that calls the
+/// bias constant (the truth when the drive has no walk).
+fn drive(sim: &SimModel, seed: u64) -> Drive {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let profile = Profile::figure_eight_course(HOURS, 1.0).unwrap_or_else(|e| panic!("{e:#}"));
+    let start = Geodetic {
+        lat: 45f64.to_radians(),
+        lon: 7f64.to_radians(),
+        h: 300.0,
+    };
+    let d = simulate_drive(&profile, start, DT, sim, GnssConfig::default(), seed)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    let (imu, fixes, truth) =
+        write_and_read_drive(dir.path(), &d).unwrap_or_else(|e| panic!("{e:#}"));
+    let model = sensors(None).to_core().unwrap_or_else(|e| panic!("{e:#}"));
+    let args = NavArgs {
+        outages: Some(OutageSpec::every_20_min(
+            0.0,
+            fixes.first().map_or(0.0, |f| f.t),
+        )),
+        ..NavArgs::simulated(
+            dir.path().join("imu.csv"),
+            dir.path().join("gnss.csv"),
+            model,
+            "bias called constant",
+            truth[0].rpy_deg[2],
+        )
+    };
+    Drive {
+        dir,
+        args,
+        imu,
+        fixes,
+        truth,
+    }
+}
+
+/// The diagnosis of the drive with the hidden walk, run through the command's path (the runs
+/// before and after scored against the truth).
+fn hidden_walk(seed: u64, q: f64) -> NavDiagnosis {
+    hidden_walk_and_truth(seed, q, false).0
+}
+
+/// [`hidden_walk`], and with `oracle` the scores of the true model's run on the same log.
+fn hidden_walk_and_truth(seed: u64, q: f64, oracle: bool) -> (NavDiagnosis, Option<RunScores>) {
+    let d = drive(&sensors(Some(q)), seed);
+    let out = d.dir.path().join("out");
+    let truth = d.dir.path().join("truth.csv");
+    let diag = run_diagnosed(&d.args, false, Some(&d.truth), Some(&truth), &out)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    let scores = oracle.then(|| {
+        let mut a = d.args.clone();
+        a.model = sensors(Some(q))
+            .to_core()
+            .unwrap_or_else(|e| panic!("{e:#}"));
+        let mut run = run_with::<f64>(&a, &d.imu, &d.fixes).unwrap_or_else(|e| panic!("{e:#}"));
+        hal_sim::nav::truth::attach(&mut run, &d.truth, &truth).unwrap_or_else(|e| panic!("{e:#}"));
+        RunScores::of(&run, f64::NAN)
+    });
+    (diag, scores)
+}
+
+fn without_walk(seed: u64) -> NavDiagnosis {
+    let d = drive(&sensors(None), seed);
+    diagnose(&d.args, &d.imu, &d.fixes).unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+fn gains(d: &NavDiagnosis) -> String {
+    d.candidates
+        .iter()
+        .filter_map(|c| {
+            Some(format!(
+                "{} {:.1}/{:.1}",
+                c.label, c.gain_nats?, c.threshold_nats?
+            ))
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn named_q(d: &NavDiagnosis) -> Option<f64> {
+    let name = d.named.as_deref()?;
+    d.candidates.iter().find(|c| c.label == name)?.component?.q
+}
+
+#[test]
+fn a_drifting_accelerometer_bias_is_named_and_the_error_falls() {
+    let d = hidden_walk(8701, WALK_Q);
+    eprintln!("hidden walk: {} {:?}; {}", d.verdict, d.named, gains(&d));
+    assert_eq!(d.verdict, "missing-effect", "{}", gains(&d));
+    assert_eq!(
+        d.named.as_deref(),
+        Some("accel/random-walk"),
+        "{}",
+        gains(&d)
+    );
+    let q = named_q(&d).unwrap_or(f64::NAN);
+    assert!(
+        (q / WALK_Q).log10().abs() < 1.0,
+        "fitted q {q:.3e} against {WALK_Q:.3e}"
+    );
+    let (b, a) = (
+        d.before.clone().unwrap_or_else(|| panic!("no run before")),
+        d.after.clone().unwrap_or_else(|| panic!("no run after")),
+    );
+    eprintln!("before {b:?}\nafter {a:?}");
+    // The model that calls the bias constant is overconfident; with the walk the filter is
+    // consistent: its mean NEES inside the 99 % band of the effective number of independent
+    // epochs, and on this seed at most 1 % of epochs outside 3 sigma on every axis (0.27 %
+    // expected of a consistent filter; 1 % is issue 16's bar for the true-model filter, which
+    // itself exceeds it on some seeds: BENCHMARKS.md "Naming a missing effect on the
+    // strapdown navigator"). The horizontal RMS falls on this seed; over seeds it is the
+    // true-model filter's, lower than the overconfident model's on most but not all.
+    assert_eq!(b.truth_nees_consistent, Some(false), "{b:?}");
+    assert_eq!(a.truth_nees_consistent, Some(true), "{a:?}");
+    assert!(
+        a.truth_outside_3sigma_max.is_some_and(|f| f <= 0.01),
+        "{a:?}"
+    );
+    let h = |s: &hal_sim::nav::diagnose::RunScores| s.truth_rms_horizontal_m.unwrap_or(f64::NAN);
+    assert!(h(&a) < h(&b), "horizontal RMS {} -> {}", h(&b), h(&a));
+    assert!(a.loglik > b.loglik);
+}
+
+#[test]
+fn a_right_model_is_adequate() {
+    let d = without_walk(8701);
+    eprintln!("no walk: {} {:?}; {}", d.verdict, d.named, gains(&d));
+    assert_eq!(d.verdict, "adequate", "{}", gains(&d));
+}
+
+fn env<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+#[test]
+#[ignore = "benchmark: NAVDIAG_SEEDS seeds from NAVDIAG_FIRST_SEED, about 2 min per seed"]
+fn diagnosis_over_seeds() {
+    let n: u64 = env("NAVDIAG_SEEDS", 10);
+    let first: u64 = env("NAVDIAG_FIRST_SEED", 8801);
+    // The walk's 1-h drift [mg].
+    let drift: f64 = env("NAVDIAG_DRIFT_MG", 2.0);
+    let q = drift * drift * MG * MG / 3600.0;
+    let (mut named, mut adequate) = (0, 0);
+    for seed in first..first + n {
+        // NAVDIAG_ORACLE=1 also runs the true model on the log with the walk.
+        let (h, oracle) = hidden_walk_and_truth(seed, q, env("NAVDIAG_ORACLE", 0) == 1);
+        if let Some(o) = &oracle {
+            println!(
+                "seed {seed}: true model: horizontal RMS {:.2} m, attitude RMS {:?} deg, worst axis outside 3 sigma {:.2} %, mean NEES {:.2}",
+                o.truth_rms_horizontal_m.unwrap_or(f64::NAN),
+                o.truth_rms_att_deg,
+                100.0 * o.truth_outside_3sigma_max.unwrap_or(f64::NAN),
+                o.truth_nees_mean.unwrap_or(f64::NAN)
+            );
+        }
+        // NAVDIAG_NULL=0 skips the log without the walk (the same for every drift).
+        let z = (env("NAVDIAG_NULL", 1) == 1).then(|| without_walk(seed));
+        let (b, a) = (h.before.clone(), h.after.clone());
+        let hz = |s: &Option<hal_sim::nav::diagnose::RunScores>| {
+            s.as_ref()
+                .and_then(|s| s.truth_rms_horizontal_m)
+                .unwrap_or(f64::NAN)
+        };
+        let out3 = |s: &Option<hal_sim::nav::diagnose::RunScores>| {
+            100.0
+                * s.as_ref()
+                    .and_then(|s| s.truth_outside_3sigma_max)
+                    .unwrap_or(f64::NAN)
+        };
+        let nees = |s: &Option<hal_sim::nav::diagnose::RunScores>| {
+            s.as_ref()
+                .and_then(|s| s.truth_nees_mean)
+                .unwrap_or(f64::NAN)
+        };
+        let ok = h.named.as_deref() == Some("accel/random-walk");
+        named += usize::from(ok);
+        adequate += usize::from(z.as_ref().is_some_and(|z| z.verdict == "adequate"));
+        let named_fit = h
+            .named
+            .as_deref()
+            .and_then(|n| h.candidates.iter().find(|c| c.label == n))
+            .and_then(|c| c.component)
+            .map(|j| format!("{j:?}"))
+            .unwrap_or_default();
+        println!(
+            "seed {seed}: hidden walk -> {} {:?} {named_fit} q/q_true {:.2}, horizontal RMS {:.2} -> {:.2} m, \
+             attitude RMS {:?} -> {:?} deg, worst axis outside 3 sigma {:.2} -> {:.2} %, \
+             mean NEES {:.1} -> {:.2} [{}]; \
+             no walk -> {} {:?} [{}]",
+            h.verdict,
+            h.named,
+            named_q(&h).unwrap_or(f64::NAN) / q,
+            hz(&b),
+            hz(&a),
+            b.as_ref().and_then(|s| s.truth_rms_att_deg),
+            a.as_ref().and_then(|s| s.truth_rms_att_deg),
+            out3(&b),
+            out3(&a),
+            nees(&b),
+            nees(&a),
+            gains(&h),
+            z.as_ref().map_or("-", |z| z.verdict),
+            z.as_ref().and_then(|z| z.named.clone()),
+            z.as_ref().map(gains).unwrap_or_default()
+        );
+    }
+    println!("named the walk in {named} of {n}; the right model adequate in {adequate} of {n}");
+}
