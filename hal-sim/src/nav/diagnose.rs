@@ -323,7 +323,7 @@ fn skip_reason(m: &ImuErrorModel<f64>, cand: &Candidate) -> Option<&'static str>
         .flat_map(|a| a.iter())
         .any(|c| c.kind() == cand.kind);
     if has && cand.kind != ComponentKind::GaussMarkov {
-        return Some("the model has one (its magnitude is --identify's)");
+        return Some("the model has one already");
     }
     let probe = cand
         .starts_at(1.0)
@@ -549,6 +549,30 @@ pub fn run_diagnosed(
     };
     let args = &identified;
     let mut d = diagnose(args, &imu, &fixes)?;
+    // Written at once, so that a failure in the runs below loses none of the search; rewritten
+    // with their scores.
+    std::fs::create_dir_all(out)?;
+    let write_json = |d: &NavDiagnosis| {
+        crate::output::write_string(
+            &out.join("diagnosis.json"),
+            &serde_json::to_string_pretty(d)?,
+        )
+    };
+    write_json(&d)?;
+    let toml = super::model::to_toml(&d.model)?;
+    crate::output::write_string(
+        &out.join("diagnosed-model.toml"),
+        &toml.to_text(&format!(
+            "# hal-sim nav --diagnose of {} on {}: {}{}\n",
+            args.model_name,
+            args.imu.display(),
+            d.verdict,
+            d.named
+                .as_ref()
+                .map(|n| format!(", {n} added"))
+                .unwrap_or_default()
+        ))?,
+    )?;
     let (before, cmp_before) = run_scored(args, &imu, &fixes, truth)?;
     d.before = Some(RunScores::of(&before, d.loglik_model));
     let (run, cmp) = match &d.named {
@@ -570,24 +594,7 @@ pub fn run_diagnosed(
     };
     let section = ("Diagnosis: a missing effect?".to_string(), d.html());
     super::records::write_outputs(out, &run, cmp.as_ref(), id.as_ref(), &[section])?;
-    crate::output::write_string(
-        &out.join("diagnosis.json"),
-        &serde_json::to_string_pretty(&d)?,
-    )?;
-    let toml = super::model::to_toml(&d.model)?;
-    crate::output::write_string(
-        &out.join("diagnosed-model.toml"),
-        &toml.to_text(&format!(
-            "# hal-sim nav --diagnose of {} on {}: {}{}\n",
-            args.model_name,
-            args.imu.display(),
-            d.verdict,
-            d.named
-                .as_ref()
-                .map(|n| format!(", {n} added"))
-                .unwrap_or_default()
-        ))?,
-    )?;
+    write_json(&d)?;
     println!("{}", serde_json::to_string_pretty(&run.summary)?);
     Ok(d)
 }
