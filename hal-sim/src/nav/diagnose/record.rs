@@ -1,0 +1,209 @@
+//! What `nav --diagnose` records ([`super`]): the candidates as fitted, the scores of the runs
+//! before and after, the verdict (`diagnosis.json`), and its section of the report.
+
+use crate::nav::NavRun;
+use imu_ident::model::Component;
+use imu_ident::nav::ImuErrorModel;
+use serde::Serialize;
+
+/// One candidate effect, fitted (or why it was left out).
+#[derive(Debug, Clone, Serialize)]
+pub struct NavCandidate {
+    /// `sensor/kind`, e.g. `accel/random-walk`.
+    pub label: String,
+    /// Free parameters (tied over the three axes).
+    pub n_params: usize,
+    /// The fitted component (its quantities by name, SI units: rad/s for gyros, m/s^2 for
+    /// accelerometers, s for correlation times).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub component: Option<ComponentJson>,
+    /// Log-likelihood with the candidate added (gate off).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub loglik: Option<f64>,
+    /// `loglik - loglik_model` [nats].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gain_nats: Option<f64>,
+    /// Half the chi-square(`n_params`) `1 - ALPHA / m` quantile [nats].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub threshold_nats: Option<f64>,
+    /// Gain above the threshold.
+    pub significant: bool,
+    /// Filter runs spent on it.
+    pub evaluations: usize,
+    /// What the fitted effect means physically.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub explanation: Option<String>,
+    /// Why it was not tested.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub skipped: Option<&'static str>,
+}
+
+/// A component's quantities, for `diagnosis.json`.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct ComponentJson {
+    /// Kind name (model TOML).
+    pub kind: &'static str,
+    /// Standard deviation (stationary, constant or initial).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sigma: Option<f64>,
+    /// Correlation time [s].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tau: Option<f64>,
+    /// Random-walk intensity.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub q: Option<f64>,
+}
+
+impl ComponentJson {
+    /// The quantities of `c`.
+    pub fn of(c: &Component<f64>) -> Self {
+        let (sigma, tau, q) = match *c {
+            Component::GaussMarkov(g) => (Some(g.sigma), Some(g.tau), None),
+            Component::RandomWalk(r) => (Some(r.sigma0), None, Some(r.q)),
+            Component::RandomConstant(r) => (Some(r.sigma), None, None),
+            Component::ExpCosine(e) => (Some(e.sigma), Some(e.tau), None),
+            Component::White(w) => (Some(w.density), None, None),
+        };
+        Self {
+            kind: c.kind().name(),
+            sigma,
+            tau,
+            q,
+        }
+    }
+}
+
+/// The scores of one run, before or after the named effect is added.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunScores {
+    /// Innovation log-likelihood, gate off (the test's).
+    pub loglik: f64,
+    /// Mean per-axis NIS of the run (gated, as written): pos N, E, D, vel N, E, D.
+    pub mean_nis_axis: [f64; 6],
+    /// Horizontal error at the outage ends, RMS and max [m] (with `--outages`).
+    pub outage_rms_m: Option<f64>,
+    /// Max [m].
+    pub outage_max_m: Option<f64>,
+    /// RMS horizontal error against the truth [m] (with `--truth`).
+    pub truth_rms_horizontal_m: Option<f64>,
+    /// RMS roll, pitch, yaw error against the truth [deg] (with `--truth`).
+    pub truth_rms_att_deg: Option<[f64; 3]>,
+    /// The largest fraction of epochs outside 3 sigma over the nine position, velocity and
+    /// attitude axes (with `--truth`; 0.0027 for a consistent filter).
+    pub truth_outside_3sigma_max: Option<f64>,
+    /// Mean NEES of the nine navigation errors (with `--truth`; 9 for a consistent filter).
+    pub truth_nees_mean: Option<f64>,
+    /// The mean NEES inside its 99 % band for the series' effective number of independent
+    /// epochs (with `--truth`; `TruthSummary::nees_consistent`).
+    pub truth_nees_consistent: Option<bool>,
+}
+
+impl RunScores {
+    /// The scores of `run` (its truth summary, if attached) with the ungated `loglik`.
+    pub fn of(run: &NavRun, loglik: f64) -> Self {
+        let s = &run.summary;
+        Self {
+            loglik,
+            mean_nis_axis: s.mean_nis_axis,
+            outage_rms_m: s.outage_rms_m,
+            outage_max_m: s.outage_max_m,
+            truth_rms_horizontal_m: s.truth.as_ref().map(|t| t.rms_horizontal_m),
+            truth_rms_att_deg: s.truth.as_ref().map(|t| t.rms_att_deg),
+            truth_outside_3sigma_max: s.truth.as_ref().map(|t| {
+                t.outside_3sigma_pos
+                    .iter()
+                    .chain(&t.outside_3sigma_vel)
+                    .chain(&t.outside_3sigma_att)
+                    .fold(0.0f64, |a, b| a.max(*b))
+            }),
+            truth_nees_mean: s.truth.as_ref().map(|t| t.nees_mean),
+            truth_nees_consistent: s.truth.as_ref().map(|t| t.nees_consistent),
+        }
+    }
+}
+
+/// The verdict.
+#[derive(Debug, Clone, Serialize)]
+pub struct NavDiagnosis {
+    /// `"adequate"` or `"missing-effect"`.
+    pub verdict: &'static str,
+    /// The named effect's label.
+    pub named: Option<String>,
+    /// Family-wise false-alarm probability of the tests.
+    pub alpha: f64,
+    /// Log-likelihood of the model as given (gate off).
+    pub loglik_model: f64,
+    /// Every candidate, tested or not.
+    pub candidates: Vec<NavCandidate>,
+    /// Filter runs in all.
+    pub evaluations: usize,
+    /// The model as given.
+    pub before: Option<RunScores>,
+    /// With the named effect.
+    pub after: Option<RunScores>,
+    /// The model with the named effect (the model as given when adequate).
+    #[serde(skip)]
+    pub model: ImuErrorModel<f64>,
+}
+
+impl NavDiagnosis {
+    /// The report's section: the verdict, the candidates, the scores before and after.
+    pub fn html(&self) -> String {
+        let num = |v: Option<f64>, d: usize| v.map_or("-".to_string(), |x| format!("{x:.d$}"));
+        let mut h =
+            format!(
+            "<p>Verdict: <b>{}</b>{}. Each candidate is added to the three axes of its sensor, \
+             fitted by maximum likelihood and tested against the model: significant when its \
+             gain exceeds half the chi-square(k) quantile at {} / m (m candidates tested; \
+             <code>diagnosis.json</code>, <code>diagnosed-model.toml</code>). A candidate can \
+             stand in for a magnitude that is only too small: diagnose a model whose \
+             magnitudes are fitted (<code>--identify --diagnose</code>).</p><table><tr>\
+             <th>candidate</th><th>k</th><th>fitted</th><th>gain [nats]</th>\
+             <th>threshold [nats]</th><th>runs</th></tr>",
+            self.verdict,
+            self.named.as_ref().map(|n| format!(": {n} added")).unwrap_or_default(),
+            self.alpha
+        );
+        for c in &self.candidates {
+            let fitted = match (&c.component, c.skipped) {
+                (_, Some(why)) => format!("not tested: {why}"),
+                (Some(j), None) => [("sigma", j.sigma), ("tau", j.tau), ("q", j.q)]
+                    .iter()
+                    .filter_map(|(n, v)| v.map(|v| format!("{n} {v:.3e}")))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                (None, None) => "-".to_string(),
+            };
+            let class = if c.significant { " class=\"bad\"" } else { "" };
+            h += &format!(
+                "<tr><td>{}</td><td>{}</td><td>{fitted}</td><td{class}>{}</td><td>{}</td><td>{}</td></tr>",
+                c.label,
+                c.n_params,
+                num(c.gain_nats, 1),
+                num(c.threshold_nats, 1),
+                c.evaluations
+            );
+        }
+        h += "</table><table><tr><th></th><th>log-likelihood</th><th>mean NIS per axis (pos N, E, D, vel N, E, D)</th><th>outage ends RMS / max [m]</th><th>horizontal RMS vs truth [m]</th><th>outside 3 sigma, worst axis</th><th>mean NEES (9)</th></tr>";
+        for (name, s) in [
+            ("model", &self.before),
+            ("with the named effect", &self.after),
+        ] {
+            if let Some(s) = s {
+                let nis: Vec<String> = s.mean_nis_axis.iter().map(|v| format!("{v:.2}")).collect();
+                h += &format!(
+                    "<tr><td>{name}</td><td>{:.1}</td><td>{}</td><td>{} / {}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                    s.loglik,
+                    nis.join(", "),
+                    num(s.outage_rms_m, 2),
+                    num(s.outage_max_m, 2),
+                    num(s.truth_rms_horizontal_m, 2),
+                    s.truth_outside_3sigma_max
+                        .map_or("-".to_string(), |v| format!("{:.2} %", 100.0 * v)),
+                    num(s.truth_nees_mean, 2)
+                );
+            }
+        }
+        h + "</table>"
+    }
+}
