@@ -200,16 +200,7 @@ fn main() -> Result<()> {
             }
             let (mut run, id) = if identify {
                 let (run, id) = hal_sim::nav::run_identified(&args, &out)?;
-                eprintln!(
-                    "identified: factors {:?} ({}), IMU time shift {:+.4} s, constraint sd {:?} m/s, loglik {:.1} -> {:.1} in {} runs",
-                    id.factors,
-                    hal_sim::nav::identify::FACTORS.join(", "),
-                    id.imu_time_shift,
-                    id.nhc_sd,
-                    id.loglik_start,
-                    id.loglik,
-                    id.evaluations
-                );
+                eprintln!("{}", id.summary_line());
                 (run, Some(id))
             } else {
                 (hal_sim::nav::run(&args)?, None)

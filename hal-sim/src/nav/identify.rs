@@ -66,6 +66,22 @@ pub struct Identified {
     pub model: ImuErrorModel<f64>,
 }
 
+impl Identified {
+    /// One line for the terminal: the factors, the shift, the constraint, the likelihoods.
+    pub fn summary_line(&self) -> String {
+        format!(
+            "identified: factors {:?} ({}), IMU time shift {:+.4} s, constraint sd {:?} m/s, loglik {:.1} -> {:.1} in {} runs",
+            self.factors,
+            FACTORS.join(", "),
+            self.imu_time_shift,
+            self.nhc_sd,
+            self.loglik_start,
+            self.loglik,
+            self.evaluations
+        )
+    }
+}
+
 /// `model` with its white densities and random-walk intensities scaled by the factors
 /// (standard deviations: `q` scales by the square).
 pub fn scaled(model: &ImuErrorModel<f64>, f: &[f64; 6]) -> ImuErrorModel<f64> {

@@ -336,15 +336,7 @@ pub fn run_diagnosed(
     let truth = truth.zip(truth_path);
     let (identified, id) = if identify {
         let (a, id) = super::identify_and_write(args, &imu, &fixes, out)?;
-        eprintln!(
-            "identified: factors {:?} ({}), IMU time shift {:+.4} s, loglik {:.1} -> {:.1} in {} runs",
-            id.factors,
-            super::identify::FACTORS.join(", "),
-            id.imu_time_shift,
-            id.loglik_start,
-            id.loglik,
-            id.evaluations
-        );
+        eprintln!("{}", id.summary_line());
         (a, Some(id))
     } else {
         (args.clone(), None)
