@@ -127,7 +127,9 @@ pub(crate) fn finite(file: &str, line: u64, col: &str, v: Option<f64>) -> Result
     match v {
         Some(x) if x.is_finite() => Ok(x),
         Some(x) => bail!("{file} line {line}, column {col}: expected a finite number, found {x}"),
-        None => bail!("{file} line {line}, column {col}: expected a number, found an empty cell"),
+        None => {
+            bail!("{file} line {line}, column {col}: expected a number, found an empty cell or NaN")
+        }
     }
 }
 
