@@ -15,9 +15,9 @@
 //!    one set of parameters (tied): a Gauss-Markov (sigma, tau), a random walk (q), a random
 //!    constant (sigma). A kind the sensor already carries is left out, except a second
 //!    Gauss-Markov (another time scale); so is a candidate that does not fit the filter's
-//!    [`imu_ident::nav::NAV_N`] states. White noise is a magnitude, not a missing effect
-//!    (`--identify` fits it), and the exp-cosine's three parameters would triple the cost;
-//!    neither is a candidate here.
+//!    [`imu_ident::nav::NAV_N`] states (counted by the core, scale factors included). White
+//!    noise is a magnitude, not a missing effect (`--identify` fits it), and the exp-cosine's
+//!    three parameters would triple the cost; neither is a candidate here.
 //! 3. Each candidate's parameters maximise the likelihood: every start of the table
 //!    ([`crate::candidates::Candidate::starts_at`], scaled to the sensor's magnitude in the
 //!    model) is evaluated, and a pattern search ([`super::pattern`]) runs from the best, in
@@ -57,13 +57,14 @@ use crate::nav_io::truth_csv::TruthRow;
 use crate::nav_io::{self, GnssFix, ImuSample};
 use anyhow::Result;
 use imu_ident::model::{Component, ComponentKind, ErrorSource};
-use imu_ident::nav::{ImuErrorModel, ImuSensor, NAV_N};
+use imu_ident::nav::{
+    ImuErrorModel, ImuSensor, NavInit, NavPoint, StrapdownErrorModel, NAV_N, NAV_Z,
+};
+use nalgebra::Vector3;
 use std::path::Path;
 
 /// Family-wise probability of calling a right model inadequate (item 4 of the module docs).
 pub const ALPHA: f64 = 0.01;
-/// Navigation error states ahead of the sensor states (attitude, velocity, position).
-const NAV_STATES: usize = 9;
 /// Pattern-search steps [natural-log units].
 const STEPS: [f64; 4] = [2.0, 1.0, 0.5, 0.25];
 /// Half-width of a coordinate's interval about its start [natural-log units]: three decades.
@@ -109,8 +110,31 @@ fn with_component(
     Some(out)
 }
 
+/// The filter's states for the noise model `imu` (the core's count: navigation errors, the
+/// components, the scale factors of `--scale-factors`).
+fn filter_states(imu: ImuErrorModel<f64>, scale_factor_sd: Option<[f64; 2]>) -> usize {
+    StrapdownErrorModel {
+        imu,
+        init: NavInit {
+            sd_att: Vector3::repeat(1.0),
+            sd_vel: 1.0,
+            sd_pos: 1.0,
+        },
+        lever_arm: Vector3::zeros(),
+        obs_sd: [1.0; NAV_Z],
+        point: NavPoint::at_rest(0.0, 0.0),
+        dt: 1.0,
+        scale_factor_sd,
+    }
+    .states()
+}
+
 /// Why `cand` is not tested on `m`, if it is not.
-fn skip_reason(m: &ImuErrorModel<f64>, cand: &Candidate) -> Option<&'static str> {
+fn skip_reason(
+    m: &ImuErrorModel<f64>,
+    scale_factor_sd: Option<[f64; 2]>,
+    cand: &Candidate,
+) -> Option<&'static str> {
     let Some(s) = imu_sensor(cand.sensor) else {
         return Some("not a sensor of the strapdown model");
     };
@@ -134,7 +158,7 @@ fn skip_reason(m: &ImuErrorModel<f64>, cand: &Candidate) -> Option<&'static str>
         .and_then(|p| cand.component(&p));
     let fits = probe
         .and_then(|c| with_component(m, s, c))
-        .is_some_and(|m2| NAV_STATES + m2.states() <= NAV_N);
+        .is_some_and(|m2| filter_states(m2, scale_factor_sd) <= NAV_N);
     (!fits).then_some("does not fit the filter's states")
 }
 
@@ -164,7 +188,7 @@ pub fn diagnose(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
     let l0 = loglik(args, imu, fixes)?;
     let tested = LIBRARY
         .iter()
-        .filter(|c| skip_reason(&args.model, c).is_none())
+        .filter(|c| skip_reason(&args.model, args.scale_factor_sd, c).is_none())
         .count();
     let mut evaluations = 1usize;
     let mut candidates = Vec::with_capacity(LIBRARY.len());
@@ -180,7 +204,7 @@ pub fn diagnose(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
             significant: false,
             evaluations: 0,
             explanation: None,
-            skipped: skip_reason(&args.model, cand),
+            skipped: skip_reason(&args.model, args.scale_factor_sd, cand),
         };
         let sensor = imu_sensor(cand.sensor);
         if let (None, Some(s)) = (out.skipped, sensor) {
@@ -418,8 +442,9 @@ mod tests {
         });
         assert!(m.set_all_gyro(&[white, walk]).is_ok());
         assert!(m.set_all_accel(&[white]).is_ok());
-        let reason =
-            |m: &ImuErrorModel<f64>, sensor, kind| skip_reason(m, &Candidate { sensor, kind });
+        let reason = |m: &ImuErrorModel<f64>, sensor, kind| {
+            skip_reason(m, None, &Candidate { sensor, kind })
+        };
         assert!(reason(&m, ErrorSource::Gyro, ComponentKind::RandomWalk).is_some());
         assert!(reason(&m, ErrorSource::Gyro, ComponentKind::White).is_some());
         assert!(reason(&m, ErrorSource::Observation, ComponentKind::GaussMarkov).is_some());
@@ -437,7 +462,20 @@ mod tests {
             tau: 100.0,
         });
         assert!(m.set_all_accel(&[white, gm, gm, gm]).is_ok());
-        assert_eq!(NAV_STATES + m.states(), 21);
+        assert_eq!(filter_states(m.clone(), None), 21);
+        // The six scale-factor states of `--scale-factors` count too.
+        assert_eq!(filter_states(m.clone(), Some([0.01, 0.01])), 27);
+        assert_eq!(
+            skip_reason(
+                &m,
+                Some([0.01, 0.01]),
+                &Candidate {
+                    sensor: ErrorSource::Gyro,
+                    kind: ComponentKind::RandomConstant
+                }
+            ),
+            Some("does not fit the filter's states")
+        );
         assert_eq!(
             reason(&m, ErrorSource::Gyro, ComponentKind::RandomConstant),
             None
