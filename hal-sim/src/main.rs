@@ -191,7 +191,7 @@ fn main() -> Result<()> {
                 eprintln!(
                     "diagnosis: {}{} (loglik {:.1} -> {:.1}, {} runs); diagnosis.json, diagnosed-model.toml",
                     d.verdict,
-                    d.named.as_ref().map(|n| format!(": {n}")).unwrap_or_default(),
+                    d.named_on_axes().map(|n| format!(": {n}")).unwrap_or_default(),
                     d.loglik_model,
                     d.after.as_ref().or(d.before.as_ref()).map_or(f64::NAN, |s| s.loglik),
                     d.evaluations

@@ -35,7 +35,11 @@
 //!    half the chi-square(dk) `1 - ALPHA` quantile over it (a Gauss-Markov whose correlation
 //!    time runs past the log is a random walk: on 1 of 8 seeds with a hidden walk the
 //!    Gauss-Markov led the walk by 1.8 nats, within the 3.3 nats of that test).
-//! 5. The model with the named effect is run again (gated, as any run) and its outputs are the
+//! 5. Where the named effect sits ([`axes`]): its magnitude is untied over the three axes,
+//!    the split tested against the tied fit (half the chi-square(2) `1 - ALPHA` quantile)
+//!    and, when the axes differ, each axis tested for the effect; the diagnosed model carries
+//!    it, split, on the axes that need it.
+//! 6. The model with the named effect is run again (gated, as any run) and its outputs are the
 //!    command's; `diagnosis.json` keeps the scores before and after.
 //!
 //! Diagnose a model whose magnitudes are fitted: `--identify --diagnose` identifies them first
@@ -46,8 +50,10 @@
 //! outage ends rises from 7.0 to 24 m; the identified model is adequate (BENCHMARKS.md
 //! "Naming a missing effect on the strapdown navigator").
 
+mod axes;
 mod record;
 
+pub use axes::AxisSplit;
 pub use record::{ComponentJson, NavCandidate, NavDiagnosis, RunScores};
 
 use super::identify::loglik;
@@ -222,13 +228,12 @@ pub fn diagnose(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
             out.significant = ll - l0 > th;
             out.evaluations = n;
             if let Some(c) = comp {
-                candidates.push((out, Some((s, c))));
+                candidates.push((out, Some((s, c, *cand, p, ll))));
                 continue;
             }
         }
         candidates.push((out, None));
     }
-    bar.finish_and_clear();
     // The named effect: the largest gain above its own threshold, then the simplest of its
     // sensor's significant candidates that it does not beat significantly (item 4).
     let excess = |c: &NavCandidate| c.gain_nats.zip(c.threshold_nats).map(|(g, t)| g - t);
@@ -240,10 +245,10 @@ pub fn diagnose(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
             .filter(|(c, p)| c.significant && p.is_some())
     };
     let mut best = significant().max_by(|a, b| order(excess(&a.0), excess(&b.0)));
-    if let Some((b, Some((sb, _)))) = best {
+    if let Some((b, Some((sb, ..)))) = best {
         let simpler = significant()
             .filter(|(c, p)| {
-                p.as_ref().is_some_and(|(s, _)| s == sb)
+                p.as_ref().is_some_and(|(s, ..)| s == sb)
                     && c.n_params < b.n_params
                     && c.gain_nats.zip(b.gain_nats).is_some_and(|(g, gb)| {
                         threshold_nested(b.n_params - c.n_params).is_ok_and(|t| gb - g <= t)
@@ -254,15 +259,16 @@ pub fn diagnose(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
             best = simpler;
         }
     }
-    let (verdict, named, model) = match best {
-        Some((c, Some((s, comp)))) => (
-            "missing-effect",
-            Some(c.label.clone()),
-            with_component(&args.model, *s, *comp)
-                .ok_or_else(|| anyhow::anyhow!("nav --diagnose: {} no longer fits", c.label))?,
-        ),
-        _ => ("adequate", None, args.model.clone()),
+    let (verdict, named, model, split) = match best {
+        Some((c, Some((s, _, cand, p, ll)))) => {
+            bar.set_message(format!("{}: per axis", c.label));
+            let (split, model) = axes::split(args, imu, fixes, cand, *s, p, *ll)?;
+            evaluations += split.evaluations;
+            ("missing-effect", Some(c.label.clone()), model, Some(split))
+        }
+        _ => ("adequate", None, args.model.clone(), None),
     };
+    bar.finish_and_clear();
     Ok(NavDiagnosis {
         verdict,
         named,
@@ -270,6 +276,7 @@ pub fn diagnose(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
         loglik_model: l0,
         candidates: candidates.into_iter().map(|(c, _)| c).collect(),
         evaluations,
+        axes: split,
         before: None,
         after: None,
         model,
@@ -385,25 +392,19 @@ pub fn run_diagnosed(
             args.model_name,
             args.imu.display(),
             d.verdict,
-            d.named
-                .as_ref()
+            d.named_on_axes()
                 .map(|n| format!(", {n} added"))
                 .unwrap_or_default()
         ))?,
     )?;
     let (before, cmp_before) = run_scored(args, &imu, &fixes, truth)?;
     d.before = Some(RunScores::of(&before, d.loglik_model));
-    let (run, cmp) = match &d.named {
+    let (run, cmp) = match d.named_on_axes() {
         Some(name) => {
             let mut a = args.clone();
             a.model = d.model.clone();
             a.model_name = format!("{} + {name} (nav --diagnose)", args.model_name);
-            let ll = d
-                .candidates
-                .iter()
-                .find(|c| &c.label == name)
-                .and_then(|c| c.loglik)
-                .unwrap_or(f64::NAN);
+            let ll = d.axes.as_ref().map_or(f64::NAN, |a| a.loglik_final);
             let (r, c) = run_scored(&a, &imu, &fixes, truth)?;
             d.after = Some(RunScores::of(&r, ll));
             (r, c)

@@ -1,6 +1,7 @@
 //! What `nav --diagnose` records ([`super`]): the candidates as fitted, the scores of the runs
 //! before and after, the verdict (`diagnosis.json`), and its section of the report.
 
+use super::AxisSplit;
 use crate::nav::NavRun;
 use imu_ident::model::Component;
 use imu_ident::nav::ImuErrorModel;
@@ -137,6 +138,9 @@ pub struct NavDiagnosis {
     pub candidates: Vec<NavCandidate>,
     /// Filter runs in all.
     pub evaluations: usize,
+    /// The named effect split over the axes ([`super::axes`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub axes: Option<AxisSplit>,
     /// The model as given.
     pub before: Option<RunScores>,
     /// With the named effect.
@@ -147,6 +151,15 @@ pub struct NavDiagnosis {
 }
 
 impl NavDiagnosis {
+    /// The named effect with the axes that carry it, e.g. `accel/random-walk on x`.
+    pub fn named_on_axes(&self) -> Option<String> {
+        let n = self.named.as_ref()?;
+        Some(match &self.axes {
+            Some(a) if a.significant => format!("{n} on {}", a.axes_label()),
+            _ => n.clone(),
+        })
+    }
+
     /// The report's section: the verdict, the candidates, the scores before and after.
     pub fn html(&self) -> String {
         let num = |v: Option<f64>, d: usize| v.map_or("-".to_string(), |x| format!("{x:.d$}"));
@@ -161,7 +174,7 @@ impl NavDiagnosis {
              <th>candidate</th><th>k</th><th>fitted</th><th>gain [nats]</th>\
              <th>threshold [nats]</th><th>runs</th></tr>",
             self.verdict,
-            self.named.as_ref().map(|n| format!(": {n} added")).unwrap_or_default(),
+            self.named_on_axes().map(|n| format!(": {n} added")).unwrap_or_default(),
             self.alpha
         );
         for c in &self.candidates {
@@ -184,7 +197,11 @@ impl NavDiagnosis {
                 c.evaluations
             );
         }
-        h += "</table><table><tr><th></th><th>log-likelihood</th><th>mean NIS per axis (pos N, E, D, vel N, E, D)</th><th>outage ends RMS / max [m]</th><th>horizontal RMS vs truth [m]</th><th>outside 3 sigma, worst axis</th><th>mean NEES (9)</th></tr>";
+        h += "</table>";
+        if let Some(a) = &self.axes {
+            h += &a.html();
+        }
+        h += "<table><tr><th></th><th>log-likelihood</th><th>mean NIS per axis (pos N, E, D, vel N, E, D)</th><th>outage ends RMS / max [m]</th><th>horizontal RMS vs truth [m]</th><th>outside 3 sigma, worst axis</th><th>mean NEES (9)</th></tr>";
         for (name, s) in [
             ("model", &self.before),
             ("with the named effect", &self.after),
