@@ -47,7 +47,6 @@ use hal_sim::trajectory::profile::Profile;
 use hal_sim::trajectory::write::{simulate_drive, write_and_read_drive};
 use imu_ident::model::Quantity;
 use imu_ident::nav::ImuErrorModel;
-use imu_ident::strapdown::Geodetic;
 use rand::{Rng, SeedableRng};
 
 /// `m` with every identified quantity of every axis scaled by its own log-uniform factor in
@@ -138,11 +137,7 @@ fn main() {
         let truth_model = sim.to_core().unwrap_or_else(|e| panic!("{e:#}"));
         let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
         let profile = Profile::figure_eight_course(hours, 1.0).unwrap_or_else(|e| panic!("{e:#}"));
-        let start = Geodetic {
-            lat: 45f64.to_radians(),
-            lon: 7f64.to_radians(),
-            h: 300.0,
-        };
+        let start = hal_sim::trajectory::write::course_start();
         let drive = simulate_drive(
             &profile,
             start,
@@ -155,7 +150,7 @@ fn main() {
         let (imu, fixes, truth) =
             write_and_read_drive(dir.path(), &drive).unwrap_or_else(|e| panic!("{e:#}"));
         let base = |model: ImuErrorModel<f64>, name: &str| {
-            bench_args::nav::simulated(dir.path(), &fixes, &truth, model, name)
+            NavArgs::simulated_drive(dir.path(), &fixes, &truth, model, name)
         };
         let t = std::time::Instant::now();
         let oracle = run_with::<f64>(&base(truth_model.clone(), "true"), &imu, &fixes)

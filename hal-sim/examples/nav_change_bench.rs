@@ -30,7 +30,6 @@ use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
 use hal_sim::trajectory::gnss::GnssConfig;
 use hal_sim::trajectory::profile::Profile;
 use hal_sim::trajectory::write::{simulate_drive, write_and_read_drive};
-use imu_ident::strapdown::Geodetic;
 
 fn main() {
     let grade = arg("grade").unwrap_or_else(|| "mems".into());
@@ -66,11 +65,7 @@ fn main() {
     for seed in first..first + seeds {
         let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
         let profile = Profile::figure_eight_course(hours, 1.0).unwrap_or_else(|e| panic!("{e:#}"));
-        let start = Geodetic {
-            lat: 45f64.to_radians(),
-            lon: 7f64.to_radians(),
-            h: 300.0,
-        };
+        let start = hal_sim::trajectory::write::course_start();
         let drive = |m: &SimModel| {
             simulate_drive(&profile, start, 0.01, m, GnssConfig::default(), seed)
                 .unwrap_or_else(|e| panic!("{e:#}"))
@@ -91,7 +86,7 @@ fn main() {
         let before_model = sim.to_core().unwrap_or_else(|e| panic!("{e:#}"));
         let after_model = after.to_core().unwrap_or_else(|e| panic!("{e:#}"));
         let base = |model: imu_ident::nav::ImuErrorModel<f64>, name: &str| {
-            bench_args::nav::simulated(dir.path(), &fixes, &truth, model, name)
+            NavArgs::simulated_drive(dir.path(), &fixes, &truth, model, name)
         };
         let run = |args: &NavArgs| {
             run_with::<f64>(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"))

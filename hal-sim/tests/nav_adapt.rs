@@ -38,7 +38,6 @@ use hal_sim::trajectory::profile::Profile;
 use hal_sim::trajectory::write::{simulate_drive, write_and_read_drive};
 use imu_ident::model::Quantity;
 use imu_ident::nav::ImuErrorModel;
-use imu_ident::strapdown::Geodetic;
 
 /// chi-square quantile, 4 degrees of freedom, 0.999.
 const CHI2_4_999: f64 = 18.467;
@@ -53,11 +52,7 @@ fn drive() -> (
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let profile =
         Profile::figure_eight_course(25.0 / 60.0, 1.0).unwrap_or_else(|e| panic!("{e:#}"));
-    let start = Geodetic {
-        lat: 45f64.to_radians(),
-        lon: 7f64.to_radians(),
-        h: 300.0,
-    };
+    let start = hal_sim::trajectory::write::course_start();
     let drive = simulate_drive(
         &profile,
         start,

@@ -44,7 +44,6 @@
 
 use hal_sim::nav::identify::loglik;
 use hal_sim::nav::{run_with, NavArgs};
-use hal_sim::nav_io::outages::OutageSpec;
 use hal_sim::nav_io::truth_csv::TruthRow;
 use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, read_truth_csv, GnssFix, ImuSample};
 use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
@@ -53,7 +52,6 @@ use hal_sim::trajectory::profile::Profile;
 use hal_sim::trajectory::write::{simulate_drive, write_drive};
 use imu_ident::model::{Component, GaussMarkov, RandomConstant, RandomWalk, WhiteNoise};
 use imu_ident::nav::ImuErrorModel;
-use imu_ident::strapdown::Geodetic;
 use nalgebra::Matrix2;
 use std::time::Instant;
 
@@ -120,11 +118,7 @@ fn drive(sim: &SimModel, hours: f64, still: bool, seed: u64) -> Drive {
         Profile::figure_eight_course(hours, 1.0)
     }
     .unwrap_or_else(|e| panic!("{e:#}"));
-    let start = Geodetic {
-        lat: 45f64.to_radians(),
-        lon: 7f64.to_radians(),
-        h: 300.0,
-    };
+    let start = hal_sim::trajectory::write::course_start();
     let d = simulate_drive(&profile, start, DT, sim, GnssConfig::default(), seed)
         .unwrap_or_else(|e| panic!("{e:#}"));
     write_drive(dir.path(), &d).unwrap_or_else(|e| panic!("{e:#}"));
@@ -135,15 +129,11 @@ fn drive(sim: &SimModel, hours: f64, still: bool, seed: u64) -> Drive {
         .map(|k| 600.0 + 1200.0 * k as f64)
         .take_while(|s| *s + 60.0 < hours * 3600.0 - 120.0)
         .next();
+    let args = NavArgs::simulated_drive(dir.path(), &fixes, &truth, core(sim), "blind spot");
+    // A log too short for the first outage has none.
     let args = NavArgs {
-        outages: first.map(|_| OutageSpec::every_20_min(0.0, fixes.first().map_or(0.0, |f| f.t))),
-        ..NavArgs::simulated(
-            dir.path().join("imu.csv"),
-            dir.path().join("gnss.csv"),
-            core(sim),
-            "blind spot",
-            truth[0].rpy_deg[2],
-        )
+        outages: first.and(args.outages),
+        ..args
     };
     Drive {
         _dir: dir,

@@ -30,7 +30,6 @@
 
 use hal_sim::nav::diagnose::{diagnose, run_diagnosed, NavDiagnosis, RunScores};
 use hal_sim::nav::{run_with, NavArgs};
-use hal_sim::nav_io::outages::OutageSpec;
 use hal_sim::nav_io::truth_csv::TruthRow;
 use hal_sim::nav_io::{GnssFix, ImuSample};
 use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
@@ -38,7 +37,6 @@ use hal_sim::trajectory::gnss::GnssConfig;
 use hal_sim::trajectory::profile::Profile;
 use hal_sim::trajectory::write::{simulate_drive, write_and_read_drive};
 use imu_ident::model::{Component, RandomConstant, RandomWalk};
-use imu_ident::strapdown::Geodetic;
 
 const MG: f64 = 1e-3 * imu_ident::model::ins::G0;
 const DT: f64 = 0.02;
@@ -87,29 +85,13 @@ struct Drive {
 fn drive(sim: &SimModel, seed: u64) -> Drive {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let profile = Profile::figure_eight_course(HOURS, 1.0).unwrap_or_else(|e| panic!("{e:#}"));
-    let start = Geodetic {
-        lat: 45f64.to_radians(),
-        lon: 7f64.to_radians(),
-        h: 300.0,
-    };
+    let start = hal_sim::trajectory::write::course_start();
     let d = simulate_drive(&profile, start, DT, sim, GnssConfig::default(), seed)
         .unwrap_or_else(|e| panic!("{e:#}"));
     let (imu, fixes, truth) =
         write_and_read_drive(dir.path(), &d).unwrap_or_else(|e| panic!("{e:#}"));
     let model = sensors(None).to_core().unwrap_or_else(|e| panic!("{e:#}"));
-    let args = NavArgs {
-        outages: Some(OutageSpec::every_20_min(
-            0.0,
-            fixes.first().map_or(0.0, |f| f.t),
-        )),
-        ..NavArgs::simulated(
-            dir.path().join("imu.csv"),
-            dir.path().join("gnss.csv"),
-            model,
-            "bias called constant",
-            truth[0].rpy_deg[2],
-        )
-    };
+    let args = NavArgs::simulated_drive(dir.path(), &fixes, &truth, model, "bias called constant");
     Drive {
         dir,
         args,

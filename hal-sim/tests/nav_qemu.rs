@@ -93,11 +93,7 @@ fn drive_nhc(dir: &std::path::Path) -> NavArgs {
 fn drive_zupt(dir: &std::path::Path) -> NavArgs {
     use hal_sim::trajectory::{gnss::GnssConfig, profile::Profile, write};
     let profile = Profile::stop_and_go(120.0).unwrap_or_else(|e| panic!("{e:#}"));
-    let start = imu_ident::strapdown::Geodetic {
-        lat: 45f64.to_radians(),
-        lon: 7f64.to_radians(),
-        h: 300.0,
-    };
+    let start = hal_sim::trajectory::write::course_start();
     let sim = hal_sim::trajectory::errors::ImuErrorModel::mems();
     let d = write::simulate_drive(&profile, start, 0.01, &sim, GnssConfig::default(), 19)
         .unwrap_or_else(|e| panic!("{e:#}"));

@@ -7,12 +7,10 @@
 //! seeds) and the horizontal error at the end of the outages (RMS over outages and seeds).
 
 use hal_sim::nav::{run_with, NavArgs};
-use hal_sim::nav_io::outages::OutageSpec;
 use hal_sim::trajectory::errors::ImuErrorModel as SimModel;
 use hal_sim::trajectory::gnss::GnssConfig;
 use hal_sim::trajectory::profile::Profile;
 use hal_sim::trajectory::write::{simulate_drive, write_and_read_drive};
-use imu_ident::strapdown::Geodetic;
 
 fn quantile(v: &mut [f64], q: f64) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
@@ -56,11 +54,7 @@ fn nav_over_seeds() {
             let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
             let profile =
                 Profile::figure_eight_course(hours, 1.0).unwrap_or_else(|e| panic!("{e:#}"));
-            let start = Geodetic {
-                lat: 45f64.to_radians(),
-                lon: 7f64.to_radians(),
-                h: 300.0,
-            };
+            let start = hal_sim::trajectory::write::course_start();
             // Every fix is in the file; the run withholds the outages' fixes (`--outages`), so
             // that it still writes an epoch, scored against the truth, at each withheld fix time.
             let gnss = GnssConfig::default();
@@ -69,23 +63,17 @@ fn nav_over_seeds() {
             let (imu, fixes, truth) =
                 write_and_read_drive(dir.path(), &drive).unwrap_or_else(|e| panic!("{e:#}"));
             for (k, frac, outage_err, nees) in cases.iter_mut() {
-                let args = NavArgs {
-                    // `outages` is the same schedule (600 s, then every 1200 s).
-                    outages: Some(OutageSpec::every_20_min(
-                        0.0,
-                        fixes.first().map_or(0.0, |f| f.t),
-                    )),
-                    ..NavArgs::simulated(
-                        dir.path().join("imu.csv"),
-                        dir.path().join("gnss.csv"),
-                        hal_sim::nav::model::scaled_sd(
-                            &sim.to_core().unwrap_or_else(|e| panic!("{e:#}")),
-                            *k,
-                        ),
-                        &format!("{grade} x{k}"),
-                        truth[0].rpy_deg[2],
-                    )
-                };
+                // `outages` is the same schedule (600 s, then every 1200 s).
+                let args = NavArgs::simulated_drive(
+                    dir.path(),
+                    &fixes,
+                    &truth,
+                    hal_sim::nav::model::scaled_sd(
+                        &sim.to_core().unwrap_or_else(|e| panic!("{e:#}")),
+                        *k,
+                    ),
+                    &format!("{grade} x{k}"),
+                );
                 let run = run_with::<f64>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
                 let mut out = [0.0; 3];
                 let mut n = 0.0;

@@ -27,7 +27,6 @@ use hal_sim::trajectory::gnss::GnssConfig;
 use hal_sim::trajectory::profile::Profile;
 use hal_sim::trajectory::write::{simulate_drive, write_drive};
 use imu_ident::nav::Zupt;
-use imu_ident::strapdown::Geodetic;
 
 const OUTAGE: (f64, f64) = (240.0, 600.0);
 const STOP: (f64, f64) = (260.0, 560.0);
@@ -57,11 +56,7 @@ fn at(run: &NavRun, truth: &[TruthRow], t: f64) -> ([f64; 2], [f64; 2], [f64; 2]
 fn zero_velocity_updates_hold_a_stop_in_an_outage() {
     let profile = Profile::stop_and_go(STOP.1 - STOP.0).unwrap_or_else(|e| panic!("{e:#}"));
     let sim = SimModel::mems();
-    let start = Geodetic {
-        lat: 45f64.to_radians(),
-        lon: 7f64.to_radians(),
-        h: 300.0,
-    };
+    let start = hal_sim::trajectory::write::course_start();
     let drive = simulate_drive(&profile, start, 0.01, &sim, GnssConfig::default(), 11)
         .unwrap_or_else(|e| panic!("{e:#}"));
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));

@@ -44,11 +44,7 @@ fn ned_diff(a: &Geodetic, b: &Geodetic) -> Vector3<f64> {
 #[test]
 fn f32_tracks_f64_over_two_hours() {
     let p = Profile::figure_eight_course(2.0, 1.0).unwrap();
-    let start = Geodetic {
-        lat: 45f64.to_radians(),
-        lon: 7f64.to_radians(),
-        h: 300.0,
-    };
+    let start = hal_sim::trajectory::write::course_start();
     let dt = 0.01;
     let mut truth = TruthGen::new(&p, start, dt).unwrap();
     let t0 = truth.next().unwrap();

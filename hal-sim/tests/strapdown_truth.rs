@@ -15,11 +15,7 @@ use hal_sim::trajectory::{Profile, TruthGen};
 use imu_ident::strapdown::{earth, Geodetic, Quat, Strapdown};
 
 fn start() -> Geodetic {
-    Geodetic {
-        lat: 45f64.to_radians(),
-        lon: 7f64.to_radians(),
-        h: 300.0,
-    }
+    hal_sim::trajectory::write::course_start()
 }
 
 struct Errors {

@@ -1,36 +1,9 @@
-//! What the navigation benches (`nav_adapt_bench`, `nav_change_bench`) share: the options of
-//! a run on a simulated drive, and its score against the truth.
+//! What the navigation benches (`nav_adapt_bench`, `nav_change_bench`) share: a run's score
+//! against the truth (the options of a run on a simulated drive are
+//! `hal_sim::nav::NavArgs::simulated_drive`).
 
-use hal_sim::nav::{NavArgs, NavRun};
-use hal_sim::nav_io::outages::OutageSpec;
-use hal_sim::nav_io::{GnssFix, TruthRow};
-use imu_ident::nav::ImuErrorModel;
-use std::path::Path;
-
-/// The options of a run of `model` (named `name`) on the simulated drive written to `dir`
-/// (`imu.csv`, `gnss.csv`; its fixes and truth as read back), with the benches' GNSS
-/// outages every 20 min from the first fix.
-pub fn simulated(
-    dir: &Path,
-    fixes: &[GnssFix],
-    truth: &[TruthRow],
-    model: ImuErrorModel<f64>,
-    name: &str,
-) -> NavArgs {
-    NavArgs {
-        outages: Some(OutageSpec::every_20_min(
-            0.0,
-            fixes.first().map_or(0.0, |f| f.t),
-        )),
-        ..NavArgs::simulated(
-            dir.join("imu.csv"),
-            dir.join("gnss.csv"),
-            model,
-            name,
-            truth.first().map_or(0.0, |r| r.rpy_deg[2]),
-        )
-    }
-}
+use hal_sim::nav::NavRun;
+use hal_sim::nav_io::TruthRow;
 
 /// Horizontal RMS [m], attitude RMS [deg], worst 3-sigma fraction of the 9 errors, over
 /// epochs at or after `from`.

@@ -182,6 +182,31 @@ impl NavArgs {
             ..Self::new(imu, gnss, model, model_name)
         }
     }
+
+    /// [`simulated`](Self::simulated) for the simulated drive written to `dir` (`imu.csv`,
+    /// `gnss.csv`; `fixes` and `truth` as read back), with the simulation benches' GNSS
+    /// outages: 60 s every 20 min from 10 min ([`OutageSpec::every_20_min`]).
+    pub fn simulated_drive(
+        dir: &std::path::Path,
+        fixes: &[GnssFix],
+        truth: &[crate::nav_io::TruthRow],
+        model: imu_ident::nav::ImuErrorModel<f64>,
+        model_name: &str,
+    ) -> Self {
+        Self {
+            outages: Some(OutageSpec::every_20_min(
+                0.0,
+                fixes.first().map_or(0.0, |f| f.t),
+            )),
+            ..Self::simulated(
+                dir.join("imu.csv"),
+                dir.join("gnss.csv"),
+                model,
+                model_name,
+                truth.first().map_or(0.0, |r| r.rpy_deg[2]),
+            )
+        }
+    }
 }
 
 /// Everything a run produced.

@@ -179,6 +179,16 @@ pub fn write_and_read_drive(dir: &Path, drive: &Drive) -> Result<DriveLogs> {
     ))
 }
 
+/// Where the simulated drives start (`simulate-drive`, the navigation tests and benches):
+/// 45 deg N, 7 deg E, 300 m.
+pub fn course_start() -> Geodetic {
+    Geodetic {
+        lat: 45f64.to_radians(),
+        lon: 7f64.to_radians(),
+        h: 300.0,
+    }
+}
+
 /// `simulate-drive`: the figure-eight course of [`Profile::figure_eight_course`] (aircraft
 /// banking) for `hours` from 45 N 7 E, 300 m, at `rate_hz`, with the [`ImuErrorModel::mems`]
 /// errors and default 1-Hz GNSS with the given outage windows; writes the three files in `out`.
@@ -194,11 +204,7 @@ pub fn simulate_drive_files(
         anyhow::bail!("--hours and --rate must be positive");
     }
     let profile = Profile::figure_eight_course(hours, 1.0)?;
-    let start = Geodetic {
-        lat: 45f64.to_radians(),
-        lon: 7f64.to_radians(),
-        h: 300.0,
-    };
+    let start = course_start();
     let gnss = GnssConfig {
         outages,
         ..GnssConfig::default()

@@ -23,7 +23,7 @@
 //!    or no axis needs it on its own (an effect shared by two axes, each replaceable by the
 //!    other's): then on all three, split.
 
-use super::{half_chi2_quantile, ComponentJson, ALPHA, HALF_WIDTH, STEPS, TAU_RANGE};
+use super::{half_chi2_quantile, search, ComponentJson, ALPHA};
 use crate::candidates::Candidate;
 use crate::nav::identify::loglik;
 use crate::nav::NavArgs;
@@ -173,17 +173,9 @@ pub(super) fn split(
         .chain(tied.iter().skip(1).copied())
         .collect();
     let mut ll = ll_tied;
-    let is_tau = |i: usize| cand.kind == ComponentKind::GaussMarkov && i == 3;
-    let centre = x.clone();
-    let bounds = |i: usize| {
-        let c = centre.get(i).copied()?;
-        Some(if is_tau(i) {
-            (TAU_RANGE.0.ln(), TAU_RANGE.1.ln())
-        } else {
-            (c - HALF_WIDTH, c + HALF_WIDTH)
-        })
-    };
-    crate::nav::pattern::maximise(&mut x, &mut ll, &STEPS, 4, &bounds, &mut |p: &[f64]| {
+    // A Gauss-Markov's tau follows the three magnitudes.
+    let tau = (cand.kind == ComponentKind::GaussMarkov).then_some(3);
+    search(&mut x, &mut ll, tau, &mut |p: &[f64]| {
         eval_model(model_of(p, [true; 3]))
     })?;
     // 2. The test of the split.

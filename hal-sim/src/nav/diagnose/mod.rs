@@ -318,18 +318,30 @@ fn fit(
     let Some((mut x, mut ll)) = best else {
         return Ok((Vec::new(), f64::NEG_INFINITY, n));
     };
-    let centre = x.clone();
-    let is_tau = |i: usize| cand.kind == ComponentKind::GaussMarkov && i == 1;
+    let tau = (cand.kind == ComponentKind::GaussMarkov).then_some(1);
+    search(&mut x, &mut ll, tau, &mut eval)?;
+    Ok((x, ll, n))
+}
+
+/// The pattern search of item 3 from `x` (whose log-likelihood is `ll`): natural-log steps
+/// [`STEPS`], every coordinate within three decades of its start except coordinate `tau` (a
+/// correlation time), within [`TAU_RANGE`]. Updates `x` and `ll`.
+fn search(
+    x: &mut [f64],
+    ll: &mut f64,
+    tau: Option<usize>,
+    eval: &mut dyn FnMut(&[f64]) -> Result<f64>,
+) -> Result<()> {
+    let centre = x.to_vec();
     let bounds = |i: usize| {
         let c = centre.get(i).copied()?;
-        Some(if is_tau(i) {
+        Some(if tau == Some(i) {
             (TAU_RANGE.0.ln(), TAU_RANGE.1.ln())
         } else {
             (c - HALF_WIDTH, c + HALF_WIDTH)
         })
     };
-    super::pattern::maximise(&mut x, &mut ll, &STEPS, 4, &bounds, &mut eval)?;
-    Ok((x, ll, n))
+    super::pattern::maximise(x, ll, &STEPS, 4, &bounds, eval)
 }
 
 /// One run of `args` (f32 or f64 core) with the truth attached when given.
