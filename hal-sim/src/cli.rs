@@ -126,6 +126,12 @@ pub enum Command {
         /// (otherwise a candidate may stand in for a magnitude that is only wrong).
         #[arg(long, conflicts_with_all = ["adapt", "qemu_elf"])]
         diagnose: bool,
+        /// With --diagnose: test every candidate split over the three axes too (its magnitude
+        /// per axis), not only the named one. Finds an effect on one axis that the tied
+        /// candidate misses (a walk on one horizontal accelerometer, which the tied candidate
+        /// also puts on the vertical one, where the heights reject it); about twice the runs.
+        #[arg(long, requires = "diagnose")]
+        diagnose_axes: bool,
         /// Non-holonomic constraint: the body lateral and vertical velocity at --nhc-lever are
         /// zero with this standard deviation [m/s], every filter step while moving faster than
         /// 1 m/s with the heading known (also during outages). Off by default; with --identify

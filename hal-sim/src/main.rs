@@ -43,6 +43,7 @@ fn main() -> Result<()> {
             gnss_sd_factor,
             identify,
             diagnose,
+            diagnose_axes,
             nhc,
             nhc_lever,
             zupt,
@@ -184,6 +185,7 @@ fn main() -> Result<()> {
                 let d = hal_sim::nav::diagnose::run_diagnosed(
                     &args,
                     identify,
+                    diagnose_axes,
                     truth_rows.as_deref(),
                     truth.as_deref(),
                     &out,

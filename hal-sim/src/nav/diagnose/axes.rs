@@ -44,7 +44,8 @@ pub struct AxisSplit {
     pub gain_nats: f64,
     /// Half the chi-square(2) `1 - ALPHA` quantile [nats].
     pub threshold_nats: f64,
-    /// The split gains more than its threshold.
+    /// The split gains more than its threshold, or (`--diagnose-axes`) the split is what
+    /// named the effect.
     pub significant: bool,
     /// With a significant split: the loss of dropping the component from x, y, z alone [nats].
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -55,7 +56,8 @@ pub struct AxisSplit {
     pub on_axes: [bool; 3],
     /// Log-likelihood of the diagnosed model (gate off).
     pub loglik_final: f64,
-    /// Filter runs spent.
+    /// Filter runs spent here (with `--diagnose-axes`, the split's fit is counted with its
+    /// candidate).
     pub evaluations: usize,
 }
 
@@ -136,8 +138,62 @@ fn components(cand: &Candidate, x: &[f64]) -> Option<[Component<f64>; 3]> {
     Some([one(0)?, one(1)?, one(2)?])
 }
 
+/// The split of candidate `cand` on sensor `s` (module docs, item 1) from its tied fit
+/// (log-parameters `tied`, log-likelihood `ll_tied`): the log-parameters `[m_x, m_y, m_z,
+/// shared...]`, their log-likelihood and the runs spent.
+pub(super) fn fit_split(
+    args: &NavArgs,
+    imu: &[ImuSample],
+    fixes: &[GnssFix],
+    cand: &Candidate,
+    s: ImuSensor,
+    tied: &[f64],
+    ll_tied: f64,
+) -> Result<(Vec<f64>, f64, usize)> {
+    let Some(&m0) = tied.first() else {
+        anyhow::bail!("nav --diagnose: {} has no parameters", cand.label());
+    };
+    let mut a = args.clone();
+    let mut n = 0usize;
+    let mut x: Vec<f64> = [m0, m0, m0]
+        .into_iter()
+        .chain(tied.iter().skip(1).copied())
+        .collect();
+    let mut ll = ll_tied;
+    // A Gauss-Markov's tau follows the three magnitudes.
+    let tau = (cand.kind == ComponentKind::GaussMarkov).then_some(3);
+    search(&mut x, &mut ll, tau, &mut |p: &[f64]| {
+        n += 1;
+        match model_of(&args.model, cand, s, p, [true; 3]) {
+            Some(m) => {
+                a.model = m;
+                loglik(&a, imu, fixes)
+            }
+            None => Ok(f64::NEG_INFINITY),
+        }
+    })?;
+    Ok((x, ll, n))
+}
+
+/// `m` with the split `x` of `cand` on the axes `on` of sensor `s`.
+fn model_of(
+    m: &ImuErrorModel<f64>,
+    cand: &Candidate,
+    s: ImuSensor,
+    x: &[f64],
+    on: [bool; 3],
+) -> Option<ImuErrorModel<f64>> {
+    let c = components(cand, x)?;
+    let pick = |i: usize| on[i].then_some(c[i]);
+    with_axes(m, s, &[pick(0), pick(1), pick(2)])
+}
+
 /// Splits the named candidate `cand` on sensor `s`, whose tied fit has log-parameters `tied`
-/// and log-likelihood `ll_tied` (module docs). Returns the split and the diagnosed model.
+/// and log-likelihood `ll_tied` (module docs), or takes the split already fitted (`fitted`,
+/// as [`fit_split`] returns it). With `named_split` the split was what named the candidate
+/// (`--diagnose-axes`): it is kept whatever its gain over the tied fit, and only the axes are
+/// tested. Returns the split and the diagnosed model.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn split(
     args: &NavArgs,
     imu: &[ImuSample],
@@ -146,12 +202,17 @@ pub(super) fn split(
     s: ImuSensor,
     tied: &[f64],
     ll_tied: f64,
+    fitted: Option<(Vec<f64>, f64, usize)>,
+    named_split: bool,
 ) -> Result<(AxisSplit, ImuErrorModel<f64>)> {
-    let Some(&m0) = tied.first() else {
-        anyhow::bail!("nav --diagnose: {} has no parameters", cand.label());
+    // 1. The split, from the tied answer.
+    // A split fitted with the candidates has its runs counted there.
+    let (x, ll, n_fit) = match fitted {
+        Some((x, ll, _)) => (x, ll, 0),
+        None => fit_split(args, imu, fixes, cand, s, tied, ll_tied)?,
     };
     let mut a = args.clone();
-    let mut n = 0usize;
+    let mut n = n_fit;
     let mut eval_model = |m: Option<ImuErrorModel<f64>>| -> Result<f64> {
         n += 1;
         match m {
@@ -162,26 +223,11 @@ pub(super) fn split(
             None => Ok(f64::NEG_INFINITY),
         }
     };
-    let model_of = |x: &[f64], on: [bool; 3]| {
-        let c = components(cand, x)?;
-        let pick = |i: usize| on[i].then_some(c[i]);
-        with_axes(&args.model, s, &[pick(0), pick(1), pick(2)])
-    };
-    // 1. The split, from the tied answer.
-    let mut x: Vec<f64> = [m0, m0, m0]
-        .into_iter()
-        .chain(tied.iter().skip(1).copied())
-        .collect();
-    let mut ll = ll_tied;
-    // A Gauss-Markov's tau follows the three magnitudes.
-    let tau = (cand.kind == ComponentKind::GaussMarkov).then_some(3);
-    search(&mut x, &mut ll, tau, &mut |p: &[f64]| {
-        eval_model(model_of(p, [true; 3]))
-    })?;
+    let model_of = |x: &[f64], on: [bool; 3]| model_of(&args.model, cand, s, x, on);
     // 2. The test of the split.
     let threshold = half_chi2_quantile(1.0 - ALPHA, 2)?;
     let drop_threshold = half_chi2_quantile(1.0 - ALPHA, 1)?;
-    let significant = ll - ll_tied > threshold;
+    let significant = named_split || ll - ll_tied > threshold;
     // 3. Which axes need it.
     let (mut on_axes, mut drop_loss, mut ll_final) = ([true; 3], None, ll);
     if significant {

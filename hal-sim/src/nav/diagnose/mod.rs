@@ -41,6 +41,15 @@
 //!    it, split, on the axes that need it.
 //! 6. The model with the named effect is run again (gated, as any run) and its outputs are the
 //!    command's; `diagnosis.json` keeps the scores before and after.
+//! 7. `--diagnose-axes`: every candidate is also fitted split ([`axes::fit_split`]: its
+//!    magnitude per axis, two more parameters) and tested against the model at half the
+//!    chi-square(k + 2) `1 - ALPHA / m` quantile, `m` now counting both forms of every
+//!    candidate. A candidate counts in the form with the larger excess; a split form contains
+//!    the tied one, and the nesting rule of item 4 applies between forms ([`Form::contains`]).
+//!    A tied candidate that also lands on an axis without the effect can lose its gain there:
+//!    a walk on one horizontal accelerometer, tied, is put on the vertical one too, where the
+//!    heights reject it (BENCHMARKS.md "Which axis: the split of the named effect"). About
+//!    twice the runs.
 //!
 //! Diagnose a model whose magnitudes are fitted: `--identify --diagnose` identifies them first
 //! (or `--model identified-model.toml $(cat identified-options.txt) --diagnose` after an
@@ -54,7 +63,7 @@ mod axes;
 mod record;
 
 pub use axes::AxisSplit;
-pub use record::{ComponentJson, NavCandidate, NavDiagnosis, RunScores};
+pub use record::{ComponentJson, Form, NavCandidate, NavDiagnosis, RunScores};
 
 use super::identify::loglik;
 use super::{run_with, NavArgs, NavRun};
@@ -190,15 +199,24 @@ fn threshold(k: usize, m: usize) -> Result<f64> {
 }
 
 /// Tests every candidate on `args.model` (module docs). Does not run the model after.
-pub fn diagnose(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<NavDiagnosis> {
+/// With `per_axis` (`--diagnose-axes`) every candidate is also tested split over the axes
+/// (item 7).
+pub fn diagnose(
+    args: &NavArgs,
+    imu: &[ImuSample],
+    fixes: &[GnssFix],
+    per_axis: bool,
+) -> Result<NavDiagnosis> {
     let l0 = loglik(args, imu, fixes)?;
-    let tested = LIBRARY
+    let fitted = LIBRARY
         .iter()
         .filter(|c| skip_reason(&args.model, args.scale_factor_sd, c).is_none())
         .count();
+    // Every test counts in the Bonferroni correction: the tied and, with `per_axis`, the split.
+    let tested = if per_axis { 2 * fitted } else { fitted };
     let mut evaluations = 1usize;
     let mut candidates = Vec::with_capacity(LIBRARY.len());
-    let bar = indicatif::ProgressBar::new(tested as u64);
+    let bar = indicatif::ProgressBar::new(fitted as u64);
     for cand in LIBRARY.iter() {
         let mut out = NavCandidate {
             label: cand.label(),
@@ -208,6 +226,8 @@ pub fn diagnose(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
             gain_nats: None,
             threshold_nats: None,
             significant: false,
+            split_gain_nats: None,
+            split_threshold_nats: None,
             evaluations: 0,
             explanation: None,
             skipped: skip_reason(&args.model, args.scale_factor_sd, cand),
@@ -227,16 +247,28 @@ pub fn diagnose(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
             out.threshold_nats = Some(th);
             out.significant = ll - l0 > th;
             out.evaluations = n;
+            let split = if per_axis && comp.is_some() {
+                let (x, ls, ns) = axes::fit_split(args, imu, fixes, cand, s, &p, ll)?;
+                evaluations += ns;
+                let ts = threshold(cand.n_params() + 2, tested)?;
+                out.split_gain_nats = Some(ls - l0);
+                out.split_threshold_nats = Some(ts);
+                out.significant |= ls - l0 > ts;
+                out.evaluations += ns;
+                Some((x, ls, ns))
+            } else {
+                None
+            };
             if let Some(c) = comp {
-                candidates.push((out, Some((s, c, *cand, p, ll))));
+                candidates.push((out, Some((s, c, *cand, p, ll, split))));
                 continue;
             }
         }
         candidates.push((out, None));
     }
     // The named effect: the largest gain above its own threshold, then the simplest of its
-    // sensor's significant candidates that it does not beat significantly (item 4).
-    let excess = |c: &NavCandidate| c.gain_nats.zip(c.threshold_nats).map(|(g, t)| g - t);
+    // sensor's significant candidates that it does not beat significantly (item 4); each
+    // candidate in the form (tied or split) with the larger excess.
     let order =
         |a: Option<f64>, b: Option<f64>| a.partial_cmp(&b).unwrap_or(std::cmp::Ordering::Equal);
     let significant = || {
@@ -244,25 +276,44 @@ pub fn diagnose(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<
             .iter()
             .filter(|(c, p)| c.significant && p.is_some())
     };
+    let excess = |c: &NavCandidate| c.best_form().map(|f| f.gain - f.threshold);
     let mut best = significant().max_by(|a, b| order(excess(&a.0), excess(&b.0)));
     if let Some((b, Some((sb, ..)))) = best {
         let simpler = significant()
             .filter(|(c, p)| {
                 p.as_ref().is_some_and(|(s, ..)| s == sb)
-                    && c.n_params < b.n_params
-                    && c.gain_nats.zip(b.gain_nats).is_some_and(|(g, gb)| {
-                        threshold_nested(b.n_params - c.n_params).is_ok_and(|t| gb - g <= t)
+                    && c.best_form().zip(b.best_form()).is_some_and(|(fc, fb)| {
+                        fb.contains(&fc)
+                            && fb
+                                .nested_threshold(&fc)
+                                .is_some_and(|t| fb.gain - fc.gain <= t)
                     })
             })
-            .max_by(|a, b| order(a.0.gain_nats, b.0.gain_nats));
+            .max_by(|a, b| {
+                order(
+                    a.0.best_form().map(|f| f.gain),
+                    b.0.best_form().map(|f| f.gain),
+                )
+            });
         if simpler.is_some() {
             best = simpler;
         }
     }
     let (verdict, named, model, split) = match best {
-        Some((c, Some((s, _, cand, p, ll)))) => {
+        Some((c, Some((s, _, cand, p, ll, fitted)))) => {
             bar.set_message(format!("{}: per axis", c.label));
-            let (split, model) = axes::split(args, imu, fixes, cand, *s, p, *ll)?;
+            let named_split = c.best_form().is_some_and(|f| f.split);
+            let (split, model) = axes::split(
+                args,
+                imu,
+                fixes,
+                cand,
+                *s,
+                p,
+                *ll,
+                fitted.clone(),
+                named_split,
+            )?;
             evaluations += split.evaluations;
             ("missing-effect", Some(c.label.clone()), model, Some(split))
         }
@@ -370,6 +421,7 @@ fn run_scored(
 pub fn run_diagnosed(
     args: &NavArgs,
     identify: bool,
+    per_axis: bool,
     truth: Option<&[TruthRow]>,
     truth_path: Option<&Path>,
     out: &Path,
@@ -385,7 +437,7 @@ pub fn run_diagnosed(
         (args.clone(), None)
     };
     let args = &identified;
-    let mut d = diagnose(args, &imu, &fixes)?;
+    let mut d = diagnose(args, &imu, &fixes, per_axis)?;
     // Written at once, so that a failure in the runs below loses none of the search; rewritten
     // with their scores.
     std::fs::create_dir_all(out)?;

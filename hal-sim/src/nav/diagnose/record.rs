@@ -27,8 +27,15 @@ pub struct NavCandidate {
     /// Half the chi-square(`n_params`) `1 - ALPHA / m` quantile [nats].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub threshold_nats: Option<f64>,
-    /// Gain above the threshold.
+    /// Gain above the threshold (or, with `--diagnose-axes`, the split's above its own).
     pub significant: bool,
+    /// With `--diagnose-axes`: the gain of the candidate split over the axes (its magnitude
+    /// per axis, `n_params + 2` parameters) over the model [nats].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub split_gain_nats: Option<f64>,
+    /// With `--diagnose-axes`: half the chi-square(`n_params + 2`) `1 - ALPHA / m` quantile.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub split_threshold_nats: Option<f64>,
     /// Filter runs spent on it.
     pub evaluations: usize,
     /// What the fitted effect means physically.
@@ -37,6 +44,66 @@ pub struct NavCandidate {
     /// Why it was not tested.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub skipped: Option<&'static str>,
+}
+
+/// One form of a candidate in the naming rule (module docs of [`super`], item 4): tied over
+/// the axes, or split.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Form {
+    /// Gain over the model [nats].
+    pub gain: f64,
+    /// Its significance threshold [nats].
+    pub threshold: f64,
+    /// The candidate's parameters tied (Gauss-Markov 2, random walk and constant 1).
+    pub k_tied: usize,
+    /// The split form (two more parameters).
+    pub split: bool,
+}
+
+impl Form {
+    /// Free parameters.
+    pub fn k(&self) -> usize {
+        self.k_tied + if self.split { 2 } else { 0 }
+    }
+
+    /// `other` is a limit of `self`: a random walk or a random constant (fewer tied
+    /// parameters) inside a Gauss-Markov, a tied form inside a split one but not the reverse.
+    pub fn contains(&self, other: &Form) -> bool {
+        other.k_tied < self.k_tied && (self.split || !other.split)
+    }
+
+    /// Half the chi-square(`k - other.k`) `1 - ALPHA` quantile: what `self` must gain over
+    /// `other`, a limit of it, to be named instead.
+    pub fn nested_threshold(&self, other: &Form) -> Option<f64> {
+        let dk = self.k().checked_sub(other.k()).filter(|d| *d > 0)?;
+        super::threshold_nested(dk).ok()
+    }
+}
+
+impl NavCandidate {
+    /// The significant form with the larger excess over its threshold (tied when neither is
+    /// significant); `None` when not fitted.
+    pub fn best_form(&self) -> Option<Form> {
+        let tied = Form {
+            gain: self.gain_nats?,
+            threshold: self.threshold_nats?,
+            k_tied: self.n_params,
+            split: false,
+        };
+        let split = self
+            .split_gain_nats
+            .zip(self.split_threshold_nats)
+            .map(|(gain, threshold)| Form {
+                gain,
+                threshold,
+                k_tied: self.n_params,
+                split: true,
+            });
+        Some(match split {
+            Some(s) if s.gain - s.threshold > tied.gain - tied.threshold => s,
+            _ => tied,
+        })
+    }
 }
 
 /// A component's quantities, for `diagnosis.json`.
@@ -188,12 +255,15 @@ impl NavDiagnosis {
                 (None, None) => "-".to_string(),
             };
             let class = if c.significant { " class=\"bad\"" } else { "" };
+            let split = |v: Option<f64>| v.map_or(String::new(), |x| format!("; split {x:.1}"));
             h += &format!(
-                "<tr><td>{}</td><td>{}</td><td>{fitted}</td><td{class}>{}</td><td>{}</td><td>{}</td></tr>",
+                "<tr><td>{}</td><td>{}</td><td>{fitted}</td><td{class}>{}{}</td><td>{}{}</td><td>{}</td></tr>",
                 c.label,
                 c.n_params,
                 num(c.gain_nats, 1),
+                split(c.split_gain_nats),
                 num(c.threshold_nats, 1),
+                split(c.split_threshold_nats),
                 c.evaluations
             );
         }
