@@ -138,18 +138,28 @@ fn components(cand: &Candidate, x: &[f64]) -> Option<[Component<f64>; 3]> {
     Some([one(0)?, one(1)?, one(2)?])
 }
 
-/// The split of candidate `cand` on sensor `s` (module docs, item 1) from its tied fit
-/// (log-parameters `tied`, log-likelihood `ll_tied`): the log-parameters `[m_x, m_y, m_z,
-/// shared...]`, their log-likelihood and the runs spent.
+/// A candidate's tied fit, which its split starts from.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct TiedFit<'a> {
+    /// The candidate.
+    pub cand: &'a Candidate,
+    /// Its sensor.
+    pub sensor: ImuSensor,
+    /// Its fitted log-parameters ([`Candidate::component`]).
+    pub p: &'a [f64],
+    /// Their log-likelihood.
+    pub ll: f64,
+}
+
+/// The split of a candidate (module docs, item 1) from its tied fit `t`: the log-parameters
+/// `[m_x, m_y, m_z, shared...]`, their log-likelihood and the runs spent.
 pub(super) fn fit_split(
     args: &NavArgs,
     imu: &[ImuSample],
     fixes: &[GnssFix],
-    cand: &Candidate,
-    s: ImuSensor,
-    tied: &[f64],
-    ll_tied: f64,
+    t: TiedFit,
 ) -> Result<(Vec<f64>, f64, usize)> {
+    let (cand, s, tied) = (t.cand, t.sensor, t.p);
     let Some(&m0) = tied.first() else {
         anyhow::bail!("nav --diagnose: {} has no parameters", cand.label());
     };
@@ -159,7 +169,7 @@ pub(super) fn fit_split(
         .into_iter()
         .chain(tied.iter().skip(1).copied())
         .collect();
-    let mut ll = ll_tied;
+    let mut ll = t.ll;
     // A Gauss-Markov's tau follows the three magnitudes.
     let tau = (cand.kind == ComponentKind::GaussMarkov).then_some(3);
     search(&mut x, &mut ll, tau, &mut |p: &[f64]| {
@@ -188,28 +198,25 @@ fn model_of(
     with_axes(m, s, &[pick(0), pick(1), pick(2)])
 }
 
-/// Splits the named candidate `cand` on sensor `s`, whose tied fit has log-parameters `tied`
-/// and log-likelihood `ll_tied` (module docs), or takes the split already fitted (`fitted`,
+/// Splits the named candidate from its tied fit `t` (module docs), or takes the split
+/// already fitted (`fitted`,
 /// as [`fit_split`] returns it). With `named_split` the split was what named the candidate
 /// (`--diagnose-axes`): it is kept whatever its gain over the tied fit, and only the axes are
 /// tested. Returns the split and the diagnosed model.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn split(
     args: &NavArgs,
     imu: &[ImuSample],
     fixes: &[GnssFix],
-    cand: &Candidate,
-    s: ImuSensor,
-    tied: &[f64],
-    ll_tied: f64,
+    t: TiedFit,
     fitted: Option<(Vec<f64>, f64, usize)>,
     named_split: bool,
 ) -> Result<(AxisSplit, ImuErrorModel<f64>)> {
+    let (cand, s, tied, ll_tied) = (t.cand, t.sensor, t.p, t.ll);
     // 1. The split, from the tied answer.
     // A split fitted with the candidates has its runs counted there.
     let (x, ll, n_fit) = match fitted {
         Some((x, ll, _)) => (x, ll, 0),
-        None => fit_split(args, imu, fixes, cand, s, tied, ll_tied)?,
+        None => fit_split(args, imu, fixes, t)?,
     };
     let mut a = args.clone();
     let mut n = n_fit;

@@ -248,7 +248,7 @@ pub fn diagnose(
             out.significant = ll - l0 > th;
             out.evaluations = n;
             let split = if per_axis && comp.is_some() {
-                let (x, ls, ns) = axes::fit_split(args, imu, fixes, cand, s, &p, ll)?;
+                let (x, ls, ns) = axes::fit_split(args, imu, fixes, tied(cand, s, &p, ll))?;
                 evaluations += ns;
                 let ts = threshold(cand.n_params() + 2, tested)?;
                 out.split_gain_nats = Some(ls - l0);
@@ -303,17 +303,8 @@ pub fn diagnose(
         Some((c, Some((s, _, cand, p, ll, fitted)))) => {
             bar.set_message(format!("{}: per axis", c.label));
             let named_split = c.best_form().is_some_and(|f| f.split);
-            let (split, model) = axes::split(
-                args,
-                imu,
-                fixes,
-                cand,
-                *s,
-                p,
-                *ll,
-                fitted.clone(),
-                named_split,
-            )?;
+            let t = tied(cand, *s, p, *ll);
+            let (split, model) = axes::split(args, imu, fixes, t, fitted.clone(), named_split)?;
             evaluations += split.evaluations;
             ("missing-effect", Some(c.label.clone()), model, Some(split))
         }
@@ -332,6 +323,16 @@ pub fn diagnose(
         after: None,
         model,
     })
+}
+
+/// The tied fit of `cand` on sensor `s`: log-parameters `p`, log-likelihood `ll`.
+fn tied<'a>(cand: &'a Candidate, s: ImuSensor, p: &'a [f64], ll: f64) -> axes::TiedFit<'a> {
+    axes::TiedFit {
+        cand,
+        sensor: s,
+        p,
+        ll,
+    }
 }
 
 /// The maximum-likelihood parameters of `cand` on sensor `s` (module docs, item 3): the
