@@ -129,7 +129,7 @@ pub enum Command {
         /// With --diagnose: test every candidate split over the three axes too (its magnitude
         /// per axis), not only the named one. Finds an effect on one axis that the tied
         /// candidate misses (a walk on one horizontal accelerometer, which the tied candidate
-        /// also puts on the vertical one, where the heights reject it); about twice the runs.
+        /// also puts on the vertical one, where the heights reject it); about three times the runs.
         #[arg(long, requires = "diagnose")]
         diagnose_axes: bool,
         /// Non-holonomic constraint: the body lateral and vertical velocity at --nhc-lever are

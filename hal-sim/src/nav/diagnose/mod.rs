@@ -49,7 +49,7 @@
 //!    A tied candidate that also lands on an axis without the effect can lose its gain there:
 //!    a walk on one horizontal accelerometer, tied, is put on the vertical one too, where the
 //!    heights reject it (BENCHMARKS.md "Which axis: the split of the named effect"). About
-//!    twice the runs.
+//!    three times the runs (the real drive: 285 against 88).
 //!
 //! Diagnose a model whose magnitudes are fitted: `--identify --diagnose` identifies them first
 //! (or `--model identified-model.toml $(cat identified-options.txt) --diagnose` after an
