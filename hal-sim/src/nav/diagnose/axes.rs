@@ -1,5 +1,5 @@
 //! Where the named effect sits: the named candidate's tied fit untied over the three axes of
-//! its sensor (`nav --diagnose`, after the verdict; [`super`] item 6).
+//! its sensor (`nav --diagnose`, after the verdict; [`super`] items 5 and 7).
 //!
 //! A candidate is added to the x, y and z axes with one set of parameters. A real IMU's axes
 //! differ (one gyro nearer a heat source, a forward accelerometer with its own mounting
