@@ -236,7 +236,8 @@ pub(super) fn split(
     let drop_threshold = half_chi2_quantile(1.0 - ALPHA, 1)?;
     let significant = named_split || ll - ll_tied > threshold;
     // 3. Which axes need it.
-    let (mut on_axes, mut drop_loss, mut ll_final) = ([true; 3], None, ll);
+    let (mut on_axes, mut drop_loss) = ([true; 3], None);
+    let mut ll_final = if significant { ll } else { ll_tied };
     if significant {
         let mut loss = [0.0; 3];
         for (i, l) in loss.iter_mut().enumerate() {
@@ -261,12 +262,9 @@ pub(super) fn split(
         model_of(&x, on_axes)
     } else {
         let c = cand.component(tied);
-        c.and_then(|c| with_axes(&args.model, s, &[Some(c); 3]))
+        c.and_then(|c| super::with_component(&args.model, s, c))
     }
     .ok_or_else(|| anyhow::anyhow!("nav --diagnose: {} no longer fits", cand.label()))?;
-    if !significant {
-        ll_final = ll_tied;
-    }
     Ok((
         AxisSplit {
             axes: comps.map(|c| ComponentJson::of(&c)),

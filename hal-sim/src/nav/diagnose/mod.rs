@@ -117,12 +117,7 @@ fn with_component(
     s: ImuSensor,
     c: Component<f64>,
 ) -> Option<ImuErrorModel<f64>> {
-    let mut out = m.clone();
-    for axis in out.sensor_mut(s).iter_mut() {
-        axis.push(c).ok()?;
-    }
-    out.validate().ok()?;
-    Some(out)
+    axes::with_axes(m, s, &[Some(c); 3])
 }
 
 /// The filter's states for the noise model `imu` (the core's count: navigation errors, the
