@@ -117,6 +117,12 @@ pub enum Command {
         /// First identify the noise model on this log (maximum likelihood), then run with it.
         #[arg(long)]
         identify: bool,
+        /// With --identify: then untie the four IMU factors over x, y, z (a factor per axis),
+        /// search again from the tied answer, and keep the per-axis answer when it gains more
+        /// than half the chi-square 0.99 quantile (two degrees of freedom per factor the model
+        /// carries) over the tied one; identified.json gives both. About twice the runs.
+        #[arg(long, requires = "identify")]
+        identify_axes: bool,
         /// Name the effect the model lacks: each candidate (a Gauss-Markov, random walk or
         /// random constant on the gyros or the accelerometers) is added, fitted by maximum
         /// likelihood and tested against the model (likelihood ratio, 1 % false alarms over

@@ -42,6 +42,7 @@ fn main() -> Result<()> {
             max_q,
             gnss_sd_factor,
             identify,
+            identify_axes,
             diagnose,
             diagnose_axes,
             nhc,
@@ -181,6 +182,11 @@ fn main() -> Result<()> {
                     None
                 },
             };
+            let identify = identify.then_some(if identify_axes {
+                hal_sim::nav::identify::Axes::Tested
+            } else {
+                hal_sim::nav::identify::Axes::Tied
+            });
             if diagnose {
                 let d = hal_sim::nav::diagnose::run_diagnosed(
                     &args,
@@ -200,8 +206,8 @@ fn main() -> Result<()> {
                 );
                 return Ok(());
             }
-            let (mut run, id) = if identify {
-                let (run, id) = hal_sim::nav::run_identified(&args, &out)?;
+            let (mut run, id) = if let Some(axes) = identify {
+                let (run, id) = hal_sim::nav::run_identified(&args, axes, &out)?;
                 eprintln!("{}", id.summary_line());
                 (run, Some(id))
             } else {

@@ -118,7 +118,7 @@ fn hidden_walk_and_truth(
     let d = drive(&sensors_on(Some(q), on), seed);
     let out = d.dir.path().join("out");
     let truth = d.dir.path().join("truth.csv");
-    let diag = run_diagnosed(&d.args, false, per_axis, Some(&d.truth), Some(&truth), &out)
+    let diag = run_diagnosed(&d.args, None, per_axis, Some(&d.truth), Some(&truth), &out)
         .unwrap_or_else(|e| panic!("{e:#}"));
     let scores = oracle.then(|| {
         let mut a = d.args.clone();

@@ -242,11 +242,12 @@ pub fn run(args: &NavArgs) -> Result<NavRun> {
 /// besides the run's files.
 pub fn run_identified(
     args: &NavArgs,
+    axes: identify::Axes,
     out: &std::path::Path,
 ) -> Result<(NavRun, identify::Identified)> {
     let imu = nav_io::read_imu_csv(&args.imu)?;
     let fixes = nav_io::read_gnss_any(&args.gnss, args.max_q)?;
-    let (a, id) = identify_and_write(args, &imu, &fixes, out)?;
+    let (a, id) = identify_and_write(args, &imu, &fixes, axes, out)?;
     let bar = records::imu_progress(imu.len());
     let run = if a.single {
         run_observed::<f32>(&a, &imu, &fixes, &bar)?
@@ -262,21 +263,21 @@ pub fn identify_and_write(
     args: &NavArgs,
     imu: &[ImuSample],
     fixes: &[GnssFix],
+    axes: identify::Axes,
     out: &std::path::Path,
 ) -> Result<(NavArgs, identify::Identified)> {
-    let id = identify::identify(args, imu, fixes)?;
-    let mut a = args.clone();
-    a.model = id.model.clone();
+    let id = identify::identify_axes(args, imu, fixes, axes)?;
+    let mut a = id.apply(args);
     a.model_name = format!(
-        "{} identified on this log (factors {:?})",
-        args.model_name, id.factors
+        "{} identified on this log (factors {:?}{})",
+        args.model_name,
+        id.factors,
+        if id.axes.as_ref().is_some_and(|x| x.significant) {
+            ", per axis"
+        } else {
+            ""
+        }
     );
-    a.gnss_sd_factor = [
-        args.gnss_sd_factor[0] * id.factors[4],
-        args.gnss_sd_factor[1] * id.factors[5],
-    ];
-    a.imu_time_shift = id.imu_time_shift;
-    a.nhc = id.nhc_sd;
     std::fs::create_dir_all(out)?;
     crate::output::write_string(
         &out.join("identified.json"),
@@ -286,11 +287,18 @@ pub fn identify_and_write(
     crate::output::write_string(
         &out.join("identified-model.toml"),
         &toml.to_text(&format!(
-            "# Identified by hal-sim nav --identify from {} on {}\n# factors on the standard deviations ({}): {:?}\n",
+            "# Identified by hal-sim nav --identify from {} on {}\n# factors on the standard deviations ({}): {:?}\n{}",
             args.model_name,
             args.imu.display(),
             identify::FACTORS.join(", "),
-            id.factors
+            id.factors,
+            match &id.axes {
+                Some(x) if x.significant => format!(
+                    "# per axis (x, y, z) the first four: {:?} (--identify-axes: {:.1} nats over the tied fit, threshold {:.1}; the four above are their geometric means)\n",
+                    x.factors, x.gain_nats, x.threshold_nats
+                ),
+                _ => String::new(),
+            }
         ))?,
     )?;
     // What the model file cannot hold (GNSS factors, the IMU time shift, the constraint's sd):

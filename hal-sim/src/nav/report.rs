@@ -428,7 +428,27 @@ fn identified_table(id: &Identified) -> String {
     for (name, f) in FACTORS.iter().zip(id.factors) {
         h += &row(&[esc(name), sig4(f, "")]);
     }
-    h + "</table>"
+    h += "</table>";
+    if let Some(a) = &id.axes {
+        h += &format!(
+            "<p>Per axis (<code>--identify-axes</code>): the four IMU factors untied over x, y, z gain {} over the tied fit, against a threshold of {} (half the chi-square({}) 0.99 quantile): the {} answer is kept{}.</p><table>",
+            sig4(a.gain_nats, "nats"),
+            sig4(a.threshold_nats, "nats"),
+            a.df,
+            if a.significant { "per-axis" } else { "tied" },
+            if a.significant {
+                " (the factors above are its geometric means over the axes)"
+            } else {
+                ""
+            }
+        );
+        h += &header(&["factor", "x", "y", "z"]);
+        for (name, f) in FACTORS.iter().zip(a.factors) {
+            h += &row(&[esc(name), sig4(f[0], ""), sig4(f[1], ""), sig4(f[2], "")]);
+        }
+        h += "</table>";
+    }
+    h
 }
 
 /// The whole page.

@@ -409,14 +409,14 @@ fn run_scored(
     Ok((run, cmp))
 }
 
-/// `hal-sim nav --diagnose [--identify]`: reads the inputs; with `identify`, first identifies
-/// the model's magnitudes ([`super::identify_and_write`], its files written); diagnoses the
+/// `hal-sim nav --diagnose [--identify [--identify-axes]]`: reads the inputs; with `identify`,
+/// first identifies the model's magnitudes ([`super::identify_and_write`], its files written); diagnoses the
 /// model, runs it and, when an effect is named, the model with it; writes the last run's
 /// outputs (as `nav`), `diagnosis.json` (the candidates, the verdict, the scores before and
 /// after) and `diagnosed-model.toml` into `out`.
 pub fn run_diagnosed(
     args: &NavArgs,
-    identify: bool,
+    identify: Option<super::identify::Axes>,
     per_axis: bool,
     truth: Option<&[TruthRow]>,
     truth_path: Option<&Path>,
@@ -425,8 +425,8 @@ pub fn run_diagnosed(
     let imu = nav_io::read_imu_csv(&args.imu)?;
     let fixes = nav_io::read_gnss_any(&args.gnss, args.max_q)?;
     let truth = truth.zip(truth_path);
-    let (identified, id) = if identify {
-        let (a, id) = super::identify_and_write(args, &imu, &fixes, out)?;
+    let (identified, id) = if let Some(axes) = identify {
+        let (a, id) = super::identify_and_write(args, &imu, &fixes, axes, out)?;
         eprintln!("{}", id.summary_line());
         (a, Some(id))
     } else {
