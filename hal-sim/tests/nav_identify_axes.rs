@@ -25,7 +25,7 @@
 //! model.
 
 use hal_sim::nav::diagnose::RunScores;
-use hal_sim::nav::identify::{identify_axes, loglik, Axes, Identified};
+use hal_sim::nav::identify::{identify_axes, loglik, Axes, Identified, Uncertainty};
 use hal_sim::nav::{run_with, truth, NavArgs};
 use hal_sim::nav_io::truth_csv::TruthRow;
 use hal_sim::nav_io::{GnssFix, ImuSample};
@@ -132,6 +132,22 @@ fn a_sensor_whose_axes_differ_is_identified_per_axis() {
     // The accelerometer walk (row 3): x above z, as the truth's 10x.
     let walk = axes.factors[3];
     assert!(walk[0] > walk[2], "walk factors x, y, z {walk:?}");
+    // Its Cramér-Rao interval on x covers the truth (3.29 sd: 99.9 % two-sided).
+    let (z, u) = walk_z_score(&id, "accel_bias_walk_x", DIFFER[0]);
+    assert!(u.identifiable && z.abs() < 3.29, "{u:?}: z {z:.2}");
+}
+
+/// The z-score of the identified log10 factor `name` against the truth's factor `truth_mg`
+/// (the walk's drift over the model's 1 mg), and its record.
+fn walk_z_score(id: &Identified, name: &str, truth_mg: f64) -> (f64, Uncertainty) {
+    let u = id
+        .uncertainty
+        .iter()
+        .find(|u| u.name == name)
+        .unwrap_or_else(|| panic!("{name} in {:?}", id.uncertainty))
+        .clone();
+    let z = (u.value - truth_mg.log10()) / u.cr_sd.unwrap_or(f64::INFINITY);
+    (z, u)
 }
 
 #[test]
@@ -198,6 +214,21 @@ fn bench_identify_axes() {
                 axes.evaluations,
                 t.elapsed().as_secs_f64()
             );
+            // The walk's Cramér-Rao z-scores against the truth, in the answer kept.
+            let z: Vec<String> = if axes.significant {
+                ["x", "y", "z"]
+                    .iter()
+                    .zip(drift)
+                    .map(|(a, t)| {
+                        let (z, u) = walk_z_score(&id, &format!("accel_bias_walk_{a}"), t);
+                        format!("{a} {:+.2} sd {:?} z {z:+.2}", u.value, u.cr_sd)
+                    })
+                    .collect()
+            } else {
+                let (z, u) = walk_z_score(&id, "accel_bias_walk", drift[0]);
+                vec![format!("tied {:+.2} sd {:?} z {z:+.2}", u.value, u.cr_sd)]
+            };
+            println!("  walk, Cramér-Rao: {}", z.join("; "));
             println!("  {}", line("tied", &d.scores(&tied.apply(&args))));
             println!("  {}", line("per axis", &d.scores(&axes.apply(&args))));
             println!(

@@ -26,6 +26,12 @@
 //! keeps a per-axis answer on at most 1 % of logs whose axes are alike ([`AxesFit`];
 //! BENCHMARKS.md "`--identify-axes`").
 //!
+//! At the answer kept, the Cramér-Rao standard deviation of every coordinate searched comes
+//! from the curvature of the log-likelihood ([`super::information::cramer_rao_sd`], the online
+//! search's), and a coordinate whose sd exceeds [`IDENTIFIABLE_SD`] decade is flagged "not
+//! identifiable from this log" ([`Uncertainty`]): a factor at a bound or on a flat likelihood
+//! is where the search stopped, not a measurement.
+//!
 //! [`EpochRecord`]: super::EpochRecord
 
 use super::{run_with, NavArgs};
@@ -35,6 +41,8 @@ use imu_ident::model::{Component, ComponentKind};
 use imu_ident::nav::ImuErrorModel;
 use serde::Serialize;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
+
+pub use imu_ident::nav::online::IDENTIFIABLE_SD;
 
 /// Names of the six factors, in search order.
 pub const FACTORS: [&str; 6] = [
@@ -48,7 +56,7 @@ pub const FACTORS: [&str; 6] = [
 
 /// Step of the IMU time shift per decade of the factors' steps [s]: the shift is searched in
 /// steps of 0.1, 0.05, 0.025, 0.0125 s, within [`MAX_SHIFT`].
-const SHIFT_PER_DECADE: f64 = 0.1;
+pub const SHIFT_PER_DECADE: f64 = 0.1;
 /// Largest IMU time shift searched [s].
 pub const MAX_SHIFT: f64 = 0.5;
 
@@ -107,6 +115,10 @@ pub struct Identified {
     pub loglik: f64,
     /// Runs of the filter made (both stages).
     pub evaluations: usize,
+    /// The Cramér-Rao standard deviation of every coordinate searched, at the answer kept (the
+    /// per-axis one's coordinates when it was kept); the finite-difference Hessian costs
+    /// `n (n + 3) / 2` more runs for `n` coordinates.
+    pub uncertainty: Vec<Uncertainty>,
     /// The per-axis stage (`--identify-axes`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub axes: Option<AxesFit>,
@@ -142,7 +154,22 @@ impl Identified {
             self.loglik_start,
             self.loglik,
             self.evaluations
-        ) + &self.axes.as_ref().map_or(String::new(), |a| {
+        ) + &{
+            let flat: Vec<&str> = self
+                .uncertainty
+                .iter()
+                .filter(|u| !u.identifiable)
+                .map(|u| u.name.as_str())
+                .collect();
+            if flat.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "\nnot identifiable from this log (Cramér-Rao sd above {IDENTIFIABLE_SD} decade): {}",
+                    flat.join(", ")
+                )
+            }
+        } + &self.axes.as_ref().map_or(String::new(), |a| {
             format!(
                 "\nper axis (x, y, z; {}): {:?}, gain {:.1} nats against {:.1} (chi-square({}) 0.99): {}",
                 FACTORS[..IMU].join(", "),
@@ -224,6 +251,15 @@ pub fn loglik(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<f6
     })
 }
 
+/// How `--identify` treats the three axes of each sensor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Axes {
+    /// One factor per quantity and sensor (the default).
+    Tied,
+    /// Tied, then untied and tested (`--identify-axes`, [`AxesFit`]).
+    Tested,
+}
+
 /// A point of the search: base-10 logarithms of the IMU factors per axis, of the two GNSS
 /// factors and of the constraint's factor, and the IMU time shift in units of
 /// [`SHIFT_PER_DECADE`].
@@ -256,13 +292,99 @@ impl Point {
     }
 }
 
-/// How `--identify` treats the three axes of each sensor.
+/// The search's coordinates: the IMU log-factors (tied: one per quantity; per axis: three,
+/// quantity-major), then the two GNSS log-factors, the constraint's and the time shift.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Axes {
-    /// One factor per quantity and sensor (the default).
+enum Layout {
     Tied,
-    /// Tied, then untied and tested (`--identify-axes`, [`AxesFit`]).
-    Tested,
+    PerAxis,
+}
+
+impl Layout {
+    /// Number of IMU coordinates.
+    fn imu(self) -> usize {
+        match self {
+            Layout::Tied => IMU,
+            Layout::PerAxis => 3 * IMU,
+        }
+    }
+
+    /// Quantity of IMU coordinate `i` (< [`Self::imu`]).
+    fn quantity(self, i: usize) -> usize {
+        match self {
+            Layout::Tied => i,
+            Layout::PerAxis => i / 3,
+        }
+    }
+
+    /// The point at coordinates `x`.
+    fn point(self, x: &[f64]) -> Point {
+        let n = self.imu();
+        Point {
+            imu: std::array::from_fn(|q| match self {
+                Layout::Tied => [x[q]; 3],
+                Layout::PerAxis => std::array::from_fn(|a| x[3 * q + a]),
+            }),
+            gnss: [x[n], x[n + 1]],
+            nhc: x[n + 2],
+            shift: x[n + 3],
+        }
+    }
+
+    /// The coordinates of `p` (tied: a tied point's, each quantity's x-axis value).
+    fn coordinates(self, p: &Point) -> Vec<f64> {
+        let mut x: Vec<f64> = match self {
+            Layout::Tied => p.imu.iter().map(|q| q[0]).collect(),
+            Layout::PerAxis => p.imu.iter().flatten().copied().collect(),
+        };
+        x.extend([p.gnss[0], p.gnss[1], p.nhc, p.shift]);
+        x
+    }
+
+    /// Coordinate `i`'s name (`gyro_white`, `gyro_white_x`, `gnss_pos_sd`, `constraint_sd`,
+    /// `imu_time_shift`).
+    fn name(self, i: usize) -> String {
+        let n = self.imu();
+        match i {
+            _ if i < n => match self {
+                Layout::Tied => FACTORS[i].to_string(),
+                Layout::PerAxis => format!("{}_{}", FACTORS[i / 3], ["x", "y", "z"][i % 3]),
+            },
+            _ if i < n + 2 => FACTORS[IMU + i - n].to_string(),
+            _ if i == n + 2 => "constraint_sd".to_string(),
+            _ => "imu_time_shift".to_string(),
+        }
+    }
+
+    /// Coordinate `i`'s interval under `args` (`None`: not searched): a factor on a quantity
+    /// the model does not carry, or on the constraint without `--nhc`, is left out.
+    fn bounds(self, i: usize, args: &NavArgs, carried: &[bool; IMU]) -> Option<(f64, f64)> {
+        let n = self.imu();
+        let shift = MAX_SHIFT / SHIFT_PER_DECADE;
+        match i {
+            _ if i < n && !carried[self.quantity(i)] => None,
+            _ if i == n + 2 && args.nhc.is_none() => None,
+            _ if i == n + 3 => Some((-shift, shift)),
+            _ => Some((-2.0, 3.0)),
+        }
+    }
+}
+
+/// The Cramér-Rao standard deviation of one identified coordinate.
+#[derive(Debug, Clone, Serialize)]
+pub struct Uncertainty {
+    /// The coordinate: a factor of [`FACTORS`] (per axis with `_x`, `_y`, `_z`),
+    /// `constraint_sd` or `imu_time_shift`.
+    pub name: String,
+    /// Its identified value: the base-10 logarithm of the factor, or the shift [s].
+    pub value: f64,
+    /// Its Cramér-Rao standard deviation, in the same unit (decades, or s); `null` where the
+    /// likelihood does not bound it (flat, or the maximum at a bound).
+    pub cr_sd: Option<f64>,
+    /// The sd is at most [`IDENTIFIABLE_SD`] decades (for the shift, that many times
+    /// [`SHIFT_PER_DECADE`] s): the data determine it. `false` is the flag "not identifiable
+    /// from this log".
+    pub identifiable: bool,
 }
 
 /// Runs the search from `args.model` with the three axes of each sensor tied (gate off during
@@ -287,63 +409,35 @@ pub fn identify_axes(
         loglik(&p.args(args), imu, fixes)
     };
     let carried: [bool; IMU] = std::array::from_fn(|q| carries(&args.model, q));
-    let shift_bound = MAX_SHIFT / SHIFT_PER_DECADE;
-    // Stage 1, tied. Coordinates: the four IMU log-factors, the two GNSS ones, the
-    // constraint's (searched with --nhc only), the IMU time shift.
-    const NHC: usize = 6;
-    const SHIFT: usize = 7;
-    let tied_point = |x: &[f64]| Point {
-        imu: std::array::from_fn(|q| [x[q]; 3]),
-        gnss: [x[4], x[5]],
-        nhc: x[NHC],
-        shift: x[SHIFT],
-    };
-    let mut x = [0.0f64; 8];
-    let start = eval(&tied_point(&x))?;
+    // Stage 1, tied, from the model as given.
+    let tied = Layout::Tied;
+    let mut x = tied.coordinates(&Point::default());
+    let start = eval(&tied.point(&x))?;
     let mut best = start;
-    let bounds = |i: usize| match i {
-        NHC if args.nhc.is_none() => None,
-        SHIFT => Some((-shift_bound, shift_bound)),
-        q if q < IMU && !carried[q] => None,
-        _ => Some((-2.0, 3.0)),
-    };
     super::pattern::maximise(
         &mut x,
         &mut best,
         &[1.0, 0.5, 0.25, 0.125],
         6,
-        &bounds,
-        &mut |y| eval(&tied_point(y)),
+        &|i| tied.bounds(i, args, &carried),
+        &mut |y| eval(&tied.point(y)),
     )?;
-    let mut point = tied_point(&x);
+    let mut layout = tied;
+    let mut point = tied.point(&x);
     let mut loglik = best;
     let axes = if axes == Axes::Tested {
-        // Stage 2, per axis: 12 IMU log-factors (quantity-major: 3 q + axis), then the GNSS,
-        // constraint and shift coordinates, from the tied answer, at the finer steps.
-        const N: usize = 3 * IMU;
-        let axes_point = |y: &[f64]| Point {
-            imu: std::array::from_fn(|q| std::array::from_fn(|a| y[3 * q + a])),
-            gnss: [y[N], y[N + 1]],
-            nhc: y[N + 2],
-            shift: y[N + 3],
-        };
-        let mut y: Vec<f64> = point.imu.iter().flatten().copied().collect();
-        y.extend([point.gnss[0], point.gnss[1], point.nhc, point.shift]);
+        // Stage 2, per axis, from the tied answer, at the finer steps.
+        let per_axis = Layout::PerAxis;
+        let mut y = per_axis.coordinates(&point);
         let before = evaluations.get();
         let mut best_axes = best;
-        let bounds = |i: usize| match i {
-            _ if i < N && !carried[i / 3] => None,
-            _ if i == N + 2 && args.nhc.is_none() => None,
-            _ if i == N + 3 => Some((-shift_bound, shift_bound)),
-            _ => Some((-2.0, 3.0)),
-        };
         super::pattern::maximise(
             &mut y,
             &mut best_axes,
             &[0.5, 0.25, 0.125],
             6,
-            &bounds,
-            &mut |z| eval(&axes_point(z)),
+            &|i| per_axis.bounds(i, args, &carried),
+            &mut |z| eval(&per_axis.point(z)),
         )?;
         let df = 2 * carried.iter().filter(|&&c| c).count();
         let threshold_nats = if df == 0 {
@@ -353,8 +447,9 @@ pub fn identify_axes(
         };
         let gain_nats = best_axes - best;
         let significant = gain_nats > threshold_nats;
-        let fit = axes_point(&y);
+        let fit = per_axis.point(&y);
         if significant {
+            layout = per_axis;
             point = fit;
             loglik = best_axes;
         }
@@ -374,6 +469,25 @@ pub fn identify_axes(
     } else {
         None
     };
+    // The Cramér-Rao sds of the answer kept, in its own coordinates.
+    let x = layout.coordinates(&point);
+    let bounds = |i: usize| layout.bounds(i, args, &carried);
+    let sd =
+        super::information::cramer_rao_sd(&x, loglik, &bounds, &mut |y| eval(&layout.point(y)))?;
+    let uncertainty = (0..x.len())
+        .filter(|&i| bounds(i).is_some())
+        .map(|i| {
+            let shift = i + 1 == x.len();
+            let unit = if shift { SHIFT_PER_DECADE } else { 1.0 };
+            let cr_sd = sd[i].is_finite().then_some(sd[i] * unit);
+            Uncertainty {
+                name: layout.name(i),
+                value: x[i] * unit + if shift { args.imu_time_shift } else { 0.0 },
+                cr_sd,
+                identifiable: cr_sd.is_some_and(|v| v <= IDENTIFIABLE_SD * unit),
+            }
+        })
+        .collect();
     // The factors: a per-axis answer's IMU factors as their geometric means over the axes.
     let f = point.imu_factors();
     let mean = |q: usize| 10f64.powf(point.imu[q].iter().sum::<f64>() / 3.0);
@@ -391,6 +505,7 @@ pub fn identify_axes(
         loglik,
         evaluations: evaluations.get(),
         axes,
+        uncertainty,
         model: scaled_axes(&args.model, &f),
     })
 }

@@ -18,6 +18,7 @@ pub mod adapt;
 pub mod diagnose;
 pub mod drive;
 pub mod identify;
+pub mod information;
 pub mod model;
 pub mod pattern;
 pub mod plot;

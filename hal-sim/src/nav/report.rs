@@ -11,7 +11,7 @@
 //! - the outage table (`outages.json`), the identified factors (`--identify`) and the online
 //!   identification's factors over time (`--adapt`).
 
-use super::identify::{Identified, FACTORS};
+use super::identify::{Identified, FACTORS, IDENTIFIABLE_SD, SHIFT_PER_DECADE};
 use super::plot::{break_gaps, chart};
 use super::records::EpochRecord;
 use super::truth::{ErrorRow, TruthComparison};
@@ -427,6 +427,25 @@ fn identified_table(id: &Identified) -> String {
     h += &header(&["factor", "value"]);
     for (name, f) in FACTORS.iter().zip(id.factors) {
         h += &row(&[esc(name), sig4(f, "")]);
+    }
+    h += "</table>";
+    h += &format!(
+        "<p>Cramér-Rao standard deviations of the coordinates searched, at the answer kept (from the curvature of the log-likelihood); a coordinate whose sd exceeds {IDENTIFIABLE_SD} decade (for the shift, {} s) is not identifiable from this log, and its value is where the search stopped, not a measurement.</p><table>",
+        IDENTIFIABLE_SD * SHIFT_PER_DECADE
+    );
+    h += &header(&[
+        "coordinate",
+        "value (log10 factor; shift [s])",
+        "Cramér-Rao sd",
+        "identifiable",
+    ]);
+    for u in &id.uncertainty {
+        h += &row(&[
+            esc(&u.name),
+            sig4(u.value, ""),
+            u.cr_sd.map_or("unbounded".to_string(), |v| sig4(v, "")),
+            (if u.identifiable { "yes" } else { "no" }).to_string(),
+        ]);
     }
     h += "</table>";
     if let Some(a) = &id.axes {

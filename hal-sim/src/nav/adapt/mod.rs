@@ -35,14 +35,13 @@
 
 mod bank;
 mod coords;
-mod information;
 mod record;
 
 pub use bank::{bank_log, start_bank};
 use coords::Target;
 pub use coords::{apply, coordinates, gnss_factors, tie, Coordinate, GNSS_SD, GNSS_SD_DEFAULT};
 
-pub use information::cramer_rao_sd;
+pub use super::information::cramer_rao_sd;
 pub use record::value;
 
 use super::drive::{Discard, NavLoop};
@@ -373,7 +372,7 @@ impl<T: Real> Adapter<T> {
         }
         let loglik_max = best;
         let ml_log10_factors = x.clone();
-        let cr_sd_log10 = cramer_rao_sd(&x, best, &mut eval)?;
+        let cr_sd_log10 = cramer_rao_sd(&x, best, &all, &mut eval)?;
         // Flat directions: an intensity the window cannot pin down is moved up to the upper
         // end of its one-sigma likelihood interval (the largest value, in steps of 0.125
         // decade, that costs less than FLAT_NATS against the best point), not left wherever
