@@ -73,7 +73,7 @@ pub struct AxesFit {
     pub factors: [[f64; 3]; IMU],
     /// The per-axis fit's factors on the GNSS position and velocity standard deviations.
     pub gnss_sd_factors: [f64; 2],
-    /// The per-axis fit's IMU time shift (added to `--imu-time-shift`) [s].
+    /// The per-axis fit's IMU time shift, `--imu-time-shift` included [s].
     pub imu_time_shift: f64,
     /// The per-axis fit's factor on the constraint's standard deviation (with `--nhc`).
     #[serde(skip_serializing_if = "Option::is_none")]
