@@ -131,16 +131,13 @@ impl Identified {
     /// The options of the identified run, from the options `args` it was identified with:
     /// the identified model, GNSS factors, IMU time shift and constraint sd.
     pub fn apply(&self, args: &NavArgs) -> NavArgs {
-        NavArgs {
-            model: self.model.clone(),
-            gnss_sd_factor: [
-                args.gnss_sd_factor[0] * self.factors[4],
-                args.gnss_sd_factor[1] * self.factors[5],
-            ],
-            imu_time_shift: self.imu_time_shift,
-            nhc: self.nhc_sd,
-            ..args.clone()
-        }
+        answer_args(
+            args,
+            self.model.clone(),
+            [self.factors[4], self.factors[5]],
+            self.imu_time_shift,
+            self.nhc_sd_factor,
+        )
     }
 
     /// One line for the terminal: the factors, the shift, the constraint, the likelihoods.
@@ -187,16 +184,13 @@ impl AxesFit {
     /// The options of the per-axis fit's run, from the options `args` it was identified with
     /// (kept or not).
     pub fn apply(&self, args: &NavArgs) -> NavArgs {
-        NavArgs {
-            model: scaled_axes(&args.model, &self.factors),
-            gnss_sd_factor: [
-                args.gnss_sd_factor[0] * self.gnss_sd_factors[0],
-                args.gnss_sd_factor[1] * self.gnss_sd_factors[1],
-            ],
-            imu_time_shift: self.imu_time_shift,
-            nhc: args.nhc.zip(self.nhc_sd_factor).map(|(sd, f)| sd * f),
-            ..args.clone()
-        }
+        answer_args(
+            args,
+            scaled_axes(&args.model, &self.factors),
+            self.gnss_sd_factors,
+            self.imu_time_shift,
+            self.nhc_sd_factor,
+        )
     }
 }
 
@@ -277,18 +271,54 @@ impl Point {
         self.imu.map(|q| q.map(|l| 10f64.powf(l)))
     }
 
-    /// The options of the run at this point.
+    /// The factors on the GNSS position and velocity standard deviations.
+    fn gnss_factors(&self) -> [f64; 2] {
+        self.gnss.map(|l| 10f64.powf(l))
+    }
+
+    /// The factor on the constraint's standard deviation (with `--nhc`).
+    fn nhc_factor(&self, args: &NavArgs) -> Option<f64> {
+        args.nhc.map(|_| 10f64.powf(self.nhc))
+    }
+
+    /// The IMU time shift, `--imu-time-shift` included [s].
+    fn imu_time_shift(&self, args: &NavArgs) -> f64 {
+        args.imu_time_shift + self.shift * SHIFT_PER_DECADE
+    }
+
+    /// The options of the run at this point (gate off: the search's).
     fn args(&self, args: &NavArgs) -> NavArgs {
-        let mut a = args.clone();
-        a.gate = None;
-        a.imu_time_shift = args.imu_time_shift + self.shift * SHIFT_PER_DECADE;
-        a.model = scaled_axes(&args.model, &self.imu_factors());
-        a.gnss_sd_factor = [
-            args.gnss_sd_factor[0] * 10f64.powf(self.gnss[0]),
-            args.gnss_sd_factor[1] * 10f64.powf(self.gnss[1]),
-        ];
-        a.nhc = args.nhc.map(|sd| sd * 10f64.powf(self.nhc));
-        a
+        NavArgs {
+            gate: None,
+            ..answer_args(
+                args,
+                scaled_axes(&args.model, &self.imu_factors()),
+                self.gnss_factors(),
+                self.imu_time_shift(args),
+                self.nhc_factor(args),
+            )
+        }
+    }
+}
+
+/// `args` with an answer's model, factors on the GNSS standard deviations, IMU time shift
+/// (`--imu-time-shift` included) and factor on the constraint's sd: the options of its run.
+fn answer_args(
+    args: &NavArgs,
+    model: ImuErrorModel<f64>,
+    gnss_factors: [f64; 2],
+    imu_time_shift: f64,
+    nhc_factor: Option<f64>,
+) -> NavArgs {
+    NavArgs {
+        model,
+        gnss_sd_factor: [
+            args.gnss_sd_factor[0] * gnss_factors[0],
+            args.gnss_sd_factor[1] * gnss_factors[1],
+        ],
+        imu_time_shift,
+        nhc: args.nhc.zip(nhc_factor).map(|(sd, f)| sd * f),
+        ..args.clone()
     }
 }
 
@@ -455,9 +485,9 @@ pub fn identify_axes(
         }
         Some(AxesFit {
             factors: fit.imu_factors(),
-            gnss_sd_factors: fit.gnss.map(|l| 10f64.powf(l)),
-            imu_time_shift: args.imu_time_shift + fit.shift * SHIFT_PER_DECADE,
-            nhc_sd_factor: args.nhc.map(|_| 10f64.powf(fit.nhc)),
+            gnss_sd_factors: fit.gnss_factors(),
+            imu_time_shift: fit.imu_time_shift(args),
+            nhc_sd_factor: fit.nhc_factor(args),
             loglik_tied: best,
             loglik: best_axes,
             gain_nats,
@@ -489,16 +519,15 @@ pub fn identify_axes(
         })
         .collect();
     // The factors: a per-axis answer's IMU factors as their geometric means over the axes.
-    let f = point.imu_factors();
     let mean = |q: usize| 10f64.powf(point.imu[q].iter().sum::<f64>() / 3.0);
     let factors: [f64; 6] = std::array::from_fn(|i| match i {
         q if q < IMU => mean(q),
-        g => 10f64.powf(point.gnss[g - IMU]),
+        g => point.gnss_factors()[g - IMU],
     });
-    let nhc_sd_factor = args.nhc.map(|_| 10f64.powf(point.nhc));
+    let nhc_sd_factor = point.nhc_factor(args);
     Ok(Identified {
         factors,
-        imu_time_shift: args.imu_time_shift + point.shift * SHIFT_PER_DECADE,
+        imu_time_shift: point.imu_time_shift(args),
         nhc_sd_factor,
         nhc_sd: args.nhc.zip(nhc_sd_factor).map(|(sd, f)| sd * f),
         loglik_start: start,
@@ -506,6 +535,6 @@ pub fn identify_axes(
         evaluations: evaluations.get(),
         axes,
         uncertainty,
-        model: scaled_axes(&args.model, &f),
+        model: scaled_axes(&args.model, &point.imu_factors()),
     })
 }
