@@ -228,7 +228,11 @@ fn bench_identify_axes() {
                 let (z, u) = walk_z_score(&id, "accel_bias_walk", drift[0]);
                 vec![format!("tied {:+.2} sd {:?} z {z:+.2}", u.value, u.cr_sd)]
             };
-            println!("  walk, Cramér-Rao: {}", z.join("; "));
+            println!(
+                "  walk, Cramér-Rao: {} (Newton step {:?} nats)",
+                z.join("; "),
+                id.newton_nats
+            );
             println!("  {}", line("tied", &d.scores(&tied.apply(&args))));
             println!("  {}", line("per axis", &d.scores(&axes.apply(&args))));
             println!(

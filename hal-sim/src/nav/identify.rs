@@ -30,7 +30,11 @@
 //! from the curvature of the log-likelihood ([`super::information::cramer_rao_sd`], the online
 //! search's), and a coordinate whose sd exceeds [`IDENTIFIABLE_SD`] decade is flagged "not
 //! identifiable from this log" ([`Uncertainty`]): a factor at a bound or on a flat likelihood
-//! is where the search stopped, not a measurement.
+//! is where the search stopped, not a measurement. The search's answer lies on its grid
+//! (0.125 decade, of the order of the sds or far above them), so it is then moved to the
+//! maximum by Newton steps ([`super::information::refine`]): the curvature measured again at
+//! steps of one sd where the likelihood is sharper than the grid, each step kept when its run
+//! raises the likelihood, the sds those of the point kept.
 //!
 //! [`EpochRecord`]: super::EpochRecord
 
@@ -65,7 +69,9 @@ pub const MAX_SHIFT: f64 = 0.5;
 const IMU: usize = 4;
 
 /// The per-axis stage of `--identify-axes`: the four IMU factors untied over x, y, z and
-/// searched again from the tied answer; kept when the likelihood ratio says so.
+/// searched again from the tied answer; kept when the likelihood ratio says so. The test's
+/// answers, both on the search's grid: when the per-axis one is kept, [`Identified`] is it
+/// after the Newton step.
 #[derive(Debug, Clone, Serialize)]
 pub struct AxesFit {
     /// Factors per axis (x, y, z) of the four IMU quantities (the first four of [`FACTORS`];
@@ -101,6 +107,9 @@ pub struct Identified {
     /// Factors on the standard deviations (file order of [`FACTORS`]; with a per-axis answer
     /// kept, the IMU factors are the geometric means of [`AxesFit::factors`] over the axes).
     pub factors: [f64; 6],
+    /// The identified model's IMU factors per axis (x, y, z) of the first four of [`FACTORS`]:
+    /// equal over the axes when tied.
+    pub axis_factors: [[f64; 3]; IMU],
     /// IMU time shift added to `--imu-time-shift` [s] (the last coordinate).
     pub imu_time_shift: f64,
     /// Factor on the non-holonomic constraint's standard deviation (with `--nhc`).
@@ -113,11 +122,16 @@ pub struct Identified {
     pub loglik_start: f64,
     /// Log-likelihood of the identified model.
     pub loglik: f64,
+    /// What the Newton steps off the search's grid gained [nats] (included in `loglik`), or,
+    /// when none raised the likelihood, the change at the last tried (negative; the grid
+    /// answer is kept); `None` when the curvature gave no step (no concave direction).
+    pub newton_nats: Option<f64>,
     /// Runs of the filter made (both stages).
     pub evaluations: usize,
     /// The Cramér-Rao standard deviation of every coordinate searched, at the answer kept (the
     /// per-axis one's coordinates when it was kept); the finite-difference Hessian costs
-    /// `n (n + 3) / 2` more runs for `n` coordinates.
+    /// `n (n + 3) / 2` more runs for `n` coordinates, and the Newton steps about `2 n + 1`
+    /// each ([`super::information::refine`]).
     pub uncertainty: Vec<Uncertainty>,
     /// The per-axis stage (`--identify-axes`).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -143,13 +157,17 @@ impl Identified {
     /// One line for the terminal: the factors, the shift, the constraint, the likelihoods.
     pub fn summary_line(&self) -> String {
         format!(
-            "identified: factors {:?} ({}), IMU time shift {:+.4} s, constraint sd {:?} m/s, loglik {:.1} -> {:.1} in {} runs",
+            "identified: factors {:?} ({}), IMU time shift {:+.4} s, constraint sd {:?} m/s, loglik {:.1} -> {:.1} (Newton step off the grid {}) in {} runs",
             self.factors,
             FACTORS.join(", "),
             self.imu_time_shift,
             self.nhc_sd,
             self.loglik_start,
             self.loglik,
+            self.newton_nats.map_or("none".to_string(), |v| format!(
+                "{v:+.2} nats, {}",
+                if v > 0.0 { "kept" } else { "not kept" }
+            )),
             self.evaluations
         ) + &{
             let flat: Vec<&str> = self
@@ -499,11 +517,18 @@ pub fn identify_axes(
     } else {
         None
     };
-    // The Cramér-Rao sds of the answer kept, in its own coordinates.
-    let x = layout.coordinates(&point);
+    // The answer kept, moved off the search's grid to the maximum by Newton steps, with its
+    // Cramér-Rao sds, in its own coordinates.
+    let mut x = layout.coordinates(&point);
     let bounds = |i: usize| layout.bounds(i, args, &carried);
-    let sd =
-        super::information::cramer_rao_sd(&x, loglik, &bounds, &mut |y| eval(&layout.point(y)))?;
+    let refined = super::information::refine(&x, loglik, &bounds, &mut |y| eval(&layout.point(y)))?;
+    let sd = refined.sd;
+    let newton_nats = refined.newton_nats;
+    if refined.f > loglik {
+        loglik = refined.f;
+        point = layout.point(&refined.x);
+        x = refined.x;
+    }
     let uncertainty = (0..x.len())
         .filter(|&i| bounds(i).is_some())
         .map(|i| {
@@ -527,11 +552,13 @@ pub fn identify_axes(
     let nhc_sd_factor = point.nhc_factor(args);
     Ok(Identified {
         factors,
+        axis_factors: point.imu_factors(),
         imu_time_shift: point.imu_time_shift(args),
         nhc_sd_factor,
         nhc_sd: args.nhc.zip(nhc_sd_factor).map(|(sd, f)| sd * f),
         loglik_start: start,
         loglik,
+        newton_nats,
         evaluations: evaluations.get(),
         axes,
         uncertainty,

@@ -296,7 +296,7 @@ pub fn identify_and_write(
             match &id.axes {
                 Some(x) if x.significant => format!(
                     "# per axis (x, y, z) the first four: {:?} (--identify-axes: {:.1} nats over the tied fit, threshold {:.1}; the four above are their geometric means)\n",
-                    x.factors, x.gain_nats, x.threshold_nats
+                    id.axis_factors, x.gain_nats, x.threshold_nats
                 ),
                 _ => String::new(),
             }

@@ -419,10 +419,15 @@ fn outage_table(run: &NavRun, t0: f64) -> String {
 
 fn identified_table(id: &Identified) -> String {
     let mut h = format!(
-        "<p>Maximum-likelihood factors on the standard deviations (<code>identified.json</code>, <code>identified-model.toml</code>): log-likelihood {} at the start, {} identified, {} runs.</p><table>",
+        "<p>Maximum-likelihood factors on the standard deviations (<code>identified.json</code>, <code>identified-model.toml</code>): log-likelihood {} at the start, {} identified, {} runs; the Newton step off the search's grid: {}.</p><table>",
         sig4(id.loglik_start, "nats"),
         sig4(id.loglik, "nats"),
-        id.evaluations
+        id.evaluations,
+        id.newton_nats.map_or("none (no concave direction)".to_string(), |v| format!(
+            "{} ({})",
+            sig4(v, "nats"),
+            if v > 0.0 { "kept" } else { "not kept" }
+        ))
     );
     h += &header(&["factor", "value"]);
     for (name, f) in FACTORS.iter().zip(id.factors) {
@@ -456,7 +461,7 @@ fn identified_table(id: &Identified) -> String {
             a.df,
             if a.significant { "per-axis" } else { "tied" },
             if a.significant {
-                " (the factors above are its geometric means over the axes)"
+                " (the factors above are its geometric means over the axes, after the Newton step; the table gives the test's answer, on the search's grid)"
             } else {
                 ""
             }
