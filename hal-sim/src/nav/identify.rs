@@ -71,7 +71,7 @@ const IMU: usize = 4;
 /// The per-axis stage of `--identify-axes`: the four IMU factors untied over x, y, z and
 /// searched again from the tied answer; kept when the likelihood ratio says so. The test's
 /// answers, both on the search's grid: when the per-axis one is kept, [`Identified`] is it
-/// after the Newton step.
+/// after the Newton steps.
 #[derive(Debug, Clone, Serialize)]
 pub struct AxesFit {
     /// Factors per axis (x, y, z) of the four IMU quantities (the first four of [`FACTORS`];
@@ -105,7 +105,8 @@ pub struct AxesFit {
 #[derive(Debug, Clone, Serialize)]
 pub struct Identified {
     /// Factors on the standard deviations (file order of [`FACTORS`]; with a per-axis answer
-    /// kept, the IMU factors are the geometric means of [`AxesFit::factors`] over the axes).
+    /// kept, the IMU factors are the geometric means of [`Identified::axis_factors`] over the
+    /// axes).
     pub factors: [f64; 6],
     /// The identified model's IMU factors per axis (x, y, z) of the first four of [`FACTORS`]:
     /// equal over the axes when tied.
