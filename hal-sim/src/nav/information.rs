@@ -15,22 +15,16 @@ const CURVATURE_STEP: f64 = 0.125;
 /// The smallest step of [`refine`]'s differences at one sd [decades].
 const MIN_LOCAL_STEP: f64 = 1e-3;
 
-/// The curvature of the log-likelihood at a search's answer: the Cramér-Rao standard
-/// deviations, and the Newton step the same finite differences give.
-#[derive(Debug, Clone)]
-pub struct Curvature {
+/// The curvature of the log-likelihood at a search's answer, by finite differences: the
+/// Cramér-Rao standard deviations, and the gradient and Hessian over the coordinates
+/// differenced, from which [`refine`] takes its Newton steps.
+struct Curvature {
     /// The Cramér-Rao standard deviations ([`cramer_rao_sd`]).
-    pub sd: Vec<f64>,
-    /// `x - H^-1 g` over the coordinates whose central differences stay within their bounds
-    /// (`g` by central differences, the others fixed) and over the eigen-directions of `H`
-    /// along which the log-likelihood is concave, shortened along its direction to at most one
-    /// [`CURVATURE_STEP`] in any coordinate and to the bounds ([`newton_step`]); `None` when no
-    /// direction is concave, or none is searched. The search's answer lies on its grid; the
-    /// step moves it to the quadratic's maximum, which a caller keeps only when a run there
-    /// confirms a higher likelihood.
-    pub newton: Option<Vec<f64>>,
-    /// The coordinates differenced and the Hessian over them.
+    sd: Vec<f64>,
+    /// The coordinates whose central differences stay within their bounds.
     ok: Vec<usize>,
+    /// The gradient and the Hessian over `ok`.
+    grad: nalgebra::DVector<f64>,
     hess: nalgebra::DMatrix<f64>,
 }
 
@@ -74,33 +68,20 @@ fn curvature(
     let ok: Vec<usize> = (0..n)
         .filter(|&i| inside(i, x[i] + steps[i]) && inside(i, x[i] - steps[i]))
         .collect();
-    let mut up = vec![f64::NAN; n];
-    let mut hess = nalgebra::DMatrix::<f64>::zeros(ok.len(), ok.len());
-    let mut grad = nalgebra::DVector::<f64>::zeros(ok.len());
-    for (a, &i) in ok.iter().enumerate() {
-        let h = steps[i];
-        up[i] = eval(&at(&[(i, h)]))?;
-        let down = eval(&at(&[(i, -h)]))?;
-        hess[(a, a)] = (up[i] - 2.0 * f0 + down) / (h * h);
-        grad[a] = (up[i] - down) / (2.0 * h);
-    }
+    let d = central(x, f0, &ok, steps, eval)?;
+    let mut hess = nalgebra::DMatrix::<f64>::from_diagonal(&d.diag);
     for (a, &i) in ok.iter().enumerate() {
         for (b, &j) in ok.iter().enumerate().skip(a + 1) {
             let both = eval(&at(&[(i, steps[i]), (j, steps[j])]))?;
-            let v = (both - up[i] - up[j] + f0) / (steps[i] * steps[j]);
+            let v = (both - d.up[a] - d.up[b] + f0) / (steps[i] * steps[j]);
             hess[(a, b)] = v;
             hess[(b, a)] = v;
         }
     }
-    let sd = sds(n, &ok, &hess, bounds);
-    let finite = hess.iter().chain(grad.iter()).all(|v| v.is_finite());
-    let newton = (finite && !ok.is_empty())
-        .then(|| newton_step(x, &ok, &hess, &grad, bounds))
-        .flatten();
     Ok(Curvature {
-        sd,
-        newton,
+        sd: sds(n, &ok, &hess, bounds),
         ok,
+        grad: d.grad,
         hess,
     })
 }
@@ -123,8 +104,6 @@ pub struct Refined {
     /// The log-likelihood gained by the steps kept, or, when none was, the change at the
     /// last step tried (negative); `None` when the curvature gave no step.
     pub newton_nats: Option<f64>,
-    /// Runs of Newton steps, halvings included.
-    pub iterations: usize,
 }
 
 /// From a search's answer `x` (value `f0`) on its grid: the curvature at the grid's step
@@ -171,27 +150,27 @@ pub fn refine(
                  rescaled: &mut bool,
                  eval: &mut dyn FnMut(&[f64]) -> Result<f64>|
      -> Result<Option<Vec<f64>>> {
-        let (grad, diag) = gradient(at, f, &c.ok, &steps, eval)?;
-        if !grad.iter().chain(diag.iter()).all(|v| v.is_finite()) {
+        let d = central(at, f, &c.ok, &steps, eval)?;
+        if !d.grad.iter().chain(d.diag.iter()).all(|v| v.is_finite()) {
             return Ok(None);
         }
-        *rescaled |= rescale(hess, &diag);
-        Ok(newton_step(at, &c.ok, hess, &grad, bounds))
+        *rescaled |= rescale(hess, &d.diag);
+        Ok(newton_step(at, &c.ok, hess, &d.grad, bounds))
     };
     let mut proposal = if steps.iter().any(|&h| h < CURVATURE_STEP) {
         local(x, f0, &mut hess, &mut rescaled, eval)?
     } else {
-        c.newton.clone()
+        grid_newton(x, &c, bounds)
     };
     let mut best = (x.to_vec(), f0);
     let mut newton_nats = None;
-    let mut iterations = 0;
+    let mut runs = 0;
     let mut halvings = 0;
     while let Some(y) = proposal.take() {
-        if iterations == MAX_NEWTON {
+        if runs == MAX_NEWTON {
             break;
         }
-        iterations += 1;
+        runs += 1;
         let fy = eval(&y)?;
         if fy <= best.1 {
             // Backtracking: the quadratic overshot; half the step, at most MAX_HALVINGS times.
@@ -231,33 +210,54 @@ pub fn refine(
         f: best.1,
         sd,
         newton_nats,
-        iterations,
     })
 }
 
-/// The gradient and the diagonal of the Hessian over the coordinates `ok` at `x` (value
-/// `f`) by central differences of `steps`: `2 k` runs.
-fn gradient(
+/// Central differences over the coordinates `ok` at `x` (value `f`), steps `steps`: `2 k`
+/// runs.
+struct Central {
+    /// The gradient and the Hessian's diagonal over `ok`.
+    grad: nalgebra::DVector<f64>,
+    diag: nalgebra::DVector<f64>,
+    /// The values at `x + steps[i] e_i` (for the cross differences of [`curvature`]).
+    up: Vec<f64>,
+}
+
+fn central(
     x: &[f64],
     f: f64,
     ok: &[usize],
     steps: &[f64],
     eval: &mut dyn FnMut(&[f64]) -> Result<f64>,
-) -> Result<(nalgebra::DVector<f64>, nalgebra::DVector<f64>)> {
-    let mut g = nalgebra::DVector::<f64>::zeros(ok.len());
-    let mut d = nalgebra::DVector::<f64>::zeros(ok.len());
+) -> Result<Central> {
+    let mut grad = nalgebra::DVector::<f64>::zeros(ok.len());
+    let mut diag = nalgebra::DVector::<f64>::zeros(ok.len());
+    let mut up = vec![f64::NAN; ok.len()];
     let mut y = x.to_vec();
     for (a, &i) in ok.iter().enumerate() {
         let h = steps[i];
         y[i] = x[i] + h;
-        let up = eval(&y)?;
+        up[a] = eval(&y)?;
         y[i] = x[i] - h;
         let down = eval(&y)?;
         y[i] = x[i];
-        g[a] = (up - down) / (2.0 * h);
-        d[a] = (up - 2.0 * f + down) / (h * h);
+        grad[a] = (up[a] - down) / (2.0 * h);
+        diag[a] = (up[a] - 2.0 * f + down) / (h * h);
     }
-    Ok((g, d))
+    Ok(Central { grad, diag, up })
+}
+
+/// The Newton point from the grid step's differences alone ([`newton_step`]), when they are
+/// finite.
+fn grid_newton(
+    x: &[f64],
+    c: &Curvature,
+    bounds: &dyn Fn(usize) -> Option<(f64, f64)>,
+) -> Option<Vec<f64>> {
+    let finite = c.hess.iter().chain(c.grad.iter()).all(|v| v.is_finite());
+    (finite && !c.ok.is_empty())
+        .then(|| newton_step(x, &c.ok, &c.hess, &c.grad, bounds))
+        .flatten()
 }
 
 /// `hess` given the diagonal `diag` measured at another step or point, its correlations
@@ -313,7 +313,7 @@ fn sds(
     sd
 }
 
-/// The Newton point of [`Curvature`]: `-H^-1 g` over the eigen-directions of `H` along which
+/// The Newton point `x - H^-1 g` over the coordinates `ok` (the others fixed) and over the eigen-directions of `H` along which
 /// the log-likelihood is concave (a direction flat or convex to the finite differences gets
 /// no step: on it the quadratic has no maximum), shortened along its direction to one
 /// [`CURVATURE_STEP`] in any coordinate and to the bounds.
@@ -401,14 +401,14 @@ mod tests {
         let near = [0.25, -0.125];
         let h = [CURVATURE_STEP; 2];
         let c = curvature(&near, ll(&near).unwrap(), &h, &bounds, &mut |x| ll(x)).unwrap();
-        let y = c.newton.expect("a concave quadratic has a Newton step");
+        let y = grid_newton(&near, &c, &bounds).expect("a concave quadratic has a Newton step");
         assert!(
             (y[0] - m[0]).abs() < 1e-9 && (y[1] - m[1]).abs() < 1e-9,
             "{y:?}"
         );
         let far = [1.0, -0.2];
         let c = curvature(&far, ll(&far).unwrap(), &h, &bounds, &mut |x| ll(x)).unwrap();
-        let y = c.newton.expect("a concave quadratic has a Newton step");
+        let y = grid_newton(&far, &c, &bounds).expect("a concave quadratic has a Newton step");
         // The full step is (-0.7, 0): shortened to one CURVATURE_STEP.
         assert!((y[0] - (1.0 - CURVATURE_STEP)).abs() < 1e-9, "{y:?}");
         assert!((y[1] + 0.2).abs() < 1e-9, "{y:?}");
@@ -433,7 +433,7 @@ mod tests {
         let f0 = ll(&x).unwrap();
         let sd_exact = 1.0 / (a * (2.0 * n).sqrt());
         let coarse = curvature(&x, f0, &[CURVATURE_STEP], &bounds, &mut |y| ll(y)).unwrap();
-        let miss = (coarse.newton.unwrap()[0] - truth).abs();
+        let miss = (grid_newton(&x, &coarse, &bounds).unwrap()[0] - truth).abs();
         assert!(miss > sd_exact, "coarse miss {miss} against sd {sd_exact}");
         let r = refine(&x, f0, &bounds, &mut |y| ll(y)).unwrap();
         let miss = (r.x[0] - truth).abs();
