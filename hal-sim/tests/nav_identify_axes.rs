@@ -135,6 +135,18 @@ fn a_sensor_whose_axes_differ_is_identified_per_axis() {
     // Its Cramér-Rao interval on x covers the truth (3.29 sd: 99.9 % two-sided).
     let (z, u) = walk_z_score(&id, "accel_bias_walk_x", DIFFER[0]);
     assert!(u.identifiable && z.abs() < 3.29, "{u:?}: z {z:.2}");
+    // Its 95 % likelihood interval, measured by runs, is closed, holds the answer, and has
+    // the Cramér-Rao interval's size within a factor of two on each side (the walk's
+    // likelihood is nearly quadratic here: BENCHMARKS.md "Likelihood intervals").
+    let (v, sd) = (u.interval_95, u.cr_sd.unwrap_or(f64::NAN));
+    let half = 1.96 * sd;
+    assert!(
+        !v.lo_open
+            && !v.hi_open
+            && (0.5 * half..2.0 * half).contains(&(u.value - v.lo))
+            && (0.5 * half..2.0 * half).contains(&(v.hi - u.value)),
+        "{u:?}"
+    );
 }
 
 /// The z-score of the identified log10 factor `name` against the truth's factor `truth_mg`
@@ -148,6 +160,24 @@ fn walk_z_score(id: &Identified, name: &str, truth_mg: f64) -> (f64, Uncertainty
         .clone();
     let z = (u.value - truth_mg.log10()) / u.cr_sd.unwrap_or(f64::INFINITY);
     (z, u)
+}
+
+/// The 95 % likelihood interval of `u` and whether it holds the truth `truth_mg` (`IN95` or
+/// `OUT95`, for the bench's tally), with the most a run rose above the answer.
+fn interval_verdict(u: &Uncertainty, truth_mg: f64) -> String {
+    let v = u.interval_95;
+    let t = truth_mg.log10();
+    format!(
+        "LI [{:+.3}, {:+.3}] {} above {:.2}",
+        v.lo,
+        v.hi,
+        if (v.lo..=v.hi).contains(&t) {
+            "IN95"
+        } else {
+            "OUT95"
+        },
+        v.above_nats
+    )
 }
 
 #[test]
@@ -221,12 +251,22 @@ fn bench_identify_axes() {
                     .zip(drift)
                     .map(|(a, t)| {
                         let (z, u) = walk_z_score(&id, &format!("accel_bias_walk_{a}"), t);
-                        format!("{a} {:+.2} sd {:?} z {z:+.2}", u.value, u.cr_sd)
+                        format!(
+                            "{a} {:+.2} sd {:?} z {z:+.2} {}",
+                            u.value,
+                            u.cr_sd,
+                            interval_verdict(&u, t)
+                        )
                     })
                     .collect()
             } else {
                 let (z, u) = walk_z_score(&id, "accel_bias_walk", drift[0]);
-                vec![format!("tied {:+.2} sd {:?} z {z:+.2}", u.value, u.cr_sd)]
+                vec![format!(
+                    "tied {:+.2} sd {:?} z {z:+.2} {}",
+                    u.value,
+                    u.cr_sd,
+                    interval_verdict(&u, drift[0])
+                )]
             };
             println!(
                 "  walk, Cramér-Rao: {} (Newton step {:?} nats)",

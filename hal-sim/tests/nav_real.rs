@@ -15,13 +15,13 @@
 //!   looser than the horizontal ones, so a wide band is asserted, not a chi-square one);
 //! - the identified model is no worse at the end of the outages than the hand-inflated one
 //!   nor than the data's own filter, 7.15 m RMS (the bar; every fix fused, the
-//!   default; measured 7.01 m, 8.01 m hand-inflated: BENCHMARKS.md "Off the grid");
+//!   default; measured 7.02 m, 7.99 m hand-inflated: BENCHMARKS.md "The fix at its own time");
 //! - the non-holonomic constraint (`--nhc`, at the body origin 0.65 m below the IMU) with
 //!   the identified model, at [`NHC_SD`] (the constraint's sd identified on this log), raises
 //!   the GNSS innovation likelihood, is consistent (mean NIS of its two axes between 0.1 and
 //!   3), and is better at the end of the outages than the same model without it and than the
-//!   data's own filter (which has no constraint). Measured (BENCHMARKS.md): 4.37 m against
-//!   7.01 m; the bounds leave that margin to a different identification path (the search is
+//!   data's own filter (which has no constraint). Measured (BENCHMARKS.md): 4.38 m against
+//!   7.02 m; the bounds leave that margin to a different identification path (the search is
 //!   flat along the bias walks).
 //!
 //! The identification with the constraint's factor in the search (`--identify --nhc`, ~50 s)
@@ -191,8 +191,8 @@ fn real_drive_identified_model_is_consistent_and_no_worse_than_hand_inflated() {
 /// `--identify --nhc 0.3`: the constraint's sd is one more coordinate of the likelihood search.
 /// Asserted: it lands near the value the other starts found (0.05 m/s, within a factor 3: the
 /// search's finest step is 1/8 decade and the likelihood is flat along the bias walks) and the
-/// run beats the identification without the constraint (7.01 m, BENCHMARKS.md; asserted
-/// against the grid answer's 6.88 m, measured 4.37 m). About 50 s.
+/// run beats the identification without the constraint (7.02 m, BENCHMARKS.md; asserted
+/// against the grid answer's 6.88 m, measured 4.36 m). About 50 s.
 #[test]
 #[ignore = "about 50 s in release: cargo test --release -p hal-sim --test nav_real -- --ignored"]
 fn real_drive_identifies_the_constraint_sd() {
@@ -235,8 +235,8 @@ fn real_drive_identifies_the_constraint_sd() {
 ///   (`--identify`, the same likelihood) to within 3.29 of the last search's Cramér-Rao sd
 ///   (99.9 %, Wald) plus the 1/8-decade grid both searches stop on;
 /// - at the end of the outages it is no worse than the hand-inflated model it started from,
-///   nor than the data's own filter, 7.15 m RMS (the bar). Measured 6.18 m
-///   (BENCHMARKS.md "The GNSS noise online"); without the GNSS coordinates 8.29 m.
+///   nor than the data's own filter, 7.15 m RMS (the bar). Measured 5.70 m
+///   (BENCHMARKS.md "The fix at its own time"; 6.18 m before it, "The GNSS noise online"); without the GNSS coordinates 8.29 m.
 ///
 /// About 2 min in release.
 #[test]

@@ -15,8 +15,10 @@
 //!   mean of `dphi, dv, dp` is only driven by the change of the estimated sensor errors within
 //!   the step (`(1 - e^{-dt/tau}) b`, below 0.4 % of `b` for `tau >= 300 s` at 1 Hz), which is
 //!   dropped. The sensor-error part of `x` is predicted as usual.
-//! - [`Navigator::gnss`]: a fix is fused at its own time `t_f <= t` (the solution is moved back
-//!   along its velocity by `t - t_f`, at most one IMU interval); the filter is first propagated
+//! - [`Navigator::gnss`]: a fix is fused at its own time `t_f <= t` (the solution's position
+//!   and velocity are moved back by `t - t_f`, at most one IMU interval, along the velocity and
+//!   the last sample's velocity change, over which the mechanised velocity is linear); the
+//!   filter is first propagated
 //!   over the part of the step already elapsed. The first fix after a step restarts the step
 //!   clock at its time of validity, so fixes at the filter rate land on the steps, and faster
 //!   fixes (4-Hz RTK) each propagate over part of a step while the steps keep their cadence,
@@ -140,6 +142,10 @@ pub struct Navigator<T: Real, const N: usize, O = ()> {
     w_b: Vector3<T>,
     /// Attitude `C_b^n` at the start of the last IMU sample.
     c_sample: Matrix3<T>,
+    /// The NED acceleration over the last IMU sample (its velocity change over its
+    /// interval), with which a fix inside the sample is compared with the solution
+    /// interpolated to its time ([`Navigator::gnss`]).
+    a_sample: Vector3<T>,
     s_g: Vector3<T>,
     s_a: Vector3<T>,
     b_g: Vector3<T>,
@@ -192,6 +198,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             sum_dv: Vector3::zeros(),
             w_b: Vector3::zeros(),
             c_sample: Matrix3::identity(),
+            a_sample: Vector3::zeros(),
             s_g: Vector3::zeros(),
             s_a: Vector3::zeros(),
             b_g: Vector3::zeros(),
@@ -225,6 +232,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             sum_dv: self.sum_dv,
             w_b: self.w_b,
             c_sample: self.c_sample,
+            a_sample: self.a_sample,
             s_g: self.s_g,
             s_a: self.s_a,
             b_g: self.b_g,
@@ -423,7 +431,9 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
         };
         let c = self.ins.dcm();
         self.c_sample = c;
+        let v0 = self.ins.velocity();
         self.ins.step(&comp, dt)?;
+        self.a_sample = (self.ins.velocity() - v0) / dt;
         self.t_prev = self.t;
         self.t = t;
         self.sum_fn += c * comp.dv;

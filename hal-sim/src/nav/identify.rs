@@ -34,10 +34,15 @@
 //! (0.125 decade, of the order of the sds or far above them), so it is then moved to the
 //! maximum by Newton steps ([`super::information::refine`]): the curvature measured again at
 //! steps of one sd where the likelihood is sharper than the grid, each step kept when its run
-//! raises the likelihood, the sds those of the point kept.
+//! raises the likelihood, the sds those of the point kept. Each coordinate then gets its 95 %
+//! likelihood interval, measured by runs along the profile's path under that Hessian
+//! ([`super::interval`], about four runs per coordinate where the likelihood is near a
+//! quadratic): the Cramér-Rao interval assumes the quadratic, and has nothing to say about a
+//! factor at its bound, which the data may still bound on the other side.
 //!
 //! [`EpochRecord`]: super::EpochRecord
 
+use super::interval::{likelihood_interval, LikelihoodInterval, LEVEL_95};
 use super::{run_with, NavArgs};
 use crate::nav_io::{GnssFix, ImuSample};
 use anyhow::Result;
@@ -185,7 +190,14 @@ impl Identified {
                     flat.join(", ")
                 )
             }
-        } + &self.axes.as_ref().map_or(String::new(), |a| {
+        } + &format!(
+            "\n95 % likelihood intervals (log10 factors; shift [s]; < and > mark an end at the search's bound): {}",
+            self.uncertainty
+                .iter()
+                .map(|u| u.interval_text())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ) + &self.axes.as_ref().map_or(String::new(), |a| {
             format!(
                 "\nper axis (x, y, z; {}): {:?}, gain {:.1} nats against {:.1} (chi-square({}) 0.99): {}",
                 FACTORS[..IMU].join(", "),
@@ -434,6 +446,35 @@ pub struct Uncertainty {
     /// [`SHIFT_PER_DECADE`] s): the data determine it. `false` is the flag "not identifiable
     /// from this log".
     pub identifiable: bool,
+    /// The 95 % likelihood interval, in the same unit ([`super::interval`]): where the
+    /// log-likelihood has fallen by [`LEVEL_95`] nats, measured by runs; open on a side the
+    /// data do not bound within the search's bounds. It is skewed where the likelihood is not
+    /// quadratic, and it exists where the Cramér-Rao sd does not (a factor at a bound).
+    pub interval_95: LikelihoodInterval,
+}
+
+/// A rise above the answer along an interval's path worth a word [nats]: the chi-square(1)
+/// 0.5 quantile over two, below which the answer is as good as the point found.
+pub const ABOVE_NOTED: f64 = 0.227;
+
+impl Uncertainty {
+    /// `name [lo, hi]`, an end at the search's bound written `<lo` or `>hi`.
+    pub fn interval_text(&self) -> String {
+        let v = &self.interval_95;
+        format!(
+            "{} [{}{:+.4}, {}{:+.4}]{}",
+            self.name,
+            if v.lo_open { "<" } else { "" },
+            v.lo,
+            if v.hi_open { ">" } else { "" },
+            v.hi,
+            if v.above_nats > ABOVE_NOTED {
+                format!(" (a run {:.1} nats above the answer)", v.above_nats)
+            } else {
+                String::new()
+            }
+        )
+    }
 }
 
 /// Runs the search from `args.model` with the three axes of each sensor tied (gate off during
@@ -523,27 +564,43 @@ pub fn identify_axes(
     let mut x = layout.coordinates(&point);
     let bounds = |i: usize| layout.bounds(i, args, &carried);
     let refined = super::information::refine(&x, loglik, &bounds, &mut |y| eval(&layout.point(y)))?;
-    let sd = refined.sd;
+    let sd = &refined.sd;
     let newton_nats = refined.newton_nats;
     if refined.f > loglik {
         loglik = refined.f;
         point = layout.point(&refined.x);
-        x = refined.x;
+        x = refined.x.clone();
     }
     let uncertainty = (0..x.len())
         .filter(|&i| bounds(i).is_some())
         .map(|i| {
+            let interval = likelihood_interval(
+                &x,
+                loglik,
+                i,
+                refined.covariance.as_ref(),
+                sd[i].is_finite().then_some(sd[i]),
+                LEVEL_95,
+                &bounds,
+                &mut |y| eval(&layout.point(y)),
+            )?;
             let shift = i + 1 == x.len();
             let unit = if shift { SHIFT_PER_DECADE } else { 1.0 };
+            let offset = if shift { args.imu_time_shift } else { 0.0 };
             let cr_sd = sd[i].is_finite().then_some(sd[i] * unit);
-            Uncertainty {
+            Ok(Uncertainty {
                 name: layout.name(i),
-                value: x[i] * unit + if shift { args.imu_time_shift } else { 0.0 },
+                value: x[i] * unit + offset,
                 cr_sd,
                 identifiable: cr_sd.is_some_and(|v| v <= IDENTIFIABLE_SD * unit),
-            }
+                interval_95: LikelihoodInterval {
+                    lo: interval.lo * unit + offset,
+                    hi: interval.hi * unit + offset,
+                    ..interval
+                },
+            })
         })
-        .collect();
+        .collect::<Result<_>>()?;
     // The factors: a per-axis answer's IMU factors as their geometric means over the axes.
     let mean = |q: usize| 10f64.powf(point.imu[q].iter().sum::<f64>() / 3.0);
     let factors: [f64; 6] = std::array::from_fn(|i| match i {

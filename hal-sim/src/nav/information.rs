@@ -104,6 +104,37 @@ pub struct Refined {
     /// The log-likelihood gained by the steps kept, or, when none was, the change at the
     /// last step tried (negative); `None` when the curvature gave no step.
     pub newton_nats: Option<f64>,
+    /// The covariance `(-H)^-1` over the coordinates the differences bounded, when `-H` is
+    /// positive definite: the direction in which the others follow one coordinate at their
+    /// conditional maximum ([`super::interval`]).
+    pub covariance: Option<Covariance>,
+}
+
+/// The inverse observed information over some coordinates.
+#[derive(Debug, Clone)]
+pub struct Covariance {
+    /// The coordinates, in the order of `cov`'s rows.
+    pub ok: Vec<usize>,
+    /// The covariance over `ok`.
+    pub cov: nalgebra::DMatrix<f64>,
+    /// Each coordinate's sd with the others held, `1 / sqrt(-H_ii)`, over `ok`.
+    pub conditional_sd: Vec<f64>,
+}
+
+impl Covariance {
+    /// `(-hess)^-1` over `ok`, `None` unless `-hess` is finite and positive definite.
+    fn of(ok: &[usize], hess: &nalgebra::DMatrix<f64>) -> Option<Self> {
+        if ok.is_empty() || !hess.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        (-hess.clone()).cholesky().map(|c| Self {
+            ok: ok.to_vec(),
+            cov: c.inverse(),
+            conditional_sd: (0..ok.len())
+                .map(|a| (-1.0 / hess[(a, a)]).sqrt())
+                .collect(),
+        })
+    }
 }
 
 /// From a search's answer `x` (value `f0`) on its grid: the curvature at the grid's step
@@ -196,6 +227,7 @@ pub fn refine(
     }
     // The sds of the Hessian last rescaled; a coordinate the grid's differences could not
     // bound (at a bound, not concave) keeps that verdict.
+    let covariance = Covariance::of(&c.ok, if rescaled { &hess } else { &c.hess });
     let sd = if rescaled {
         let moved = sds(x.len(), &c.ok, &hess, bounds);
         c.sd.iter()
@@ -210,6 +242,7 @@ pub fn refine(
         f: best.1,
         sd,
         newton_nats,
+        covariance,
     })
 }
 

@@ -19,6 +19,7 @@ pub mod diagnose;
 pub mod drive;
 pub mod identify;
 pub mod information;
+pub mod interval;
 pub mod model;
 pub mod pattern;
 pub mod plot;

@@ -417,6 +417,22 @@ fn outage_table(run: &NavRun, t0: f64) -> String {
     h + "</table>"
 }
 
+/// `[lo, hi]`, an end at the search's bound marked `(bound)`; `held` when the others stayed.
+fn likelihood_interval_cell(v: &crate::nav::interval::LikelihoodInterval) -> String {
+    let end = |x: f64, open: bool| sig4(x, "") + if open { " (bound)" } else { "" };
+    format!(
+        "[{}, {}]{}{}",
+        end(v.lo, v.lo_open),
+        end(v.hi, v.hi_open),
+        if v.along_ridge { "" } else { ", others held" },
+        if v.above_nats > crate::nav::identify::ABOVE_NOTED {
+            format!(", a run {} above the answer", sig4(v.above_nats, "nats"))
+        } else {
+            String::new()
+        }
+    )
+}
+
 fn identified_table(id: &Identified) -> String {
     let mut h = format!(
         "<p>Maximum-likelihood factors on the standard deviations (<code>identified.json</code>, <code>identified-model.toml</code>): log-likelihood {} at the start, {} identified, {} runs; the Newton step off the search's grid: {}.</p><table>",
@@ -435,7 +451,7 @@ fn identified_table(id: &Identified) -> String {
     }
     h += "</table>";
     h += &format!(
-        "<p>Cramér-Rao standard deviations of the coordinates searched, at the answer kept (from the curvature of the log-likelihood); a coordinate whose sd exceeds {IDENTIFIABLE_SD} decade (for the shift, {} s) is not identifiable from this log, and its value is where the search stopped, not a measurement.</p><table>",
+        "<p>Cramér-Rao standard deviations of the coordinates searched, at the answer kept (from the curvature of the log-likelihood); a coordinate whose sd exceeds {IDENTIFIABLE_SD} decade (for the shift, {} s) is not identifiable from this log, and its value is where the search stopped, not a measurement. The 95 % likelihood interval is where the log-likelihood has fallen by 1.92 nats, measured by runs (the others at their conditional maximum where the curvature gives it, else held): skewed where the likelihood is not quadratic, and one-sided (an end at the search's bound, marked) where the data bound the coordinate only on one side.</p><table>",
         IDENTIFIABLE_SD * SHIFT_PER_DECADE
     );
     h += &header(&[
@@ -443,6 +459,7 @@ fn identified_table(id: &Identified) -> String {
         "value (log10 factor; shift [s])",
         "Cramér-Rao sd",
         "identifiable",
+        "95 % likelihood interval",
     ]);
     for u in &id.uncertainty {
         h += &row(&[
@@ -450,6 +467,7 @@ fn identified_table(id: &Identified) -> String {
             sig4(u.value, ""),
             u.cr_sd.map_or("unbounded".to_string(), |v| sig4(v, "")),
             (if u.identifiable { "yes" } else { "no" }).to_string(),
+            likelihood_interval_cell(&u.interval_95),
         ]);
     }
     h += "</table>";
