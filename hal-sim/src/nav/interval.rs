@@ -53,10 +53,11 @@ pub const LEVEL_95: f64 = 1.920_729_410_347_062;
 /// Most runs per side.
 const MAX_RUNS: usize = 8;
 
-/// The end is taken when the fall is within this of the level [nats] (module docs). Why this wide: the real
-/// drive's likelihood has a jitter of a few tenths of a nat between runs 0.1 ms apart in the
-/// IMU time shift (the step clock follows the samples), so a tighter target costs runs
-/// without a better end; 0.2 nat is at most 5 % of the root, 0.1 sd at the 95 % end.
+/// The end is taken when the fall is within this of the level [nats] (module docs). Why
+/// this wide: the real drive's likelihood has a jitter of a third of a nat between runs 0.1 ms
+/// apart in the IMU time shift (what still follows the samples: BENCHMARKS.md "The fix at its
+/// own time"), so a tighter target costs runs without a better end; 0.2 nat is at most 5 % of
+/// the root, 0.1 sd at the 95 % end.
 const FALL_TOLERANCE: f64 = 0.2;
 
 /// A ridge end closer than this fraction of the conditional interval's end is checked
