@@ -23,13 +23,13 @@
 //!    or no axis needs it on its own (an effect shared by two axes, each replaceable by the
 //!    other's): then on all three, split.
 
-use super::{half_chi2_quantile, search, ComponentJson, ALPHA};
+use super::{half_chi2_quantile, offered, search, time_indices, ComponentJson, ALPHA};
 use crate::candidates::Candidate;
 use crate::nav::identify::loglik;
 use crate::nav::NavArgs;
 use crate::nav_io::{GnssFix, ImuSample};
 use anyhow::Result;
-use imu_ident::model::{Component, ComponentKind};
+use imu_ident::model::Component;
 use imu_ident::nav::{ImuErrorModel, ImuSensor};
 use serde::Serialize;
 
@@ -79,7 +79,8 @@ impl AxisSplit {
             .iter()
             .zip(&self.axes)
             .map(|(n, j)| {
-                let v: Vec<String> = [("sigma", j.sigma), ("tau", j.tau), ("q", j.q)]
+                let v: Vec<String> = j
+                    .quantities()
                     .iter()
                     .filter_map(|(k, v)| v.filter(|v| *v != 0.0).map(|v| format!("{k} {v:.3e}")))
                     .collect();
@@ -133,7 +134,7 @@ fn components(cand: &Candidate, x: &[f64]) -> Option<[Component<f64>; 3]> {
         let mut p = Vec::with_capacity(1 + shared.len());
         p.push(*x.get(i)?);
         p.extend_from_slice(shared);
-        cand.component(&p)
+        offered(cand, &p)
     };
     Some([one(0)?, one(1)?, one(2)?])
 }
@@ -170,18 +171,22 @@ pub(super) fn fit_split(
         .chain(tied.iter().skip(1).copied())
         .collect();
     let mut ll = t.ll;
-    // A Gauss-Markov's tau follows the three magnitudes.
-    let tau = (cand.kind == ComponentKind::GaussMarkov).then_some(3);
-    search(&mut x, &mut ll, tau, &mut |p: &[f64]| {
-        n += 1;
-        match model_of(&args.model, cand, s, p, [true; 3]) {
-            Some(m) => {
-                a.model = m;
-                loglik(&a, imu, fixes)
+    // A Gauss-Markov's tau (an exp-cosine's tau and period) follows the three magnitudes.
+    search(
+        &mut x,
+        &mut ll,
+        time_indices(cand, 3),
+        &mut |p: &[f64]| {
+            n += 1;
+            match model_of(&args.model, cand, s, p, [true; 3]) {
+                Some(m) => {
+                    a.model = m;
+                    loglik(&a, imu, fixes)
+                }
+                None => Ok(f64::NEG_INFINITY),
             }
-            None => Ok(f64::NEG_INFINITY),
-        }
-    })?;
+        },
+    )?;
     Ok((x, ll, n))
 }
 
@@ -286,7 +291,7 @@ pub(super) fn split(
 mod tests {
     use super::*;
     use crate::candidates::Candidate;
-    use imu_ident::model::ErrorSource;
+    use imu_ident::model::{ComponentKind, ErrorSource};
 
     #[test]
     fn the_split_frees_the_magnitude_and_shares_the_rest() {

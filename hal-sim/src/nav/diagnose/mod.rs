@@ -12,17 +12,19 @@
 //!    parameters; withheld fixes are not in it).
 //! 2. Candidates: the table of component kinds' sensor candidates ([`crate::candidates::LIBRARY`])
 //!    on the gyros and the accelerometers, each added to the three axes of its sensor with
-//!    one set of parameters (tied): a Gauss-Markov (sigma, tau), a random walk (q), a random
-//!    constant (sigma). A kind the sensor already carries is left out, except a second
+//!    one set of parameters (tied): a Gauss-Markov (sigma, tau), an exponential-cosine
+//!    (sigma, tau, period: an oscillating error, a heater cycling), a random walk (q), a
+//!    random constant (sigma). A kind the sensor already carries is left out, except a second
 //!    Gauss-Markov (another time scale); so is a candidate that does not fit the filter's
 //!    [`imu_ident::nav::NAV_N`] states (counted by the core, scale factors included). White
-//!    noise is a magnitude, not a missing effect (`--identify` fits it), and the exp-cosine's
-//!    three parameters would triple the cost; neither is a candidate here.
+//!    noise is a magnitude, not a missing effect (`--identify` fits it). An exponential-cosine
+//!    is offered only with at least half a period in its envelope, `beta tau >= pi`
+//!    ([`offered`]); below that it is a Gauss-Markov of another shape.
 //! 3. Each candidate's parameters maximise the likelihood: every start of the table
 //!    ([`crate::candidates::Candidate::starts_at`], scaled to the sensor's magnitude in the
 //!    model) is evaluated, and a pattern search ([`super::pattern`]) runs from the best, in
 //!    natural-log steps 2, 1, 0.5, 0.25, within three decades of its start (correlation times
-//!    within [10 s, 1e5 s]).
+//!    and periods within [10 s, 1e5 s]).
 //! 4. The test: with the model right, twice a candidate's gain `L1 - L0` is asymptotically at
 //!    most chi-square(k) (Wilks; `k` its free parameters; the component's magnitude on its
 //!    boundary at zero makes it a mixture with a point mass at zero, which only lowers the
@@ -34,7 +36,8 @@
 //!    that the winner contains as a limit is named instead unless the winner gains more than
 //!    half the chi-square(dk) `1 - ALPHA` quantile over it (a Gauss-Markov whose correlation
 //!    time runs past the log is a random walk: on 1 of 8 seeds with a hidden walk the
-//!    Gauss-Markov led the walk by 1.8 nats, within the 3.3 nats of that test).
+//!    Gauss-Markov led the walk by 1.8 nats, within the 3.3 nats of that test; an
+//!    exponential-cosine of `beta -> 0` is a Gauss-Markov).
 //! 5. Where the named effect sits ([`axes`]): its magnitude is untied over the three axes,
 //!    the split tested against the tied fit (half the chi-square(2) `1 - ALPHA` quantile)
 //!    and, when the axes differ, each axis tested for the effect; the diagnosed model carries
@@ -49,14 +52,15 @@
 //!    A tied candidate that also lands on an axis without the effect can lose its gain there:
 //!    a walk on one horizontal accelerometer, tied, is put on the vertical one too, where the
 //!    heights reject it (BENCHMARKS.md "Which axis: the split of the named effect"). About
-//!    three times the runs (the real drive: 285 against 88).
+//!    three times the runs (the real drive, before the exponential-cosine candidates: 285
+//!    against 88).
 //!
 //! Diagnose a model whose magnitudes are fitted: `--identify --diagnose` identifies them first
 //! (or `--model identified-model.toml $(cat identified-options.txt) --diagnose` after an
 //! identification). Otherwise a candidate can win by standing in for a white density that is
 //! only too small: on the real drive the datasheet model "lacks" an accelerometer
 //! Gauss-Markov of 17 mg over 16 s (a gain of 1.2e5 nats), and with it the error at the
-//! outage ends rises from 7.0 to 24 m; the identified model is adequate (BENCHMARKS.md
+//! outage ends rises from 7.0 to 25 m; the identified model is adequate (BENCHMARKS.md
 //! "Naming a missing effect on the strapdown navigator").
 
 mod axes;
@@ -148,10 +152,8 @@ fn skip_reason(
     let Some(s) = imu_sensor(cand.sensor) else {
         return Some("not a sensor of the strapdown model");
     };
-    match cand.kind {
-        ComponentKind::White => return Some("a magnitude: fitted by --identify"),
-        ComponentKind::ExpCosine => return Some("not a candidate of the navigator's diagnosis"),
-        _ => {}
+    if cand.kind == ComponentKind::White {
+        return Some("a magnitude: fitted by --identify");
     }
     let has = m
         .sensor(s)
@@ -170,6 +172,29 @@ fn skip_reason(
         .and_then(|c| with_component(m, s, c))
         .is_some_and(|m2| filter_states(m2, scale_factor_sd) <= NAV_N);
     (!fits).then_some("does not fit the filter's states")
+}
+
+/// The component of `cand` at log-parameters `p` ([`Candidate::component`]), `None` where it is
+/// not offered: an exponential-cosine whose envelope holds less than half a period,
+/// `beta tau < pi`. Such a one is a Gauss-Markov of another spectral shape, not an
+/// oscillation; the one-channel structure test found the null's best alternatives there
+/// (BENCHMARKS.md "Structure online, 2026-11-27"; `docs/ADAPTATION.md` §7.6).
+fn offered(cand: &Candidate, p: &[f64]) -> Option<Component<f64>> {
+    cand.component(p).filter(|c| match c {
+        Component::ExpCosine(e) => e.beta * e.tau >= std::f64::consts::PI,
+        _ => true,
+    })
+}
+
+/// The indices of `cand`'s log-parameters that are times (a correlation time, a period),
+/// searched within [`TAU_RANGE`]; `first` is the index of the first of them (1 tied, 3 split).
+fn time_indices(cand: &Candidate, first: usize) -> std::ops::Range<usize> {
+    let n = match cand.kind {
+        ComponentKind::GaussMarkov => 1,
+        ComponentKind::ExpCosine => 2,
+        _ => 0,
+    };
+    first..first + n
 }
 
 /// Half the chi-square(`dk`) `1 - ALPHA` quantile: how much a candidate must gain over a
@@ -343,10 +368,7 @@ fn fit(
     let mut n = 0usize;
     let mut eval = |p: &[f64]| -> Result<f64> {
         n += 1;
-        match cand
-            .component(p)
-            .and_then(|c| with_component(&args.model, s, c))
-        {
+        match offered(cand, p).and_then(|c| with_component(&args.model, s, c)) {
             Some(m) => {
                 a.model = m;
                 loglik(&a, imu, fixes)
@@ -365,24 +387,23 @@ fn fit(
     let Some((mut x, mut ll)) = best else {
         return Ok((Vec::new(), f64::NEG_INFINITY, n));
     };
-    let tau = (cand.kind == ComponentKind::GaussMarkov).then_some(1);
-    search(&mut x, &mut ll, tau, &mut eval)?;
+    search(&mut x, &mut ll, time_indices(cand, 1), &mut eval)?;
     Ok((x, ll, n))
 }
 
 /// The pattern search of item 3 from `x` (whose log-likelihood is `ll`): natural-log steps
-/// [`STEPS`], every coordinate within three decades of its start except coordinate `tau` (a
-/// correlation time), within [`TAU_RANGE`]. Updates `x` and `ll`.
+/// [`STEPS`], every coordinate within three decades of its start except the `times` (a
+/// correlation time, a period), within [`TAU_RANGE`]. Updates `x` and `ll`.
 fn search(
     x: &mut [f64],
     ll: &mut f64,
-    tau: Option<usize>,
+    times: std::ops::Range<usize>,
     eval: &mut dyn FnMut(&[f64]) -> Result<f64>,
 ) -> Result<()> {
     let centre = x.to_vec();
     let bounds = |i: usize| {
         let c = centre.get(i).copied()?;
-        Some(if tau == Some(i) {
+        Some(if times.contains(&i) {
             (TAU_RANGE.0.ln(), TAU_RANGE.1.ln())
         } else {
             (c - HALF_WIDTH, c + HALF_WIDTH)
@@ -490,6 +511,27 @@ mod tests {
         // chi-square(1) 0.99 quantile 6.634897 (tables).
         let n = threshold_nested(1).unwrap_or(f64::NAN);
         assert!((n - 0.5 * 6.634_897).abs() < 1e-6, "{n}");
+    }
+
+    #[test]
+    fn an_exp_cosine_is_offered_with_half_a_period_in_its_envelope() {
+        let ec = Candidate {
+            sensor: ErrorSource::Gyro,
+            kind: ComponentKind::ExpCosine,
+        };
+        // [ln sigma, ln tau, ln period]: beta tau = 2 pi tau / period >= pi iff period <= 2 tau.
+        let p = |tau: f64, period: f64| [1e-5f64.ln(), tau.ln(), period.ln()];
+        assert!(offered(&ec, &p(1200.0, 900.0)).is_some());
+        assert!(offered(&ec, &p(1200.0, 2399.0)).is_some());
+        assert!(offered(&ec, &p(1200.0, 2401.0)).is_none());
+        assert_eq!(time_indices(&ec, 1), 1..3);
+        assert_eq!(time_indices(&ec, 3), 3..5);
+        let walk = Candidate {
+            sensor: ErrorSource::Gyro,
+            kind: ComponentKind::RandomWalk,
+        };
+        assert!(time_indices(&walk, 1).is_empty());
+        assert!(skip_reason(&ImuErrorModel::default(), None, &ec).is_none());
     }
 
     #[test]

@@ -120,9 +120,22 @@ pub struct ComponentJson {
     /// Random-walk intensity.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub q: Option<f64>,
+    /// Oscillation period `2 pi / beta` [s] (exponential-cosine).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub period: Option<f64>,
 }
 
 impl ComponentJson {
+    /// Its quantities by name, for the report (absent ones `None`).
+    pub fn quantities(&self) -> [(&'static str, Option<f64>); 4] {
+        [
+            ("sigma", self.sigma),
+            ("tau", self.tau),
+            ("period", self.period),
+            ("q", self.q),
+        ]
+    }
+
     /// The quantities of `c`.
     pub fn of(c: &Component<f64>) -> Self {
         let (sigma, tau, q) = match *c {
@@ -132,11 +145,16 @@ impl ComponentJson {
             Component::ExpCosine(e) => (Some(e.sigma), Some(e.tau), None),
             Component::White(w) => (Some(w.density), None, None),
         };
+        let period = match *c {
+            Component::ExpCosine(e) if e.beta > 0.0 => Some(2.0 * std::f64::consts::PI / e.beta),
+            _ => None,
+        };
         Self {
             kind: c.kind().name(),
             sigma,
             tau,
             q,
+            period,
         }
     }
 }
@@ -247,7 +265,8 @@ impl NavDiagnosis {
         for c in &self.candidates {
             let fitted = match (&c.component, c.skipped) {
                 (_, Some(why)) => format!("not tested: {why}"),
-                (Some(j), None) => [("sigma", j.sigma), ("tau", j.tau), ("q", j.q)]
+                (Some(j), None) => j
+                    .quantities()
                     .iter()
                     .filter_map(|(n, v)| v.map(|v| format!("{n} {v:.3e}")))
                     .collect::<Vec<_>>()
