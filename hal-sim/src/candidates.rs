@@ -99,6 +99,17 @@ impl Candidate {
         format!("{}/{}", self.sensor.name(), self.kind.name())
     }
 
+    /// The indices of the log-parameters of [`component`](Self::component) that are times: a
+    /// Gauss-Markov's tau, an exponential-cosine's tau and period (searched within a range of
+    /// times, not about their start).
+    pub fn time_params(&self) -> std::ops::Range<usize> {
+        match self.kind {
+            ComponentKind::GaussMarkov => 1..2,
+            ComponentKind::ExpCosine => 1..3,
+            _ => 1..1,
+        }
+    }
+
     /// Number of free parameters (the complexity penalty counts these).
     pub fn n_params(&self) -> usize {
         match self.kind {

@@ -158,9 +158,9 @@ impl State {
         // The paper's realisation, whose `phi` and `qd` step the exp-cosine below: its
         // stationary covariance, not the filter's damped rotation's (`sigma^2 I`). Drawn from
         // the rotation's, the exp-cosine's first state (a rate, stationary sd about
-        // `sigma b / sqrt(2)`) started 1 / (b / sqrt(2)) too large, and the output began with
-        // an oscillation of about `sigma / beta` (95 sigma at a 600-s period) that decayed
-        // over `tau`.
+        // `sigma b`, `b^2 = alpha^2 + beta^2`) started about `1 / b` times too large, and the
+        // output began with an oscillation of about `sigma / beta` (95 sigma at a 600-s
+        // period) that decayed over `tau`.
         let p0 = c.block_in(Realisation::Paper).p0;
         let mut scalar = |(phi, qd): (f64, f64)| Self::Scalar {
             phi,

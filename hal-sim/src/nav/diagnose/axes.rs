@@ -23,7 +23,7 @@
 //!    or no axis needs it on its own (an effect shared by two axes, each replaceable by the
 //!    other's): then on all three, split.
 
-use super::{half_chi2_quantile, offered, search, time_indices, ComponentJson, ALPHA};
+use super::{half_chi2_quantile, offered, search, ComponentJson, ALPHA};
 use crate::candidates::Candidate;
 use crate::nav::identify::loglik;
 use crate::nav::NavArgs;
@@ -171,11 +171,13 @@ pub(super) fn fit_split(
         .chain(tied.iter().skip(1).copied())
         .collect();
     let mut ll = t.ll;
-    // A Gauss-Markov's tau (an exp-cosine's tau and period) follows the three magnitudes.
+    // A Gauss-Markov's tau (an exp-cosine's tau and period) follows the three magnitudes: the
+    // tied layout's times, two places on.
+    let times = cand.time_params();
     search(
         &mut x,
         &mut ll,
-        time_indices(cand, 3),
+        times.start + 2..times.end + 2,
         &mut |p: &[f64]| {
             n += 1;
             match model_of(&args.model, cand, s, p, [true; 3]) {

@@ -75,6 +75,7 @@ use crate::candidates::{Candidate, LIBRARY};
 use crate::nav_io::truth_csv::TruthRow;
 use crate::nav_io::{self, GnssFix, ImuSample};
 use anyhow::Result;
+use imu_ident::adapt::window::structure::MIN_QUALITY;
 use imu_ident::model::{Component, ComponentKind, ErrorSource};
 use imu_ident::nav::{
     ImuErrorModel, ImuSensor, NavInit, NavPoint, StrapdownErrorModel, NAV_N, NAV_Z,
@@ -176,25 +177,15 @@ fn skip_reason(
 
 /// The component of `cand` at log-parameters `p` ([`Candidate::component`]), `None` where it is
 /// not offered: an exponential-cosine whose envelope holds less than half a period,
-/// `beta tau < pi`. Such a one is a Gauss-Markov of another spectral shape, not an
-/// oscillation; the one-channel structure test found the null's best alternatives there
-/// (BENCHMARKS.md "Structure online, 2026-11-27"; `docs/ADAPTATION.md` §7.6).
+/// `beta tau <` [`MIN_QUALITY`] `= pi`, the online structure test's rule. Such a one is a
+/// Gauss-Markov of another spectral shape, not an oscillation; the one-channel structure test
+/// found the null's best alternatives there (BENCHMARKS.md "Structure online, 2026-11-27";
+/// `docs/ADAPTATION.md` §7.6).
 fn offered(cand: &Candidate, p: &[f64]) -> Option<Component<f64>> {
     cand.component(p).filter(|c| match c {
-        Component::ExpCosine(e) => e.beta * e.tau >= std::f64::consts::PI,
+        Component::ExpCosine(e) => e.beta * e.tau >= MIN_QUALITY,
         _ => true,
     })
-}
-
-/// The indices of `cand`'s log-parameters that are times (a correlation time, a period),
-/// searched within [`TAU_RANGE`]; `first` is the index of the first of them (1 tied, 3 split).
-fn time_indices(cand: &Candidate, first: usize) -> std::ops::Range<usize> {
-    let n = match cand.kind {
-        ComponentKind::GaussMarkov => 1,
-        ComponentKind::ExpCosine => 2,
-        _ => 0,
-    };
-    first..first + n
 }
 
 /// Half the chi-square(`dk`) `1 - ALPHA` quantile: how much a candidate must gain over a
@@ -387,7 +378,7 @@ fn fit(
     let Some((mut x, mut ll)) = best else {
         return Ok((Vec::new(), f64::NEG_INFINITY, n));
     };
-    search(&mut x, &mut ll, time_indices(cand, 1), &mut eval)?;
+    search(&mut x, &mut ll, cand.time_params(), &mut eval)?;
     Ok((x, ll, n))
 }
 
@@ -524,13 +515,12 @@ mod tests {
         assert!(offered(&ec, &p(1200.0, 900.0)).is_some());
         assert!(offered(&ec, &p(1200.0, 2399.0)).is_some());
         assert!(offered(&ec, &p(1200.0, 2401.0)).is_none());
-        assert_eq!(time_indices(&ec, 1), 1..3);
-        assert_eq!(time_indices(&ec, 3), 3..5);
+        assert_eq!(ec.time_params(), 1..3);
         let walk = Candidate {
             sensor: ErrorSource::Gyro,
             kind: ComponentKind::RandomWalk,
         };
-        assert!(time_indices(&walk, 1).is_empty());
+        assert!(walk.time_params().is_empty());
         assert!(skip_reason(&ImuErrorModel::default(), None, &ec).is_none());
     }
 
