@@ -241,7 +241,7 @@ impl Candidate {
 
 /// The log-parameter of quantity `q` at value `v`, as [`Candidate::component`] takes it (the
 /// exp-cosine's `beta` is carried as `ln period`).
-fn log_param(q: Quantity, v: f64) -> f64 {
+pub(crate) fn log_param(q: Quantity, v: f64) -> f64 {
     match q {
         Quantity::Beta => (2.0 * PI / v).ln(),
         _ => v.ln(),

@@ -197,9 +197,10 @@ fn main() -> Result<()> {
                     &out,
                 )?;
                 eprintln!(
-                    "diagnosis: {}{} (loglik {:.1} -> {:.1}, {} runs); diagnosis.json, diagnosed-model.toml",
+                    "diagnosis: {}{}{} (loglik {:.1} -> {:.1}, {} runs); diagnosis.json, diagnosed-model.toml",
                     d.verdict,
                     d.named_on_axes().map(|n| format!(": {n}")).unwrap_or_default(),
+                    d.tied_with.as_ref().map(|t| format!(", tied with {t}")).unwrap_or_default(),
                     d.loglik_model,
                     d.after.as_ref().or(d.before.as_ref()).map_or(f64::NAN, |s| s.loglik),
                     d.evaluations

@@ -23,7 +23,8 @@
 //!    or no axis needs it on its own (an effect shared by two axes, each replaceable by the
 //!    other's): then on all three, split.
 
-use super::{half_chi2_quantile, offered, search, ComponentJson, ALPHA};
+use super::add::{offered, search, with_axes, with_component};
+use super::{half_chi2_quantile, ComponentJson, ALPHA};
 use crate::candidates::Candidate;
 use crate::nav::identify::loglik;
 use crate::nav::NavArgs;
@@ -108,23 +109,6 @@ impl AxisSplit {
             self.axes_label()
         )
     }
-}
-
-/// `m` with component `c[i]` added to axis `i` of sensor `s` (none where `c[i]` is `None`);
-/// `None` when an axis is full or the model is invalid.
-pub(super) fn with_axes(
-    m: &ImuErrorModel<f64>,
-    s: ImuSensor,
-    c: &[Option<Component<f64>>; 3],
-) -> Option<ImuErrorModel<f64>> {
-    let mut out = m.clone();
-    for (axis, c) in out.sensor_mut(s).iter_mut().zip(c) {
-        if let Some(c) = c {
-            axis.push(*c).ok()?;
-        }
-    }
-    out.validate().ok()?;
-    Some(out)
 }
 
 /// The components of the split's log-parameters `x = [m_x, m_y, m_z, shared...]`.
@@ -269,7 +253,7 @@ pub(super) fn split(
         model_of(&x, on_axes)
     } else {
         let c = cand.component(tied);
-        c.and_then(|c| super::with_component(&args.model, s, c))
+        c.and_then(|c| with_component(&args.model, s, c))
     }
     .ok_or_else(|| anyhow::anyhow!("nav --diagnose: {} no longer fits", cand.label()))?;
     Ok((

@@ -10,15 +10,17 @@ use serde::Serialize;
 /// One candidate effect, fitted (or why it was left out).
 #[derive(Debug, Clone, Serialize)]
 pub struct NavCandidate {
-    /// `sensor/kind`, e.g. `accel/random-walk`.
+    /// `sensor/kind`, e.g. `accel/random-walk` (an addition), or `sensor/old->new`, e.g.
+    /// `gyro/gauss-markov->exp-cosine` (a replacement, [`super::NavReplacement`]).
     pub label: String,
-    /// Free parameters (tied over the three axes).
+    /// Free parameters (tied over the three axes), the test's `k`; a replacement's is 3 in
+    /// both directions ([`super::NavReplacement::k`]).
     pub n_params: usize,
     /// The fitted component (its quantities by name, SI units: rad/s for gyros, m/s^2 for
-    /// accelerometers, s for correlation times).
+    /// accelerometers, s for correlation times); a replacement's on the x axis.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub component: Option<ComponentJson>,
-    /// Log-likelihood with the candidate added (gate off).
+    /// Log-likelihood with the candidate added, or the component replaced (gate off).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub loglik: Option<f64>,
     /// `loglik - loglik_model` [nats].
@@ -81,6 +83,23 @@ impl Form {
 }
 
 impl NavCandidate {
+    /// Records the tied fit: the component with what it means, the gain over the model,
+    /// the threshold and the runs spent (the log-likelihood is set by the caller).
+    pub(super) fn record_fit(
+        &mut self,
+        comp: Option<(&Component<f64>, String)>,
+        gain: f64,
+        threshold: f64,
+        runs: usize,
+    ) {
+        self.component = comp.as_ref().map(|(c, _)| ComponentJson::of(c));
+        self.explanation = comp.map(|(_, e)| e);
+        self.gain_nats = Some(gain);
+        self.threshold_nats = Some(threshold);
+        self.significant = gain > threshold;
+        self.evaluations = runs;
+    }
+
     /// The significant form with the larger excess over its threshold (tied when neither is
     /// significant); `None` when not fitted.
     pub fn best_form(&self) -> Option<Form> {
@@ -211,14 +230,22 @@ impl RunScores {
 /// The verdict.
 #[derive(Debug, Clone, Serialize)]
 pub struct NavDiagnosis {
-    /// `"adequate"` or `"missing-effect"`.
+    /// `"adequate"`, `"missing-effect"` (an addition named) or `"wrong-kind"` (a
+    /// replacement named).
     pub verdict: &'static str,
-    /// The named effect's label.
+    /// The named change's label.
     pub named: Option<String>,
     /// Family-wise false-alarm probability of the tests.
     pub alpha: f64,
     /// Log-likelihood of the model as given (gate off).
     pub loglik_model: f64,
+    /// Log-likelihood of the diagnosed model (gate off; `loglik_model` when adequate).
+    pub loglik_diagnosed: f64,
+    /// The addition (or replacement) of the same kind on the same sensor when its gain is
+    /// within 3.3 nats of the named one's: the data do not tell whether the old component
+    /// stays ([`super`] item 8).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tied_with: Option<String>,
     /// Every candidate, tested or not.
     pub candidates: Vec<NavCandidate>,
     /// Filter runs in all.
@@ -230,7 +257,7 @@ pub struct NavDiagnosis {
     pub before: Option<RunScores>,
     /// With the named effect.
     pub after: Option<RunScores>,
-    /// The model with the named effect (the model as given when adequate).
+    /// The model with the named change (the model as given when adequate).
     #[serde(skip)]
     pub model: ImuErrorModel<f64>,
 }
@@ -245,13 +272,25 @@ impl NavDiagnosis {
         })
     }
 
+    /// The named change in words: `accel/random-walk on x added`, or
+    /// `gyro/gauss-markov->exp-cosine (replaced)`.
+    pub fn change(&self) -> Option<String> {
+        let n = self.named_on_axes()?;
+        Some(if self.verdict == "wrong-kind" {
+            format!("{n} (replaced)")
+        } else {
+            format!("{n} added")
+        })
+    }
+
     /// The report's section: the verdict, the candidates, the scores before and after.
     pub fn html(&self) -> String {
         let num = |v: Option<f64>, d: usize| v.map_or("-".to_string(), |x| format!("{x:.d$}"));
         let mut h =
             format!(
-            "<p>Verdict: <b>{}</b>{}. Each candidate is added to the three axes of its sensor, \
-             fitted by maximum likelihood and tested against the model: significant when its \
+            "<p>Verdict: <b>{}</b>{}. Each candidate is added to the three axes of its sensor \
+             (or, <code>old-&gt;new</code>, a component the three axes have is replaced by its \
+             alternative kind, its values scaled alike on every axis), fitted by maximum likelihood and tested against the model: significant when its \
              gain exceeds half the chi-square(k) quantile at {} / m (m candidates tested; \
              <code>diagnosis.json</code>, <code>diagnosed-model.toml</code>). A candidate can \
              stand in for a magnitude that is only too small: diagnose a model whose \
@@ -259,7 +298,7 @@ impl NavDiagnosis {
              <th>candidate</th><th>k</th><th>fitted</th><th>gain [nats]</th>\
              <th>threshold [nats]</th><th>runs</th></tr>",
             self.verdict,
-            self.named_on_axes().map(|n| format!(": {n} added")).unwrap_or_default(),
+            self.change().map(|n| format!(": {n}")).unwrap_or_default(),
             self.alpha
         );
         for c in &self.candidates {
@@ -287,13 +326,20 @@ impl NavDiagnosis {
             );
         }
         h += "</table>";
+        if let Some(t) = &self.tied_with {
+            h += &format!(
+                "<p>Tied with <b>{t}</b> (within 3.3 nats): both put the same kind of \
+                 component on this sensor, and the data do not tell whether the model's old \
+                 component stays.</p>"
+            );
+        }
         if let Some(a) = &self.axes {
             h += &a.html();
         }
         h += "<table><tr><th></th><th>log-likelihood</th><th>mean NIS per axis (pos N, E, D, vel N, E, D)</th><th>outage ends RMS / max [m]</th><th>horizontal RMS vs truth [m]</th><th>outside 3 sigma, worst axis</th><th>mean NEES (9)</th></tr>";
         for (name, s) in [
             ("model", &self.before),
-            ("with the named effect", &self.after),
+            ("with the named change", &self.after),
         ] {
             if let Some(s) = s {
                 let nis: Vec<String> = s.mean_nis_axis.iter().map(|v| format!("{v:.2}")).collect();
