@@ -195,3 +195,126 @@ fn bad_models_are_errors_not_panics() {
     a[(0, 0)] = f64::INFINITY;
     assert!(discretise(&a, &StateMat::zeros(), 1.0).is_err());
 }
+
+/// A strapdown error model in motion with every component kind on the sensors: gyros a
+/// Gauss-Markov (x), an exponential-cosine (y) and a random walk (z), accelerometers a
+/// Gauss-Markov with a random constant (x), white noise with an exp-cosine (y) and a random
+/// walk (z): 9 navigation states + 1 + 2 + 1 + 2 + 2 + 1 = 18 states, turning at 0.2 rad/s
+/// with 2 m/s^2 of lateral specific force.
+fn strapdown_model() -> imu_ident::nav::StrapdownErrorModel<f64> {
+    use imu_ident::nav::{ImuErrorModel, NavInit, NavPoint, StrapdownErrorModel, NAV_Z};
+    use imu_ident::strapdown::Quat;
+    use nalgebra::Vector3;
+    let deg_h = core::f64::consts::PI / 180.0 / 3600.0;
+    let ec = |s: f64| {
+        Component::ExpCosine(
+            ExpCosine::new(s, 1200.0, 2.0 * core::f64::consts::PI / 600.0).unwrap(),
+        )
+    };
+    let mut imu = ImuErrorModel::<f64>::EMPTY;
+    let comps: [&[Component<f64>]; 6] = [
+        &[Component::GaussMarkov(
+            GaussMarkov::new(10.0 * deg_h, 300.0).unwrap(),
+        )],
+        &[ec(10.0 * deg_h)],
+        &[Component::RandomWalk(RandomWalk::new(1e-12, 1e-5).unwrap())],
+        &[
+            Component::GaussMarkov(GaussMarkov::new(1e-3, 60.0).unwrap()),
+            Component::RandomConstant(RandomConstant::new(5e-3).unwrap()),
+        ],
+        &[Component::White(WhiteNoise::new(2e-3).unwrap()), ec(1e-3)],
+        &[Component::RandomWalk(RandomWalk::new(1e-8, 1e-3).unwrap())],
+    ];
+    for (axis, cs) in imu.gyro.iter_mut().chain(imu.accel.iter_mut()).zip(comps) {
+        for c in cs {
+            axis.push(*c).unwrap();
+        }
+    }
+    let mut point = NavPoint::at_rest(0.7, 300.0);
+    point.v = Vector3::new(18.0, -7.0, 0.4);
+    point.c_bn = Quat::from_euler(0.05, -0.02, 2.3).dcm();
+    point.f_n = Vector3::new(1.2, -1.6, -9.81);
+    point.w_b = Vector3::new(0.01, -0.02, 0.2);
+    point.mean_w_b = point.w_b;
+    point.mean_f_b = point.c_bn.transpose() * point.f_n;
+    StrapdownErrorModel {
+        imu,
+        init: NavInit {
+            sd_att: Vector3::repeat(0.01),
+            sd_vel: 0.1,
+            sd_pos: 1.0,
+        },
+        lever_arm: Vector3::new(0.3, 0.0, -0.8),
+        obs_sd: [1.0; NAV_Z],
+        point,
+        dt: 1.0,
+        scale_factor_sd: None,
+    }
+}
+
+/// The balanced series on a moving strapdown model (mixed units: 9.8 m/s^2 per rad against
+/// 1/R) against nalgebra's 2N Van Loan at 1 ms composed 1000 times. Same bounds as `check`.
+#[test]
+fn strapdown_model_matches_fine_step_van_loan() {
+    use imu_ident::model::discretise::discretise_block;
+    use imu_ident::model::error_model::ErrorModel;
+    use nalgebra::DMatrix;
+    const N: usize = 24;
+    let model = strapdown_model();
+    let n = model.states();
+    assert_eq!(n, 18);
+    let scale: [f64; N] = ErrorModel::<f64, N, 6>::scaling(&model).unwrap();
+    let sys = ErrorModel::<f64, N, 6>::system(&model, &scale).unwrap();
+    let (phi, qd) = discretise_block(&sys.A, &sys.Qc, 1.0, n).unwrap();
+    // Reference: exp([[-A, Qc], [0, A^T]] h) at h = 1 ms, composed.
+    let a = DMatrix::from_fn(n, n, |i, j| sys.A[i][j]);
+    let qc = DMatrix::from_fn(n, n, |i, j| sys.Qc[i][j]);
+    let h = 1e-3;
+    let mut m = DMatrix::<f64>::zeros(2 * n, 2 * n);
+    m.view_mut((0, 0), (n, n)).copy_from(&(-&a * h));
+    m.view_mut((0, n), (n, n)).copy_from(&(&qc * h));
+    m.view_mut((n, n), (n, n)).copy_from(&(a.transpose() * h));
+    let e = m.exp();
+    let ph = e.view((n, n), (n, n)).transpose();
+    let qh = &ph * e.view((0, n), (n, n));
+    let qh = (&qh + qh.transpose()) * 0.5;
+    let (mut phi_ref, mut q_ref) = (DMatrix::<f64>::identity(n, n), DMatrix::<f64>::zeros(n, n));
+    for _ in 0..1000 {
+        q_ref = &ph * &q_ref * ph.transpose() + &qh;
+        phi_ref = &ph * &phi_ref;
+    }
+    let tol = 1e-10;
+    for i in 0..n {
+        for j in 0..n {
+            let e = (phi[i][j] - phi_ref[(i, j)]).abs();
+            assert!(
+                e <= tol * phi_ref[(i, j)].abs().max(1.0),
+                "Phi[{i},{j}] off by {e:e}"
+            );
+            let s = (q_ref[(i, i)] * q_ref[(j, j)]).sqrt();
+            let e = (qd[i][j] - q_ref[(i, j)]).abs();
+            assert!(
+                e <= tol * s + 1e-300,
+                "Qd[{i},{j}] = {:e} vs {:e}",
+                qd[i][j],
+                q_ref[(i, j)]
+            );
+        }
+    }
+}
+
+/// Why the strapdown model is cheap: balanced, it needs no squaring at 1 s and few terms (the
+/// unbalanced 1-norm, 0.7 at 1 s, took 2 squarings and 14 dense terms before the balancing).
+#[test]
+fn strapdown_model_needs_no_squaring() {
+    use imu_ident::model::discretise::Expm;
+    use imu_ident::model::error_model::ErrorModel;
+    const N: usize = 24;
+    let model = strapdown_model();
+    let scale: [f64; N] = ErrorModel::<f64, N, 6>::scaling(&model).unwrap();
+    let sys = ErrorModel::<f64, N, 6>::system(&model, &scale).unwrap();
+    let e = Expm::new(&sys.A, 1.0, sys.n).unwrap();
+    assert_eq!(e.squarings(), 0);
+    let (p, q) = e.orders();
+    assert!(p <= 12 && q <= 20, "orders {p}, {q}");
+}

@@ -85,11 +85,20 @@ pub fn axpy<T: Real>(y: &mut [T], k: T, x: &[T], n: usize) {
 }
 
 /// `a b` over the leading `n x n` block (the rest zero): rows of `c` accumulate rows of `b`.
+///
+/// A zero `a[i][k]` is skipped: the error-state models' `A` is sparse (a strapdown `A` of 24
+/// states has about one entry in eight non-zero), and so are the noise states' rows of `Phi`,
+/// so the discretisation's Taylor and `Q` series (`A` on the left) cost `nnz(A) n` instead of
+/// `n^3` (BENCHMARKS.md "Sparse products in the discretisation"). For finite `b` the result is
+/// the same, bit for bit (`+ 0 b` adds nothing); an infinite or NaN `b[k]` no longer spreads
+/// through a zero `a[i][k]` (the discretisation checks its inputs are finite).
 pub fn mul<T: Real, const N: usize>(a: &Arr<T, N>, b: &Arr<T, N>, n: usize) -> Arr<T, N> {
     let mut c = zeros();
     for (ci, ai) in head_mut(&mut c, n).iter_mut().zip(head(a, n)) {
         for (aik, bk) in head(ai, n).iter().zip(head(b, n)) {
-            axpy(ci, *aik, bk, n);
+            if *aik != T::zero() {
+                axpy(ci, *aik, bk, n);
+            }
         }
     }
     c
