@@ -13,7 +13,8 @@
 #   7. QEMU tests                     (hal-sim/tests/qemu_smoke.rs against the estimator firmware,
 #                                      hal-sim/tests/nav_qemu.rs against the navigation firmware)
 #   8. Python package                 (pip install ./python into a venv under the target dir,
-#                                      then pytest python/tests against the hal-sim CLI)
+#                                      built in the dev profile at opt-level 2 to reuse step 5's
+#                                      dependencies; then pytest python/tests against the CLI)
 #
 # Uses the default target dir unless CARGO_TARGET_DIR is set.
 set -euo pipefail
@@ -108,21 +109,33 @@ cargo build --release -p imu-ident --target "$TARGET" --features board,prove-no-
 
 section "7/8 QEMU tests (mps2-an386: estimator and navigation firmware)"
 # --workspace keeps the feature set of step 5, so nothing is rebuilt.
-IMU_IDENT_FIRMWARE_ELF="$ELF" cargo test --workspace --test qemu_smoke -- --nocapture
+# qemu_firmware_built_on_demand deletes the firmware in the target dir it is given and has
+# `hal-sim qemu` build it again: here the one step 6 built it in with the same command, so the
+# build is a relink from warm artifacts, not a second compile from scratch (the ELFs the other
+# tests run were copied aside above).
+IMU_IDENT_AUTOBUILD_TARGET_DIR="$(cd "$TARGET_DIR" && pwd)" IMU_IDENT_FIRMWARE_ELF="$ELF" \
+    cargo test --workspace --test qemu_smoke -- --nocapture
 # About 15 s: a 10-min simulated drive through the firmware and the host navigator.
 IMU_IDENT_NAV_FIRMWARE_ELF="$NAV_ELF" cargo test --workspace --test nav_qemu -- --nocapture
 
 section "8/8 Python package (pip install ./python; pytest python/tests)"
 # A venv under the target dir (PyPI for maturin, numpy and pytest). pip builds the extension
-# with maturin in the workspace's target dir ([profile.python]), so hal-sim is compiled once
-# more, optimised; the tests compare it with the hal-sim CLI built in step 5.
+# with maturin in the workspace's target dir; the tests compare it with the hal-sim CLI built in
+# step 5.
 VENV="$TARGET_DIR/pyvenv"
 case "$VENV" in /*) ;; *) VENV="$PWD/$VENV" ;; esac
 if [ ! -x "$VENV/bin/python" ]; then
     python3 -m venv "$VENV"
 fi
 "$VENV/bin/python" -m pip install --quiet --upgrade pip
-"$VENV/bin/python" -m pip install --quiet ./python pytest
+# The wheel is built in the dev profile with the test profile's settings (opt-level 2; the test
+# profile inherits the rest from dev), so cargo reuses the dependencies step 5 compiled instead
+# of compiling them all again in [profile.python] (BENCHMARKS.md "Sparse products in the
+# discretisation", CI times). `--profile test` would not do: maturin's `cargo rustc --profile
+# test` builds the test harness, which Python cannot load. A user's `pip install ./python`
+# still builds [profile.python].
+CARGO_PROFILE_DEV_OPT_LEVEL=2 MATURIN_PEP517_ARGS="--profile dev" \
+    "$VENV/bin/python" -m pip install --quiet ./python pytest
 # The CLI that step 5 built for hal-sim's integration tests (CARGO_BIN_EXE_hal-sim).
 HAL_SIM_BIN="$TARGET_DIR/debug/hal-sim"
 case "$HAL_SIM_BIN" in /*) ;; *) HAL_SIM_BIN="$PWD/$HAL_SIM_BIN" ;; esac
