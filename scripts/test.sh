@@ -130,8 +130,8 @@ fi
 "$VENV/bin/python" -m pip install --quiet --upgrade pip
 # The wheel is built in the dev profile with the test profile's settings (opt-level 2; the test
 # profile inherits the rest from dev), so cargo reuses the dependencies step 5 compiled instead
-# of compiling them all again in [profile.python] (BENCHMARKS.md "Sparse products in the
-# discretisation", CI times). `--profile test` would not do: maturin's `cargo rustc --profile
+# of compiling them all again in [profile.python] (BENCHMARKS.md, "CI time" under "Sparse
+# products in the discretisation"). `--profile test` would not do: maturin's `cargo rustc --profile
 # test` builds the test harness, which Python cannot load. A user's `pip install ./python`
 # still builds [profile.python].
 CARGO_PROFILE_DEV_OPT_LEVEL=2 MATURIN_PEP517_ARGS="--profile dev" \

@@ -86,9 +86,9 @@ pub fn axpy<T: Real>(y: &mut [T], k: T, x: &[T], n: usize) {
 
 /// `a b` over the leading `n x n` block (the rest zero): rows of `c` accumulate rows of `b`.
 ///
-/// A zero `a[i][k]` is skipped: the error-state models' `A` is sparse (a strapdown `A` of 24
-/// states has about one entry in eight non-zero), and so are the noise states' rows of `Phi`,
-/// so the discretisation's Taylor and `Q` series (`A` on the left) cost `nnz(A) n` instead of
+/// A zero `a[i][k]` is skipped: the error-state models' `A` is sparse (the noise states' rows
+/// hold their own dynamics only, the navigation rows a few couplings), and so are the noise
+/// states' rows of `Phi`, so the discretisation's Taylor and `Q` series (`A` on the left) cost `nnz(A) n` instead of
 /// `n^3` (BENCHMARKS.md "Sparse products in the discretisation"). For finite `b` the result is
 /// the same, bit for bit (`+ 0 b` adds nothing); an infinite or NaN `b[k]` no longer spreads
 /// through a zero `a[i][k]` (the discretisation checks its inputs are finite).

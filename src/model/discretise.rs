@@ -82,13 +82,20 @@ fn series_order<T: Real>(x: T, spread: T, q_series: bool) -> usize {
     MAX_ORDER
 }
 
-/// Power-of-two balancing exponents `e` (`D = diag(2^e)`) that make `B = D^-1 A D` small in
-/// the 1-norm: the Parlett-Reinsch iteration (LAPACK's `gebal`) on the off-diagonal row and
+/// The power-of-two diagonal `D` of [`balance`]: `d = 2^e`, its inverse, and its spread
+/// `max d / min d`.
+struct Balanced<T: Real, const N: usize> {
+    d: [T; N],
+    inv: [T; N],
+    spread: T,
+}
+
+/// Power-of-two scales `D = diag(2^e)` that make `B = D^-1 A D` small in the 1-norm: the Parlett-Reinsch iteration (LAPACK's `gebal`) on the off-diagonal row and
 /// column sums of the leading `n` states, each step taken only if it lowers the pair's sum by
 /// 5 %. Powers of two make `B` exact, so the series on `A h` is, bit for bit, the series on
 /// `B h` scaled back: only the bound on the remainder uses `D`.
 #[allow(non_snake_case)]
-fn balance<T: Real, const N: usize>(A: &Arr<T, N>, n: usize) -> [i32; N] {
+fn balance<T: Real, const N: usize>(A: &Arr<T, N>, n: usize) -> Balanced<T, N> {
     let n = n.min(N);
     let mut e = [0i32; N];
     // d = 2^e and its inverse, in the working precision: on the MCU's single-precision FPU
@@ -150,7 +157,15 @@ fn balance<T: Real, const N: usize>(A: &Arr<T, N>, n: usize) -> [i32; N] {
             break;
         }
     }
-    e
+    let (lo, hi) = e
+        .iter()
+        .take(n)
+        .fold((0i32, 0i32), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    Balanced {
+        d,
+        inv,
+        spread: T::lit(libm::ldexp(1.0, hi - lo)),
+    }
 }
 
 /// Exact `(Phi, Qd)` of the continuous system `(A, Qc)` over `dt`, all `N` states active.
@@ -209,19 +224,8 @@ impl<T: Real, const N: usize> Expm<T, N> {
         if !A.iter().take(n).flatten().all(|v| v.is_finite()) {
             return Err(ModelError::NonFinite);
         }
-        let e = balance(A, n);
-        let (lo, hi) = e
-            .iter()
-            .take(n)
-            .fold((0i32, 0i32), |(lo, hi), &v| (lo.min(v), hi.max(v)));
-        let spread = T::lit(libm::ldexp(1.0, hi - lo));
+        let Balanced { d, inv, spread } = balance(A, n);
         // Largest absolute column sum (the 1-norm) of the balanced B = D^-1 A D.
-        let mut d = [T::one(); N];
-        let mut inv = [T::one(); N];
-        for ((di, ii), ei) in d.iter_mut().zip(inv.iter_mut()).zip(e.iter()).take(n) {
-            *di = T::lit(libm::ldexp(1.0, *ei));
-            *ii = T::lit(libm::ldexp(1.0, -*ei));
-        }
         let mut col = [T::zero(); N];
         for (ra, ii) in A.iter().zip(inv.iter()).take(n) {
             for ((c, x), dj) in col.iter_mut().zip(ra).zip(d.iter()).take(n) {
