@@ -140,7 +140,7 @@ impl<T: Real> Default for Information<T> {
 }
 
 /// The `2p + 1` filters and their finite-difference likelihood derivatives.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Bank<T: Real> {
     members: [Member<T>; MEMBERS],
     p0: Arr<T, NX>,
@@ -299,30 +299,54 @@ impl<T: Real> Bank<T> {
     /// and `P`. On error nothing is changed. (At start-up and on a jump to a probe; the
     /// Gauss-Newton moves use [`request_theta`](Self::request_theta).)
     pub fn set_theta(&mut self, theta: &[T; MAXP]) -> Result<(), AdaptError> {
-        // Checked first, then applied, each member's system computed twice: holding all of them
-        // at once would put `2 MAXP + 1` pairs of matrices on the stack (5.6 KB in f32, the
-        // firmware's deepest frame), and this runs rarely (start-up, a probe's jump, a structure
-        // switch). The discretisation is deterministic, so the second pass cannot fail where
-        // the first did not.
+        // One pass, each member's system applied as it is computed. Holding all of them first
+        // would put `2 MAXP + 1` pairs of matrices on the stack (5.6 KB in f32, the firmware's
+        // deepest frame), and computing them twice (check, then apply) made a jump's tick cost
+        // 2 (2p + 1) discretisations: 812k Cortex-M4 instructions against issue 5's 500k bar
+        // (BENCHMARKS.md, "One discretisation per member on a jump"). A failure instead
+        // restores the members already changed, by recomputing the systems they had.
         let used = (2 * self.np + 1).min(MEMBERS);
         for m in 0..used {
-            self.member_system(m, theta)?;
+            match self.member_system(m, theta) {
+                Ok((phi, qd)) => {
+                    if let Some(mem) = self.members.get_mut(m) {
+                        mem.set_system(&phi, &qd);
+                    }
+                }
+                Err(e) => {
+                    self.restore(m);
+                    return Err(e);
+                }
+            }
         }
         let zero = zeros();
-        for m in 0..MEMBERS {
-            let (phi, qd) = if m < used {
-                self.member_system(m, theta)?
-            } else {
-                (zero, zero)
-            };
-            if let Some(mem) = self.members.get_mut(m) {
-                mem.set_system(&phi, &qd);
-            }
+        for mem in self.members.iter_mut().skip(used) {
+            mem.set_system(&zero, &zero);
         }
         self.applied = *theta;
         self.target = *theta;
         self.next = MEMBERS;
         Ok(())
+    }
+
+    /// Gives members `0..upto` back the systems they had before a failed
+    /// [`set_theta`](Self::set_theta): those a staggered move has reached are at `target`, the
+    /// others at `applied`. The discretisation is deterministic, so they are the same bits; it
+    /// succeeded for those points, so it cannot fail here (were it to, that member would keep
+    /// the new point's system; the caller sees the error either way).
+    fn restore(&mut self, upto: usize) {
+        for m in 0..upto.min(MEMBERS) {
+            let theta = if m < self.next {
+                self.target
+            } else {
+                self.applied
+            };
+            if let Ok((phi, qd)) = self.member_system(m, &theta) {
+                if let Some(mem) = self.members.get_mut(m) {
+                    mem.set_system(&phi, &qd);
+                }
+            }
+        }
     }
 
     /// Moves to `theta` one member per step (centre first), so that no step pays for more than
@@ -478,4 +502,45 @@ pub fn accumulate<T: Real>(
     }
     info.steps = info.steps.saturating_add(1);
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::adapt::params::{specs, theta_of};
+    use crate::model::Quantity;
+
+    /// A [`Bank::set_theta`] that fails part-way leaves every member's system as it was, also in
+    /// the middle of a staggered move (members `0..3` at the new point, the others at the old).
+    /// The failure: a correlation time at `e^709.7` (finite in f64) whose `+h` member,
+    /// `e^709.9`, overflows; the centre and the members before it discretise.
+    #[test]
+    fn failed_set_theta_changes_nothing() {
+        let model = InsModel::<f64>::paper();
+        let sp = specs(&model);
+        let theta0 = theta_of(&model, &sp);
+        let mut bank = Bank::new(&model, &sp, 0.2).unwrap();
+        bank.set_theta(&theta0).unwrap();
+        let mut moved = theta0;
+        moved[0] += 0.1;
+        bank.request_theta(&moved);
+        let mut info = Information::default();
+        for _ in 0..3 {
+            let _ = bank.step(0.0, &mut info, None);
+        }
+        assert!(bank.moving());
+        let i = sp.iter().rposition(|s| s.kind == Quantity::Tau).unwrap();
+        let mut bad = theta0;
+        bad[i] = 709.7;
+        let failing = 2 * i + 1;
+        assert!(bank.member_system(0, &bad).is_ok());
+        assert!(bank.member_system(failing - 1, &bad).is_ok());
+        assert!(bank.member_system(failing, &bad).is_err());
+        let before = bank.clone();
+        assert!(bank.set_theta(&bad).is_err());
+        assert_eq!(bank, before);
+        // And a set_theta that succeeds changes the members that failed one restored.
+        bank.set_theta(&moved).unwrap();
+        assert_ne!(bank, before);
+    }
 }

@@ -25,8 +25,9 @@
 //!   pass of `2p + 1` filters giving the score and the Fisher information by central
 //!   differences ([`pass::Pass`]), the step `(I + lambda diag I)^-1 g` is accepted when the
 //!   next pass's likelihood is not lower, and `lambda` grows tenfold when it is.
-//! - The work is time-sliced: [`WindowSearch::work`] runs at most `budget` filter steps and one
-//!   filter construction per tick, so a tick's cost is bounded whatever the window.
+//! - The work is time-sliced: [`WindowSearch::work`] spends at most `budget` filter steps per
+//!   tick, a filter construction counted as [`PREPARE_COST`] of them (at most one per tick), so
+//!   a tick's cost is bounded whatever the window.
 //!
 //! The answer is the best point and its advantage over the anchor on the same window; the
 //! caller decides whether to jump (a likelihood-ratio margin).
@@ -79,7 +80,7 @@ const FINAL: usize = 2;
 const MAX_ITERATIONS: u32 = 12;
 /// Filter steps one filter's construction (a discretisation and a block system of 60 ticks) is
 /// counted as in the budget: about 40 filter steps' instructions on the Cortex-M4.
-const PREPARE_COST: usize = 40;
+pub const PREPARE_COST: usize = 40;
 /// Finite-difference step of the polish's derivatives (`ln`), as the bank's.
 const DIFF_STEP: f64 = 0.1;
 
@@ -442,9 +443,14 @@ impl<T: Real> WindowSearch<T> {
             }
             if !self.pass.ready() {
                 // Building a filter (a discretisation and a block system, about as costly as
-                // PREPARE_COST filter steps) happens at most once per tick and ends the tick's
-                // work: it bounds the worst tick.
-                if prepared_this_tick {
+                // PREPARE_COST filter steps) happens at most once per tick, and only while
+                // PREPARE_COST of the budget is left (or on the tick's first turn, so a budget
+                // below PREPARE_COST still advances): the tick then stays within its budget.
+                // Charging the construction after the steps had spent the budget let the worst
+                // tick reach 64 steps plus a construction, 568k Cortex-M4 instructions with the
+                // structure test on (BENCHMARKS.md, "The window search's budget kept").
+                let fresh = budget == self.cfg.budget as usize;
+                if prepared_this_tick || (budget < PREPARE_COST && !fresh) {
                     return None;
                 }
                 prepared_this_tick = true;
