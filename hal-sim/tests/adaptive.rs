@@ -1,7 +1,7 @@
 //! Issue 3 bars for the online identification (`imu_ident::adapt`) on the `paper` scenario,
 //! 12 h logs, 3 fixed seeds per start (the 20-seed medians are in
 //! `examples/adaptive_bench.rs` and BENCHMARKS.md). Run in release for speed:
-//! `cargo test --release -p hal-sim --test adaptive` (about 20 s on one core).
+//! `cargo test --release -p hal-sim --test host adaptive::` (about 20 s on one core).
 
 use hal_sim::adaptive::{self, gm_params, tilt_window, AdaptiveRun};
 use hal_sim::log::LogRow;

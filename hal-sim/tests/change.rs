@@ -1,7 +1,7 @@
 //! The global stage's change monitor (`imu_ident::adapt::change`, `adapt::window::monitor`): a
 //! sensor whose noise changes in service, with every state continuous (`sim::Seam::Continuous`),
 //! is found and followed; stationary logs raise no alarm. Run in release for speed:
-//! `cargo test --release -p hal-sim --test change`.
+//! `cargo test --release -p hal-sim --test host change::`.
 
 use hal_sim::adaptive::{self, tilt_window};
 use hal_sim::{mismatch, replay, scenario, sim};

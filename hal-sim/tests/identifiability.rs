@@ -1,7 +1,7 @@
 //! Issue 13, item 2: what a window search cannot identify is flagged "not identifiable from
 //! these data yet" in telemetry, with its Cramér-Rao interval, and searched again sooner on
 //! more data instead of being run for hours. Run in release for speed:
-//! `cargo test --release -p hal-sim --test identifiability`.
+//! `cargo test --release -p hal-sim --test host identifiability::`.
 
 use hal_sim::adaptive::{self, tilt_window};
 use hal_sim::records::ParamRow;

@@ -1,6 +1,6 @@
 //! Module layering: no dependency cycle among the top-level modules of either crate.
 //!
-//! `cargo test -p hal-sim --test module_graph -- --nocapture` prints every edge.
+//! `cargo test -p hal-sim --test host module_graph:: -- --nocapture` prints every edge.
 //!
 //! The graph is read from the sources, not from the compiler: for each file under `src/`
 //! (crate `imu_ident`) and `hal-sim/src/` (crate `hal_sim`), with comments and string literals

@@ -36,7 +36,7 @@
 //! Gauss-Markov per axis and hour, the likelihood is skewed and only the profile interval has
 //! the shape of it.
 //!
-//! Benchmark (ignored): `cargo test --release -p hal-sim --test nav_blind_spots -- --ignored
+//! Benchmark (ignored): `cargo test --release -p hal-sim --test host nav_blind_spots:: -- --ignored
 //! --nocapture`, with `BLIND_SEEDS` (default 20), `BLIND_FIRST_SEED` (7001), `BLIND_HOURS`
 //! (1), `BLIND_EFFECTS` (`bias,walk,gm,walk_h,gm_h,tie`; `walk_h`, `gm_h`: the
 //! parameters unknown on the horizontal x and y accelerometers only, z known; `tie`: the accelerometer walk and the gyro white

@@ -24,7 +24,7 @@
 //!   0.99 quantiles, `diagnose::axes`).
 //!
 //! Benchmark (ignored): `NAVDIAG_SEEDS=10 NAVDIAG_FIRST_SEED=8801 NAVDIAG_DRIFT_MG=2 cargo test
-//! --release -p hal-sim --test nav_diagnose -- --ignored --nocapture` prints, per seed, the
+//! --release -p hal-sim --test host nav_diagnose:: -- --ignored --nocapture` prints, per seed, the
 //! verdict on the log with the hidden walk (its 1-h drift `NAVDIAG_DRIFT_MG`) and on the log
 //! without it, the gains and the errors before and after; `NAVDIAG_AXES=z` (or `x`, `xz`, ...)
 //! puts the walk on those accelerometer axes only, and the split of the named effect is

@@ -194,7 +194,7 @@ fn real_drive_identified_model_is_consistent_and_no_worse_than_hand_inflated() {
 /// run beats the identification without the constraint (7.02 m, BENCHMARKS.md; asserted
 /// against the grid answer's 6.88 m, measured 4.36 m). About 50 s.
 #[test]
-#[ignore = "about 50 s in release: cargo test --release -p hal-sim --test nav_real -- --ignored"]
+#[ignore = "about 50 s in release: cargo test --release -p hal-sim --test host nav_real:: -- --ignored"]
 fn real_drive_identifies_the_constraint_sd() {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let Some((args, samples, fixes)) = drive(dir.path()) else {
@@ -240,7 +240,7 @@ fn real_drive_identifies_the_constraint_sd() {
 ///
 /// About 2 min in release.
 #[test]
-#[ignore = "about 2 min in release: cargo test --release -p hal-sim --test nav_real -- --ignored"]
+#[ignore = "about 2 min in release: cargo test --release -p hal-sim --test host nav_real:: -- --ignored"]
 fn real_drive_online_with_the_gnss_noise_beats_the_hand_inflated_model() {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let Some((args, samples, fixes)) = drive(dir.path()) else {

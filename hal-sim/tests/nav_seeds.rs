@@ -1,4 +1,4 @@
-//! Benchmark (ignored by default; `cargo test --release -p hal-sim --test nav_seeds -- --ignored
+//! Benchmark (ignored by default; `cargo test --release -p hal-sim --test host nav_seeds:: -- --ignored
 //! --nocapture`): the strapdown INS/GNSS navigator over many seeds of the simulated
 //! figure-eight course (issue 16's simulation bar), for a MEMS and a tactical-grade IMU, with
 //! the true noise model, with it 10x too small and 10x too large (standard deviations). GNSS at

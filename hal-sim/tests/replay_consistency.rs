@@ -6,7 +6,7 @@
 //! `Estimator::push`, in f64) and one likelihood definition (`records::log_likelihood`), so
 //! equality is asserted exactly (bitwise): any difference is a second code path.
 //!
-//! `cargo test -p hal-sim --test replay_consistency -- --nocapture`
+//! `cargo test -p hal-sim --test host replay_consistency:: -- --nocapture`
 
 use hal_sim::log::{self, LogRow};
 use hal_sim::records::{self, EstimateRow, RunCounts};
