@@ -72,9 +72,14 @@ const MAX_ORDER: usize = 40;
 fn series_order<T: Real>(x: T, spread: T, q_series: bool) -> usize {
     let eps = T::lit(T::EPS);
     let mut term = T::one();
+    // The divisor k (Phi) or k + 1 (Q), counted in T: an integer-to-float conversion through
+    // `f64` is software on the MCU. Small integers are exact, so the bits are those of
+    // `T::lit(k as f64)`.
+    let mut div = if q_series { T::one() } else { T::zero() };
     for k in 1..=MAX_ORDER {
+        div += T::one();
         // The first omitted term after order k - 1 is x^k / k! (Phi) or x^k / (k + 1)! (Q).
-        term *= x / T::lit((k + usize::from(q_series)) as f64);
+        term *= x / div;
         if T::lit(2.0) * spread * term <= eps {
             return k - 1;
         }
@@ -99,8 +104,8 @@ fn balance<T: Real, const N: usize>(A: &Arr<T, N>, n: usize) -> Balanced<T, N> {
     let n = n.min(N);
     let mut e = [0i32; N];
     // d = 2^e and its inverse, in the working precision: on the MCU's single-precision FPU
-    // `f64` arithmetic is software. The exponents come from `frexp` and `ldexp` (bit
-    // operations), not from `log2` and `exp2`.
+    // `f64` arithmetic is software. The exponents come from `Real::binary_exponent` and
+    // `Real::pow2` (`frexpf`/`ldexpf` in f32: bit operations), not from `log2` and `exp2`.
     let mut d = [T::one(); N];
     let mut inv = [T::one(); N];
     for _ in 0..BAL_SWEEPS {
@@ -134,9 +139,9 @@ fn balance<T: Real, const N: usize>(A: &Arr<T, N>, n: usize) -> Balanced<T, N> {
             } else {
                 // d_i 2^k scales c by 2^k and r by 2^-k: balanced when 4^k = r / c, that is
                 // k = log2(r / c) / 2, here within one binade (r / c = m 2^x, m in [1/2, 1)).
-                let (_, x) = libm::frexp((r / c).as_f64());
+                let x = (r / c).binary_exponent();
                 let k = ei.saturating_add(x.div_euclid(2)).clamp(-BAL_E, BAL_E) - ei;
-                let f = T::lit(libm::ldexp(1.0, k));
+                let f = T::pow2(k);
                 if c * f + r / f < T::lit(0.95) * (c + r) {
                     k
                 } else {
@@ -148,8 +153,8 @@ fn balance<T: Real, const N: usize>(A: &Arr<T, N>, n: usize) -> Balanced<T, N> {
                 if let (Some(ei), Some(di), Some(ii)) = (e.get_mut(i), d.get_mut(i), inv.get_mut(i))
                 {
                     *ei += k;
-                    *di = T::lit(libm::ldexp(1.0, *ei));
-                    *ii = T::lit(libm::ldexp(1.0, -*ei));
+                    *di = T::pow2(*ei);
+                    *ii = T::pow2(-*ei);
                 }
             }
         }
@@ -164,7 +169,7 @@ fn balance<T: Real, const N: usize>(A: &Arr<T, N>, n: usize) -> Balanced<T, N> {
     Balanced {
         d,
         inv,
-        spread: T::lit(libm::ldexp(1.0, hi - lo)),
+        spread: T::pow2(hi - lo),
     }
 }
 
@@ -245,7 +250,7 @@ impl<T: Real, const N: usize> Expm<T, N> {
             scaled *= T::lit(0.5);
             s += 1;
         }
-        let h = dt / T::lit(libm::ldexp(1.0, s as i32));
+        let h = dt / T::pow2(s as i32);
         let order = series_order(scaled, spread, false);
         // ||C_k|| <= (2 ||B h||)^k ||Qc|| / h^k, and Qd's entries scale by d_i d_j: the spread
         // of D^2.
@@ -261,8 +266,11 @@ impl<T: Real, const N: usize> Expm<T, N> {
         for (i, row) in phi.iter_mut().enumerate().take(n) {
             row[i] = T::one();
         }
-        for k in (1..=order).rev() {
-            let inv_k = T::one() / T::lit(k as f64);
+        // k counted down in T (see `series_order`).
+        let mut kk = T::lit(order as f64);
+        for _ in (1..=order).rev() {
+            let inv_k = T::one() / kk;
+            kk -= T::one();
             let m = mul(&ah, &phi, n);
             // Scale, then add the identity: a branch on `i == j` inside the row loop kept it
             // from vectorising (a third of this function's time, perf).
@@ -320,7 +328,9 @@ impl<T: Real, const N: usize> Expm<T, N> {
         let mut coef = h;
         let mut q = zeros();
         add_scaled(&mut q, &c, coef, n);
-        for k in 1..=order {
+        // k + 1 counted in T (see `series_order`).
+        let mut k1 = T::one();
+        for _ in 1..=order {
             let ac = mul(A, &c, n);
             let act = transpose(&ac);
             for ((cr, ar), tr) in c.iter_mut().zip(ac.iter()).zip(act.iter()).take(n) {
@@ -328,7 +338,8 @@ impl<T: Real, const N: usize> Expm<T, N> {
                     *v = *x + *y;
                 }
             }
-            coef = coef * h / T::lit((k + 1) as f64);
+            k1 += T::one();
+            coef = coef * h / k1;
             add_scaled(&mut q, &c, coef, n);
         }
         for _ in 0..self.s {
