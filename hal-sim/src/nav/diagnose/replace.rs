@@ -147,18 +147,8 @@ impl NavReplacement {
     /// offered or `p` is bad.
     pub fn components(&self, p: &[f64]) -> Option<[Component<f64>; 3]> {
         let cand = self.target();
-        let qs = self.kind.quantities();
         let one = |old: &Component<f64>| {
-            let lp: Option<Vec<f64>> = qs
-                .iter()
-                .zip(p)
-                .map(|(q, v)| match old.get(*q) {
-                    Some(o) if o > 0.0 && o.is_finite() => Some(log_param(*q, o) + v),
-                    Some(_) => None,
-                    None => Some(*v),
-                })
-                .collect();
-            lp.filter(|lp| lp.len() == qs.len())
+            self.per_quantity(old, p, |l, v| l + v)
                 .and_then(|lp| offered(&cand, &lp))
         };
         let [x, y, z] = &self.old;
@@ -191,14 +181,26 @@ impl NavReplacement {
     /// [`Self::components`] on the x axis. `None` when `a` is short or the x axis's old value
     /// is not positive.
     pub fn relative(&self, a: &[f64]) -> Option<Vec<f64>> {
+        self.per_quantity(&self.old[0], a, |l, v| v - l)
+    }
+
+    /// `f(log value of old, p_i)` for each quantity of the new kind that `old` has, `p_i` as
+    /// it is for one it lacks (the new kind's own); `None` when `p` is short or an old value
+    /// is not positive. The one mapping behind [`Self::components`] and [`Self::relative`].
+    fn per_quantity(
+        &self,
+        old: &Component<f64>,
+        p: &[f64],
+        f: impl Fn(f64, f64) -> f64,
+    ) -> Option<Vec<f64>> {
         let qs = self.kind.quantities();
-        if a.len() < qs.len() {
+        if p.len() < qs.len() {
             return None;
         }
         qs.iter()
-            .zip(a)
-            .map(|(q, v)| match self.old[0].get(*q) {
-                Some(o) if o > 0.0 && o.is_finite() => Some(v - log_param(*q, o)),
+            .zip(p)
+            .map(|(q, v)| match old.get(*q) {
+                Some(o) if o > 0.0 && o.is_finite() => Some(f(log_param(*q, o), *v)),
                 Some(_) => None,
                 None => Some(*v),
             })
