@@ -6,9 +6,9 @@
 //! written back, and compared with `tests/golden/model_toml/*.txt`: the model as loaded (its
 //! `Debug`, exact to the bit), `to_string`'s text, the JSON form (reports) and, for bad input,
 //! the error message (file, line and field). The goldens were written by the code before the
-//! kind table (`BLESS=1 cargo test -p hal-sim --test host model_toml_golden::` rewrites them); the one
-//! change since is `err-second-component`, whose error now points at the offending second
-//! `[[accel]]` (line 7) where the serde enum pointed at the first (line 4).
+//! kind table (`BLESS=1 cargo test -p hal-sim --test host model_toml_golden::` rewrites
+//! them); the one change since is `err-second-component`, whose error now points at the
+//! offending second `[[accel]]` (line 7) where the serde enum pointed at the first (line 4).
 
 use std::path::{Path, PathBuf};
 

@@ -18,9 +18,9 @@
 //! standard deviation), a sanity bound, not a Cramér-Rao one.
 //!
 //! Benchmark (ignored): `IDAXES_SEEDS=10 IDAXES_FIRST_SEED=9501 cargo test --release -p hal-sim
-//! --test host nav_identify_axes:: -- --ignored --nocapture` prints, per seed, on the log whose axes
-//! differ and on the log whose axes are alike: the gain against the threshold, the per-axis
-//! walk factors, and the scores (outage-end RMS, horizontal RMS against the truth, worst
+//! --test host nav_identify_axes:: -- --ignored --nocapture` prints, per seed, on the log
+//! whose axes differ and on the log whose axes are alike: the gain against the threshold, the
+//! per-axis walk factors, and the scores (outage-end RMS, horizontal RMS against the truth, worst
 //! fraction outside 3 sigma, mean NEES) of the tied answer, the per-axis answer and the true
 //! model.
 

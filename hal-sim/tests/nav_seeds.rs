@@ -1,5 +1,5 @@
-//! Benchmark (ignored by default; `cargo test --release -p hal-sim --test host nav_seeds:: -- --ignored
-//! --nocapture`): the strapdown INS/GNSS navigator over many seeds of the simulated
+//! Benchmark (ignored by default; `cargo test --release -p hal-sim --test host nav_seeds::
+//! -- --ignored --nocapture`): the strapdown INS/GNSS navigator over many seeds of the simulated
 //! figure-eight course (issue 16's simulation bar), for a MEMS and a tactical-grade IMU, with
 //! the true noise model, with it 10x too small and 10x too large (standard deviations). GNSS at
 //! 1 Hz (1.5/1.5/3 m, 0.05/0.05/0.1 m/s) with 60-s outages every 20 min from 10 min.

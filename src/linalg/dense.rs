@@ -88,10 +88,11 @@ pub fn axpy<T: Real>(y: &mut [T], k: T, x: &[T], n: usize) {
 ///
 /// A zero `a[i][k]` is skipped: the error-state models' `A` is sparse (the noise states' rows
 /// hold their own dynamics only, the navigation rows a few couplings), and so are the noise
-/// states' rows of `Phi`, so the discretisation's Taylor and `Q` series (`A` on the left) cost `nnz(A) n` instead of
-/// `n^3` (BENCHMARKS.md "Sparse products in the discretisation"). For finite `b` the result is
-/// the same, bit for bit (`+ 0 b` adds nothing); an infinite or NaN `b[k]` no longer spreads
-/// through a zero `a[i][k]` (the discretisation checks its inputs are finite).
+/// states' rows of `Phi`, so the discretisation's Taylor and `Q` series (`A` on the left) cost
+/// `nnz(A) n` instead of `n^3` (BENCHMARKS.md "Sparse products in the discretisation"). For
+/// finite `b` the result is the same, bit for bit (`+ 0 b` adds nothing); an infinite or NaN
+/// `b[k]` no longer spreads through a zero `a[i][k]` (the discretisation checks its inputs are
+/// finite).
 pub fn mul<T: Real, const N: usize>(a: &Arr<T, N>, b: &Arr<T, N>, n: usize) -> Arr<T, N> {
     let mut c = zeros();
     for (ci, ai) in head_mut(&mut c, n).iter_mut().zip(head(a, n)) {

@@ -95,8 +95,9 @@ struct Balanced<T: Real, const N: usize> {
     spread: T,
 }
 
-/// Power-of-two scales `D = diag(2^e)` that make `B = D^-1 A D` small in the 1-norm: the Parlett-Reinsch iteration (LAPACK's `gebal`) on the off-diagonal row and
-/// column sums of the leading `n` states, each step taken only if it lowers the pair's sum by
+/// Power-of-two scales `D = diag(2^e)` that make `B = D^-1 A D` small in the 1-norm: the
+/// Parlett-Reinsch iteration (LAPACK's `gebal`) on the off-diagonal row and column sums of the
+/// leading `n` states, each step taken only if it lowers the pair's sum by
 /// 5 %. Powers of two make `B` exact, so the series on `A h` is, bit for bit, the series on
 /// `B h` scaled back: only the bound on the remainder uses `D`.
 #[allow(non_snake_case)]
@@ -268,7 +269,7 @@ impl<T: Real, const N: usize> Expm<T, N> {
         }
         // k counted down in T (see `series_order`).
         let mut kk = T::lit(order as f64);
-        for _ in (1..=order).rev() {
+        for _ in 0..order {
             let inv_k = T::one() / kk;
             kk -= T::one();
             let m = mul(&ah, &phi, n);
