@@ -15,7 +15,8 @@
 //! for experiments (`BLOCK`, `WIN`, `FIRST`, `EVERY`, `BUDGET`, `PM` probe factor, `GN` set:
 //! recursion not held, `PEN` the structure test's penalty, `MARGIN` the jump margin [nats],
 //! `KEEP=0` the start model not kept until rejected, `KEEPID=0` an identified model not kept
-//! against a flat answer); `TRACE=1` also prints the exact
+//! against a flat answer); `RUNS=FILE` appends every run's `seed,start,tilt ratio,% outside 3 sigma` to FILE for paired
+//! comparisons; `TRACE=1` also prints the exact
 //! start of every run beyond 1.05x (for `structure_bench START=...`: a rounded start can take
 //! another path). `design=probes` is `AdaptConfig::default()`, today's design.
 #![allow(clippy::needless_range_loop)]
@@ -129,6 +130,14 @@ fn main() -> anyhow::Result<()> {
             if k == starts.len() - 1 {
                 truth_ratio.push(ratio);
                 continue;
+            }
+            if let Some(path) = std::env::var_os("RUNS") {
+                use std::io::Write;
+                let mut f = std::fs::OpenOptions::new()
+                    .create(true)
+                    .append(true)
+                    .open(path)?;
+                writeln!(f, "{seed},{k},{ratio},{}", out * 100.0)?;
             }
             r_or.push(ratio);
             r_ml.push(rms / mlref);

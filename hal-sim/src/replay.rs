@@ -179,6 +179,7 @@ pub fn adapt_config<T: Real>(c: &AdaptConfig<f64>) -> AdaptConfig<T> {
             window: c.global.window,
             first: c.global.first,
             every: c.global.every,
+            filling_every: c.global.filling_every,
             budget: c.global.budget,
             spacing: T::lit(c.global.spacing),
             min_step: T::lit(c.global.min_step),

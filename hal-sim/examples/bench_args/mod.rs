@@ -42,6 +42,7 @@ pub fn window_env(w: &mut imu_ident::adapt::window::WindowConfig<f64>) {
     w.window = env_or("WIN", w.window);
     w.first = env_or("FIRST", w.first);
     w.every = env_or("EVERY", w.every);
+    w.filling_every = env_or("FILLING", w.filling_every);
     w.budget = env_or("BUDGET", w.budget);
     w.structure = env_or("PEN", w.structure);
     w.change = env_or("CHANGE", w.change);

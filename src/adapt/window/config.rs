@@ -20,6 +20,15 @@ pub const CHANGE_THRESHOLD: f64 = 24.0;
 /// worst; 30, 60 and 120 were within one or two runs of each other; 60 is kept.
 pub const AFTER_CHANGE: u32 = 60;
 
+/// Blocks between searches while the window fills (2 h; then every 4 h), and a search when it
+/// first fills. The filter had run the 4-h window's answer until the 8-h search ended, about
+/// 9.3 h into the run; a 4-h window is sometimes far from what 8 h say (seed 83500: its answer
+/// alone, fixed, 1.38x the oracle over hours 8-12, the 8-h answer 1.09x). Measured at firmware
+/// pace on development seeds 83500-83519 (640 runs from any start): the worst run 1.226x ->
+/// 1.133x, seeds with every run within 1.05x of the ML reference 14 -> 17 of 20
+/// (BENCHMARKS.md "Searches while the window fills").
+pub const FILLING_EVERY: u32 = 120;
+
 /// Blocks after a search whose answer the window does not identify before the next search
 /// (1 h; the usual pace is 4 h). Measured at firmware pace on development seeds 1000-1009 (320
 /// runs from any start): the 4-h window's answer was flat on about a fifth of the runs and
@@ -41,6 +50,12 @@ pub struct WindowConfig<T> {
     pub first: u32,
     /// Blocks between the starts of two searches.
     pub every: u32,
+    /// Blocks between the starts of two searches while the window is still filling (the data
+    /// since the start, or since a change found, are shorter than `window`; `0`: `every`).
+    /// Without a change found, a search is also due when the window first fills, and one
+    /// that would start within half this pace before that waits for it: the first answer
+    /// from a full window comes as early as the data allow.
+    pub filling_every: u32,
     /// Decimated filter steps per tick.
     pub budget: u32,
     /// Grid spacing in `ln` (`ln 10`: factors 0.1, 1, 10).
@@ -96,6 +111,7 @@ impl<T: Real> WindowConfig<T> {
         window: 0,
         first: 0,
         every: 0,
+        filling_every: 0,
         budget: 0,
         spacing: T::ZERO,
         min_step: T::ZERO,
@@ -122,6 +138,7 @@ impl<T: Real> WindowConfig<T> {
             window: 480,
             first: 240,
             every: 240,
+            filling_every: FILLING_EVERY,
             budget: 64,
             spacing: T::lit(core::f64::consts::LN_10),
             min_step: T::lit(0.05),

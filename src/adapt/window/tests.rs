@@ -1,0 +1,121 @@
+//! Unit tests of the window search's bookkeeping: the schedule while the window fills and the
+//! diverse list of points to polish. The searches themselves are tested end to end in
+//! `adapt::tests` and hal-sim's `global` tests.
+
+use super::{WindowConfig, WindowSearch, CROWD, MAXP, TOP};
+use crate::adapt::params::specs;
+use crate::model::InsModel;
+
+fn search(cfg: WindowConfig<f64>) -> WindowSearch<f64> {
+    let mut w = WindowSearch::BLANK;
+    w.init(cfg, &[0.0; MAXP]);
+    w
+}
+
+/// While the window fills, searches come every `filling_every` blocks, and one is due when the
+/// window first fills; then every `every`. After a change found, the windows since it double
+/// as before, whatever `filling_every`.
+#[test]
+fn searches_come_sooner_while_the_window_fills() {
+    let cfg = WindowConfig::<f64>::default_on();
+    assert_eq!((cfg.first, cfg.every, cfg.window), (240, 240, 480));
+    assert_eq!(cfg.filling_every, super::FILLING_EVERY);
+    let mut w = search(cfg);
+    let a = [0.0; MAXP];
+    let next_after = |w: &mut WindowSearch<f64>, pushed: u32| {
+        w.pushed = pushed;
+        w.start(&a);
+        w.phase = super::Phase::Idle;
+        w.next_search
+    };
+    assert_eq!(
+        next_after(&mut w, 240),
+        360,
+        "the 4-h search: the next 2 h later"
+    );
+    assert_eq!(
+        next_after(&mut w, 300),
+        420,
+        "2 h later, 1 h before the window fills"
+    );
+    assert_eq!(
+        next_after(&mut w, 400),
+        480,
+        "due when the window first fills"
+    );
+    assert_eq!(
+        next_after(&mut w, 342),
+        480,
+        "not 462: a search then would still run when the window fills"
+    );
+    assert_eq!(next_after(&mut w, 480), 720, "then the usual pace");
+    // Off: the usual pace from the first search on.
+    let mut off = search(WindowConfig {
+        filling_every: 0,
+        ..cfg
+    });
+    assert_eq!(next_after(&mut off, 240), 480);
+    assert_eq!(next_after(&mut off, 400), 640);
+    // After a change found at block 480 (dated there), the windows since it double (1 h, then
+    // the time since it), not the filling pace.
+    w.changed(0);
+    assert_eq!((w.floor, w.changes), (480, 1));
+    assert_eq!(next_after(&mut w, 540), 600);
+    assert_eq!(next_after(&mut w, 600), 720);
+}
+
+/// The list of points to polish keeps at most `CROWD` points that share one component's
+/// values, whatever the order in which the points arrive.
+#[test]
+fn the_points_to_polish_are_diverse() {
+    let model = InsModel::<f64>::paper();
+    let sp = specs(&model);
+    assert_eq!(
+        sp.len(),
+        4,
+        "paper: accelerometer (sigma, tau), gyro (sigma, tau)"
+    );
+    // Ten points with the same gyro (coordinates 2 and 3) and distinct accelerometers, better
+    // than one point with another gyro.
+    let alike: [([f64; MAXP], f64); 10] = core::array::from_fn(|i| {
+        let mut t = [0.0; MAXP];
+        t[0] = i as f64;
+        t[1] = -(i as f64);
+        t[2] = 1.0;
+        t[3] = 2.0;
+        (t, 100.0 - i as f64)
+    });
+    let mut other = [0.0; MAXP];
+    other[0] = 20.0;
+    other[2] = -1.0;
+    for order in 0..2 {
+        let mut w = search(WindowConfig::default_on());
+        w.top_ll = [f64::NEG_INFINITY; TOP];
+        if order == 0 {
+            w.offer_diverse(50.0, &other, &sp);
+        }
+        // Worst first, so that better points crowd out entries already in the list.
+        for (t, ll) in alike.iter().rev() {
+            w.offer_diverse(*ll, t, &sp);
+        }
+        if order == 1 {
+            w.offer_diverse(50.0, &other, &sp);
+        }
+        let kept: usize = w.top_ll.iter().filter(|l| l.is_finite()).count();
+        assert_eq!(kept, CROWD + 1, "order {order}: {:?}", w.top_ll);
+        for k in 0..CROWD {
+            assert_eq!(w.top_ll[k], 100.0 - k as f64);
+            assert_eq!(w.top[k], alike[k].0);
+        }
+        assert_eq!(w.top_ll[CROWD], 50.0);
+        assert_eq!(w.top[CROWD], other);
+    }
+    // A plain offer keeps the best TOP whatever they share (the re-ranking after the brief
+    // polishes).
+    let mut w = search(WindowConfig::default_on());
+    w.top_ll = [f64::NEG_INFINITY; TOP];
+    for (t, ll) in alike.iter() {
+        w.offer(*ll, t);
+    }
+    assert!(w.top_ll.iter().all(|l| *l >= 100.0 - TOP as f64 + 1.0));
+}
