@@ -84,8 +84,11 @@ pub const WINDOW_CAP: usize = 600;
 pub const TOP: usize = 6;
 /// Entries of the `TOP` list that may share one component's values (`offer_diverse`, which
 /// says why). Measured at firmware pace on development seeds 83500-83519 (640 runs from any
-/// start, `TOP` = 8): 3 gave 19 of 20 seeds with every run within 1.05x of the ML reference
-/// with 3 brief iterations, 20 of 20 with 4; 2 gave 19 of 20 either way.
+/// start, `TOP` = 8, searches every 2 h while the window fills): 3 and 2 both gave 19 of 20
+/// seeds with every run within 1.05x of the ML reference, with 3 or 4 brief iterations, and 3
+/// kept the worst 3-sigma fraction lower (2.88-2.98 % against 2.88-6.87 %); with the search
+/// when the window first fills too, 3 gave 20 of 20 (BENCHMARKS.md "Searches while the window
+/// fills; a diverse multi-start").
 const CROWD: usize = 3;
 /// Scoring iterations of the brief polish. 4, not 3: from a diverse list the point nearest the
 /// maximum can start far down (seed 83512: 15x off in the accelerometer's `tau`), and after 3
@@ -424,7 +427,7 @@ impl<T: Real> WindowSearch<T> {
         // usual pace is reached: the first answers on the new sensor come from short windows.
         let every = if self.changes > 0 {
             self.cfg.every.min(since_change as u32)
-        } else if since_change < self.cfg.window as usize && self.cfg.filling_every > 0 {
+        } else if self.filling() {
             self.cfg.filling_every
         } else {
             self.cfg.every
