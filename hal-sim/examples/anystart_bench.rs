@@ -15,9 +15,9 @@
 //! for experiments (`BLOCK`, `WIN`, `FIRST`, `EVERY`, `BUDGET`, `PM` probe factor, `GN` set:
 //! recursion not held, `PEN` the structure test's penalty, `MARGIN` the jump margin [nats],
 //! `KEEP=0` the start model not kept until rejected, `KEEPID=0` an identified model not kept
-//! against a flat answer); `RUNS=FILE` appends every run's `seed,start,tilt ratio,% outside 3 sigma` to FILE for paired
-//! comparisons; `TRACE=1` also prints the exact
-//! start of every run beyond 1.05x (for `structure_bench START=...`: a rounded start can take
+//! against a flat answer, `FILLING` the blocks between searches while the window fills);
+//! `RUNS=FILE` appends every run's `seed,start,tilt ratio,% outside 3 sigma` to FILE for
+//! paired comparisons; `TRACE=1` also prints the exact start of every run beyond 1.05x (for `structure_bench START=...`: a rounded start can take
 //! another path). `design=probes` is `AdaptConfig::default()`, today's design.
 #![allow(clippy::needless_range_loop)]
 

@@ -40,6 +40,13 @@ pub struct ParamSpec {
     pub kind: Quantity,
 }
 
+impl ParamSpec {
+    /// Whether `other` is a quantity of the same component (same sensor, same index).
+    pub fn same_component(&self, other: &Self) -> bool {
+        self.sensor == other.sensor && self.index == other.index
+    }
+}
+
 /// The list of identified parameters of a model.
 pub type Specs = Vec<ParamSpec, MAXP>;
 

@@ -94,9 +94,9 @@ impl<T: Real> Probes<T> {
             if s.kind != Quantity::Tau || npairs >= 2 {
                 continue;
             }
-            let sig = specs.iter().position(|o| {
-                o.kind == Quantity::Sigma && o.sensor == s.sensor && o.index == s.index
-            });
+            let sig = specs
+                .iter()
+                .position(|o| o.kind == Quantity::Sigma && o.same_component(s));
             if let Some(j) = sig {
                 pairs[npairs] = (i, j);
                 npairs += 1;

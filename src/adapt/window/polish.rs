@@ -8,7 +8,7 @@
 
 use super::{Phase, WindowSearch, CROWD, FINAL, MAX_ITERATIONS, SHORT_ITERATIONS, TOP};
 use crate::adapt::guard::Bounds;
-use crate::adapt::params::{has_coordinate, Specs, MAXP};
+use crate::adapt::params::{has_coordinate, ParamSpec, Specs, MAXP};
 use crate::linalg::{chol_solve, cholesky};
 use crate::Real;
 
@@ -50,17 +50,17 @@ impl<T: Real> WindowSearch<T> {
             if i >= TOP || !self.top_ll[i].is_finite() {
                 break;
             }
-            let crowded = (0..p).any(|c| {
-                let shares = |j: usize| {
-                    (0..p).all(|k| {
-                        let (sk, sc) = (specs.get(k), specs.get(c));
-                        let same = matches!((sk, sc), (Some(a), Some(b))
-                            if a.sensor == b.sensor && a.index == b.index);
-                        !same || (self.top[j][k] - self.top[i][k]).abs() <= tol
-                    })
-                };
-                (0..i).filter(|&j| shares(j)).count() >= CROWD
-            });
+            // Entry `j` shares the component of coordinate `c` with entry `i`: every coordinate
+            // `k` of that component within `tol`.
+            let shares = |j: usize, c: &ParamSpec| {
+                specs.iter().enumerate().take(p).all(|(k, s)| {
+                    !s.same_component(c) || (self.top[j][k] - self.top[i][k]).abs() <= tol
+                })
+            };
+            let crowded = specs
+                .iter()
+                .take(p)
+                .any(|c| (0..i).filter(|&j| shares(j, c)).count() >= CROWD);
             if crowded {
                 for j in i..TOP - 1 {
                     self.top[j] = self.top[j + 1];
