@@ -21,7 +21,8 @@
 //! - Points: the anchor (the filter's current `theta`), then the `3^p` grid around the start
 //!   model (spacing `spacing` in `ln`: factors 0.1, 1, 10; shifted by half a spacing every other
 //!   search), then a brief polish (4 iterations) of the best [`TOP`] = 6 of them (no more than
-//!   3 sharing one component's values) and a polish to convergence of the best 2, by
+//!   3 sharing one component's values) and a polish to convergence of the best and of the
+//!   most promising of the others (likelihood plus the gain its next step promises), by
 //!   Levenberg-Marquardt Fisher scoring on the window: each iteration is one
 //!   pass of `2p + 1` filters giving the score and the Fisher information by central
 //!   differences ([`pass::Pass`]), the step `(I + lambda diag I)^-1 g` is accepted when the
@@ -95,7 +96,8 @@ const CROWD: usize = 3;
 /// iterations it was still 11 nats below a polished wrong basin, so it was not refined (19 of
 /// 20 seeds within 1.05x with 3, 20 of 20 with 4).
 const SHORT_ITERATIONS: u32 = 4;
-/// The best points after the brief polish that are refined to convergence.
+/// Points refined to convergence after the brief polishes: the best, and the most promising
+/// of the others (`rank_for_refinement`).
 const FINAL: usize = 2;
 /// Scoring iterations per polish at most.
 const MAX_ITERATIONS: u32 = 12;
@@ -169,6 +171,9 @@ pub struct WindowSearch<T: Real> {
     /// The best `TOP` points of the anchor and the grid, best first.
     top: [[T; MAXP]; TOP],
     top_ll: [T; TOP],
+    /// After the brief polishes: each entry's gain still ahead, as its last quadratic model
+    /// predicts for one more step ([`step_gain`](Self::step_gain)).
+    top_ahead: [T; TOP],
     /// Polish: the last accepted point, its likelihood, score and information; the damping.
     acc_theta: [T; MAXP],
     acc_ll: T,
@@ -224,6 +229,7 @@ impl<T: Real> WindowSearch<T> {
         held_ll: T::ZERO,
         top: [[T::ZERO; MAXP]; TOP],
         top_ll: [T::ZERO; TOP],
+        top_ahead: [T::ZERO; TOP],
         acc_theta: [T::ZERO; MAXP],
         acc_ll: T::ZERO,
         acc_score: [T::ZERO; MAXP],
@@ -417,6 +423,7 @@ impl<T: Real> WindowSearch<T> {
         self.best_ll = T::lit(f64::NEG_INFINITY);
         self.top = [*anchor; TOP];
         self.top_ll = [T::lit(f64::NEG_INFINITY); TOP];
+        self.top_ahead = [T::zero(); TOP];
         self.phase = Phase::Anchor;
         self.running = false;
         self.evaluations = 0;

@@ -1,7 +1,7 @@
 //! The window search's multi-start polish: the best `TOP` points of the anchor and the grid,
-//! each polished briefly by Levenberg-Marquardt Fisher scoring, then the best `FINAL` to
-//! convergence (module documentation of [`super`]). A child of [`super`]: it works on the
-//! search's own state.
+//! each polished briefly by Levenberg-Marquardt Fisher scoring, then `FINAL` of them (the best
+//! and the most promising) to convergence (module documentation of [`super`]). A child of
+//! [`super`]: it works on the search's own state.
 
 // Small fixed-size code reads best with explicit indices.
 #![allow(clippy::needless_range_loop)]
@@ -96,16 +96,89 @@ impl<T: Real> WindowSearch<T> {
                 self.begin_polish(&t, phase)
             }
             _ if !refine => {
-                // End of the brief polishes: rank their results, refine the best FINAL.
-                let (mut tl, mut tt) = (self.top_ll, self.top);
-                self.top_ll = [T::lit(f64::NEG_INFINITY); TOP];
-                for (l, t) in tl.iter_mut().zip(tt.iter_mut()) {
-                    let (l, t) = (*l, *t);
-                    self.offer(l, &t);
-                }
+                self.rank_for_refinement();
                 self.start_polish(0, true)
             }
             _ => Phase::Idle,
+        }
+    }
+
+    /// After the brief polishes: the entries ranked by likelihood, then the most promising of
+    /// the others second, so that the [`FINAL`] refinements go to the best point and to the one
+    /// whose likelihood plus the gain still ahead of it ([`step_gain`](Self::step_gain)) is
+    /// highest.
+    ///
+    /// Why: a brief polish stops after [`SHORT_ITERATIONS`], and a point that started a decade
+    /// or two away in one coordinate may still be climbing steeply, below points that have
+    /// converged in a worse basin. Measured on fresh seed 92718 from (0.63, 0.13, 4.97, 0.64):
+    /// on the 8-h window the point that led to the maximum ended its brief polish 6.3 nats
+    /// below the anchor (a white-noise gyro basin), ranked 5th of 6 and was not refined, while
+    /// its next step was predicted to gain 17.8 nats; the second refinement went to a
+    /// converged point of the same basin 1.9 nats below the anchor. From there the maximum
+    /// was 19.5 nats above the anchor.
+    pub(super) fn rank_for_refinement(&mut self) {
+        let (l0, t0, a0) = (self.top_ll, self.top, self.top_ahead);
+        // Insertion by likelihood (best first), the gain ahead carried along.
+        self.top_ll = [T::lit(f64::NEG_INFINITY); TOP];
+        for ((l, t), a) in l0.iter().zip(t0.iter()).zip(a0.iter()) {
+            let mut cand = (*l, *t, *a);
+            for k in 0..TOP {
+                if cand.0 > self.top_ll[k] {
+                    core::mem::swap(&mut self.top_ll[k], &mut cand.0);
+                    core::mem::swap(&mut self.top[k], &mut cand.1);
+                    core::mem::swap(&mut self.top_ahead[k], &mut cand.2);
+                }
+            }
+        }
+        // The most promising after the best moves up to second place.
+        let promise = |k: usize| self.top_ll[k] + self.top_ahead[k];
+        let mut j = 1;
+        for k in 2..TOP {
+            if self.top_ll[k].is_finite() && promise(k) > promise(j) {
+                j = k;
+            }
+        }
+        for k in (1..j.min(TOP - 1)).rev() {
+            self.top.swap(k, k + 1);
+            self.top_ll.swap(k, k + 1);
+            self.top_ahead.swap(k, k + 1);
+        }
+    }
+
+    /// The log-likelihood gain that the quadratic model at the last accepted point (its score
+    /// `g` and Fisher information `I`) predicts for the next damped scoring step `d`:
+    /// `g' d - d' I d / 2`; zero when there is no step. Bounded by the step's limit, unlike
+    /// the undamped Newton gain `g' I^-1 g / 2`, which a flat direction makes arbitrarily
+    /// large (measured on seed 92718: up to 28 000 nats at converged white-noise points).
+    pub(super) fn step_gain(&self, p: usize, bounds: &Bounds<T>) -> T {
+        let Some(t) = self.scoring_step(p, bounds) else {
+            return T::zero();
+        };
+        let mut d = [T::zero(); MAXP];
+        for ((v, a), b) in d
+            .iter_mut()
+            .zip(t.iter())
+            .zip(self.acc_theta.iter())
+            .take(p)
+        {
+            *v = *a - *b;
+        }
+        let mut gain = T::zero();
+        for ((di, gi), row) in d
+            .iter()
+            .zip(self.acc_score.iter())
+            .zip(self.acc_fisher.iter())
+        {
+            let fd = row
+                .iter()
+                .zip(d.iter())
+                .fold(T::zero(), |m, (f, dj)| m + *f * *dj);
+            gain += *di * (*gi - fd * T::lit(0.5));
+        }
+        if gain.is_finite() {
+            gain.max(T::zero())
+        } else {
+            T::zero()
         }
     }
 
@@ -179,12 +252,12 @@ impl<T: Real> WindowSearch<T> {
             self.lambda = (self.lambda / T::lit(3.0)).max(T::lit(1e-3));
             let converged = self.iterations > 1 && moved < self.cfg.min_step;
             if converged || self.iterations >= most {
-                return self.end_polish(k, refine);
+                return self.end_polish(k, refine, p, bounds);
             }
         } else {
             self.lambda *= T::lit(10.0);
             if self.lambda > T::lit(1e4) || self.iterations >= most {
-                return self.end_polish(k, refine);
+                return self.end_polish(k, refine, p, bounds);
             }
         }
         match self.scoring_step(p, bounds) {
@@ -201,7 +274,7 @@ impl<T: Real> WindowSearch<T> {
                     Phase::Polish(k)
                 }
             }
-            None => self.end_polish(k, refine),
+            None => self.end_polish(k, refine, p, bounds),
         }
     }
 
@@ -221,7 +294,13 @@ impl<T: Real> WindowSearch<T> {
 
     /// Ends a polish: a brief one stores its result in place of its start point; a refinement
     /// competes for the answer.
-    pub(super) fn end_polish(&mut self, k: usize, refine: bool) -> Phase {
+    pub(super) fn end_polish(
+        &mut self,
+        k: usize,
+        refine: bool,
+        p: usize,
+        bounds: &Bounds<T>,
+    ) -> Phase {
         if self.phase == Phase::AltRefine {
             // The alternative's result is kept by `end_alternative`, not as the model's best.
             return Phase::Idle;
@@ -245,10 +324,16 @@ impl<T: Real> WindowSearch<T> {
                 Phase::Idle
             }
         } else {
-            if let (Some(t), Some(l)) = (self.top.get_mut(k), self.top_ll.get_mut(k)) {
+            let ahead = self.step_gain(p, bounds);
+            if let (Some(t), Some(l), Some(a)) = (
+                self.top.get_mut(k),
+                self.top_ll.get_mut(k),
+                self.top_ahead.get_mut(k),
+            ) {
                 if self.acc_ll.is_finite() && self.acc_ll >= *l {
                     *t = self.acc_theta;
                     *l = self.acc_ll;
+                    *a = ahead;
                 }
             }
             self.start_polish(k + 1, false)
