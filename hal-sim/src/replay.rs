@@ -192,6 +192,7 @@ pub fn adapt_config<T: Real>(c: &AdaptConfig<f64>) -> AdaptConfig<T> {
             flat_every: c.global.flat_every,
             keep_start: c.global.keep_start,
             keep_identified: c.global.keep_identified,
+            conservative: T::lit(c.global.conservative),
         },
     }
 }

@@ -5,9 +5,11 @@
 //! instead of refining it. This module is a child of [`super`], so it reads the filter's fields.
 
 use super::bank::Information;
-use super::params::MAXP;
+use super::params::{has_coordinate, MAXP};
+use super::window::CONSERVATIVE_CAP;
 use super::{probes, AdaptError, AdaptiveFilter, Found};
 use crate::linalg::is_positive_definite;
+use crate::model::Quantity;
 use crate::Real;
 
 /// Half the 95 % quantiles of chi-square with 1 to 8 degrees of freedom [nats] (up to the
@@ -17,6 +19,36 @@ use crate::Real;
 const HOLD_QUANTILE: [f64; 8] = [1.921, 2.996, 3.907, 4.744, 5.535, 6.296, 7.034, 7.754];
 
 impl<T: Real> AdaptiveFilter<T> {
+    /// The window's answer with each identified intensity raised by
+    /// [`WindowConfig::conservative`](super::window::WindowConfig::conservative) of its
+    /// Cramér-Rao standard deviations (at most `CONSERVATIVE_CAP`), flat coordinates left; the
+    /// answer itself when that is 0 or the window's information is not positive definite.
+    fn raised(&self, found: &Found<T>, p: usize) -> [T; MAXP] {
+        let k = self.cfg.global.conservative;
+        // Checked first: the deviations cost a Cholesky factorisation. Off also for a NaN or
+        // infinite setting.
+        if !k.is_finite() || k <= T::zero() {
+            return found.theta;
+        }
+        let Some(sd) = found.sd(p) else {
+            return found.theta;
+        };
+        let flat = found.flat(p);
+        let mut t = found.theta;
+        for (i, ((v, s), spec)) in t
+            .iter_mut()
+            .zip(sd.iter())
+            .zip(self.specs.iter())
+            .enumerate()
+        {
+            let intensity = !matches!(spec.kind, Quantity::Tau | Quantity::Beta);
+            if intensity && !has_coordinate(flat, i) && s.is_finite() {
+                *v += (k * *s).min(T::lit(CONSERVATIVE_CAP));
+            }
+        }
+        self.bounds.clamp(&t, p)
+    }
+
     /// End of a probe epoch: jump to a winning probe (fresh information, the old one describes
     /// another basin), then re-anchor the grid at the centre. Returns whether it jumped.
     pub(super) fn epoch_end(&mut self) -> Result<bool, AdaptError> {
@@ -128,7 +160,7 @@ impl<T: Real> AdaptiveFilter<T> {
                 }
                 self.bounds.clamp(&found.held, p)
             } else {
-                found.theta
+                self.raised(found, p)
             };
         // Staggered (one member re-discretised per tick, the centre first), unlike a probe's
         // jump: the recursion is held, so only the information waits for the members, and the

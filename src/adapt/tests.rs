@@ -109,3 +109,37 @@ fn the_start_is_kept_until_a_window_rejects_it() {
     let mut g = AdaptiveFilter::new(InsModel::<f64>::paper(), cfg).unwrap();
     assert!(g.global_end(&found));
 }
+
+/// `WindowConfig::conservative`: the filter runs each identified intensity (`paper`'s two
+/// sigmas, coordinates 0 and 2) raised by `k` of the window's marginal Cramér-Rao standard
+/// deviations, at most `CONSERVATIVE_CAP`; the correlation times, and an intensity the window
+/// does not bound, as answered.
+#[test]
+fn a_conservative_filter_runs_the_intensities_raised() {
+    let mut cfg = AdaptConfig::global();
+    cfg.global.keep_start = false;
+    cfg.global.keep_identified = false;
+    cfg.global.conservative = 1.0;
+    let mut f = AdaptiveFilter::new(InsModel::<f64>::paper(), cfg).unwrap();
+    let mut found = Found::BLANK;
+    found.theta = *f.theta();
+    for v in found.theta.iter_mut().take(4) {
+        *v += 0.3;
+    }
+    // Marginal deviations 0.1, 0.1, 0.5 (beyond the cap) and 0.1 in `ln`.
+    for (i, info) in [100.0, 100.0, 4.0, 100.0].into_iter().enumerate() {
+        found.fisher[i][i] = info;
+    }
+    found.gain = 1.0;
+    assert!(f.global_end(&found));
+    let t = *f.theta();
+    assert!((t[0] - (found.theta[0] + 0.1)).abs() < 1e-12, "{t:?}");
+    assert_eq!(t[1], found.theta[1], "a correlation time is not raised");
+    assert!((t[2] - (found.theta[2] + window::CONSERVATIVE_CAP)).abs() < 1e-12);
+    assert_eq!(t[3], found.theta[3]);
+    // The gyro sigma flat (deviation 10 in `ln`): run as answered.
+    found.fisher[2][2] = 0.01;
+    assert!(f.global_end(&found));
+    assert_eq!(f.theta()[2], found.theta[2]);
+    assert!((f.theta()[0] - (found.theta[0] + 0.1)).abs() < 1e-12);
+}

@@ -65,7 +65,8 @@ use pass::Pass;
 use structure::Alternative;
 
 pub use config::{
-    WindowConfig, AFTER_CHANGE, CHANGE_THRESHOLD, FILLING_EVERY, FLAT_EVERY, STRUCTURE_PENALTY,
+    WindowConfig, AFTER_CHANGE, CHANGE_THRESHOLD, CONSERVATIVE_CAP, FILLING_EVERY, FLAT_EVERY,
+    STRUCTURE_PENALTY,
 };
 pub use found::{Found, Switch};
 use grid::GRID;

@@ -168,10 +168,12 @@ impl<T: Real> WindowSearch<T> {
             .iter()
             .zip(self.acc_score.iter())
             .zip(self.acc_fisher.iter())
+            .take(p)
         {
             let fd = row
                 .iter()
                 .zip(d.iter())
+                .take(p)
                 .fold(T::zero(), |m, (f, dj)| m + *f * *dj);
             gain += *di * (*gi - fd * T::lit(0.5));
         }
