@@ -441,15 +441,16 @@ impl<T: Real> WindowSearch<T> {
             self.cfg.every
         };
         self.next_search = self.pushed.saturating_add(every.max(1));
+        let full = self.floor.saturating_add(self.cfg.window);
         if self.changes == 0
             && self.filling()
-            && self.next_search.saturating_add(self.cfg.filling_every / 2) > self.cfg.window
+            && self.next_search.saturating_add(self.cfg.filling_every / 2) > full
         {
             // A search as soon as the window is full (FILLING_EVERY); one due within half the
             // filling pace of that waits for it, so that it is not still running then (seed
             // 92718: a revisit at 5.7 h put the next search at 7.7 h, and the first full
             // window's answer came at 9.8 h).
-            self.next_search = self.cfg.window;
+            self.next_search = full;
         }
     }
 

@@ -13,14 +13,21 @@ use crate::linalg::{chol_solve, cholesky};
 use crate::Real;
 
 impl<T: Real> WindowSearch<T> {
-    /// Keeps `theta` among the `TOP` best points of the anchor and the grid.
-    pub(super) fn offer(&mut self, ll: T, theta: &[T; MAXP]) {
+    /// Keeps `theta` (with its gain still `ahead`: zero before the brief polishes) among the
+    /// `TOP` best points by likelihood.
+    pub(super) fn offer(&mut self, ll: T, theta: &[T; MAXP], ahead: T) {
         // Insertion into a sorted array of TOP entries (best first).
-        let mut cand = (ll, *theta);
-        for (l, t) in self.top_ll.iter_mut().zip(self.top.iter_mut()) {
+        let mut cand = (ll, *theta, ahead);
+        for ((l, t), a) in self
+            .top_ll
+            .iter_mut()
+            .zip(self.top.iter_mut())
+            .zip(self.top_ahead.iter_mut())
+        {
             if cand.0 > *l {
                 core::mem::swap(l, &mut cand.0);
                 core::mem::swap(t, &mut cand.1);
+                core::mem::swap(a, &mut cand.2);
             }
         }
     }
@@ -41,7 +48,7 @@ impl<T: Real> WindowSearch<T> {
     /// In a stream an entry dropped for a better one stays dropped if that one is later itself
     /// dropped: the list is the greedy choice up to that rare order effect.
     pub(super) fn offer_diverse(&mut self, ll: T, theta: &[T; MAXP], specs: &Specs) {
-        self.offer(ll, theta);
+        self.offer(ll, theta, T::zero());
         let p = specs.len().min(MAXP);
         let tol = self.cfg.spacing * T::lit(0.25);
         let mut i = 1;
@@ -65,6 +72,7 @@ impl<T: Real> WindowSearch<T> {
                 for j in i..TOP - 1 {
                     self.top[j] = self.top[j + 1];
                     self.top_ll[j] = self.top_ll[j + 1];
+                    self.top_ahead[j] = self.top_ahead[j + 1];
                 }
                 self.top_ll[TOP - 1] = T::lit(f64::NEG_INFINITY);
             } else {
@@ -118,17 +126,9 @@ impl<T: Real> WindowSearch<T> {
     /// was 19.5 nats above the anchor.
     pub(super) fn rank_for_refinement(&mut self) {
         let (l0, t0, a0) = (self.top_ll, self.top, self.top_ahead);
-        // Insertion by likelihood (best first), the gain ahead carried along.
         self.top_ll = [T::lit(f64::NEG_INFINITY); TOP];
         for ((l, t), a) in l0.iter().zip(t0.iter()).zip(a0.iter()) {
-            let mut cand = (*l, *t, *a);
-            for k in 0..TOP {
-                if cand.0 > self.top_ll[k] {
-                    core::mem::swap(&mut self.top_ll[k], &mut cand.0);
-                    core::mem::swap(&mut self.top[k], &mut cand.1);
-                    core::mem::swap(&mut self.top_ahead[k], &mut cand.2);
-                }
-            }
+            self.offer(*l, t, *a);
         }
         // The most promising after the best moves up to second place.
         let promise = |k: usize| self.top_ll[k] + self.top_ahead[k];

@@ -28,27 +28,21 @@ fn searches_come_sooner_while_the_window_fills() {
         w.phase = super::Phase::Idle;
         w.next_search
     };
-    assert_eq!(
-        next_after(&mut w, 240),
-        360,
-        "the 4-h search: the next 2 h later"
-    );
-    assert_eq!(
-        next_after(&mut w, 300),
-        420,
-        "2 h later, 1 h before the window fills"
-    );
-    assert_eq!(
-        next_after(&mut w, 400),
-        480,
-        "due when the window first fills"
-    );
-    assert_eq!(
-        next_after(&mut w, 342),
-        480,
-        "not 462: a search then would still run when the window fills"
-    );
-    assert_eq!(next_after(&mut w, 480), 720, "then the usual pace");
+    // (blocks pushed when a search starts, the next search's due block, why)
+    let schedule = [
+        (240, 360, "the 4-h search: the next 2 h later"),
+        (300, 420, "2 h later, 1 h before the window fills"),
+        (400, 480, "due when the window first fills"),
+        (
+            342,
+            480,
+            "not 462: a search then would still run when the window fills",
+        ),
+        (480, 720, "then the usual pace"),
+    ];
+    for (pushed, next, why) in schedule {
+        assert_eq!(next_after(&mut w, pushed), next, "{why}");
+    }
     // Off: the usual pace from the first search on.
     let mut off = search(WindowConfig {
         filling_every: 0,
@@ -114,7 +108,7 @@ fn the_points_to_polish_are_diverse() {
     let mut w = search(WindowConfig::default_on());
     w.top_ll = [f64::NEG_INFINITY; TOP];
     for (t, ll) in alike.iter() {
-        w.offer(*ll, t);
+        w.offer(*ll, t, 0.0);
     }
     assert!(w.top_ll.iter().all(|l| *l >= 100.0 - TOP as f64 + 1.0));
 }
