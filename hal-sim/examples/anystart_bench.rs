@@ -20,8 +20,10 @@
 //! `KEEP=0` the start model not kept until rejected, `KEEPID=0` an identified model not kept
 //! against a flat answer, `FILLING` the blocks between searches while the window fills);
 //! `RUNS=FILE` appends every run's `seed,start,tilt ratio,% outside 3 sigma` to FILE for
-//! paired comparisons; `TRACE=1` also prints the exact start of every run beyond 1.05x (for `structure_bench START=...`: a rounded start can take
-//! another path). `design=probes` is `AdaptConfig::default()`, today's design.
+//! paired comparisons; `TRACE=1` also prints the exact start of every run beyond 1.05x (for
+//! `structure_bench START=...`: a rounded start can take another path); `PARAMS=1` prints the
+//! ML reference's factors against the truth and every run's parameter rows (when and to what
+//! each search moved the model). `design=probes` is `AdaptConfig::default()`, today's design.
 #![allow(clippy::needless_range_loop)]
 
 use hal_sim::adaptive::{self, tilt_window};
@@ -91,6 +93,17 @@ fn main() -> anyhow::Result<()> {
         let (mlref, mlref_out) = tilt(&replay::estimates::<f64>(&set(&truth, pref), &log)?.0);
         let ml_local = tilt(&replay::estimates::<f64>(&set(&truth, &plocal), &log)?.0).0;
         let bar = (mlref / oracle).max(1.0);
+        if std::env::var_os("PARAMS").is_some() {
+            let f: Vec<String> = pref
+                .iter()
+                .zip(th0.iter())
+                .map(|(a, b)| format!("{:.3}", (a - b).exp()))
+                .collect();
+            println!(
+                "  ML ref factors vs truth [{}] ll local {llocal:.2} global {lglobal:.2}",
+                f.join(",")
+            );
+        }
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed * 7919);
         let mut starts: Vec<Vec<f64>> = corners.clone();
         while starts.len() < nstarts.max(2 * np) {
@@ -114,6 +127,19 @@ fn main() -> anyhow::Result<()> {
                 adaptive::run::<f64>(&start, &log, cfg)?
             };
             let (rms, out) = tilt(&r.estimates);
+            if std::env::var_os("PARAMS").is_some() {
+                // The run's parameter rows (written when the model changes).
+                for p in r.params.iter() {
+                    println!(
+                        "    t {:.2} h {}{} tau {:.0} sigma {:.3e}",
+                        p.t / 3600.0,
+                        p.sensor,
+                        p.component,
+                        p.tau,
+                        p.sigma
+                    );
+                }
+            }
             let ratio = rms / oracle;
             // Changes found on a stationary log are false alarms: count them.
             let alarms = r.flagged_hours(imu_ident::telemetry::SENSOR_CHANGE);

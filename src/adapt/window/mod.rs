@@ -18,9 +18,10 @@
 //!   block is the exact system of the block sums ([`pass::block_system`]), so nothing is
 //!   approximated but the information the averaging removes (frequencies above `1 / (2 block
 //!   dt)`). The velocity and tilt errors start loose (the window begins hours into the run).
-//! - Points: the anchor (the filter's current `theta`), then the `3^p` grid around the start
-//!   model (spacing `spacing` in `ln`: factors 0.1, 1, 10; shifted by half a spacing every other
-//!   search), then a brief polish (4 iterations) of the best [`TOP`] = 6 of them (no more than
+//! - Points: the anchor (the filter's current `theta`), the last search's answer and polished
+//!   list when that answer was identified (at most [`TOP`]; `polish.rs`, `carry`), then the
+//!   `3^p` grid around the start model (spacing `spacing` in `ln`: factors 0.1, 1, 10; shifted
+//!   by half a spacing every other search), then a brief polish (4 iterations) of the best [`TOP`] = 6 of them (no more than
 //!   3 sharing one component's values) and a polish to convergence of the best and of the
 //!   most promising of the others (likelihood plus the gain its next step promises), by
 //!   Levenberg-Marquardt Fisher scoring on the window: each iteration is one
@@ -35,8 +36,8 @@
 //! caller decides whether to jump (a likelihood-ratio margin).
 //!
 //! # Cost law (`p` identified parameters, window `W` blocks, `n` states)
-//! Filter steps per search: `W (1 + G + (4 TOP + 2 c) (2p + 1))` with `c` about 3-8 scoring
-//! iterations and `G` grid points; each is a step of an `n + 1`-state filter. RAM: the ring,
+//! Filter steps per search: `W (1 + TOP + G + (4 TOP + 2 c) (2p + 1))` at most, with `c` about
+//! 3-8 scoring iterations and `G` grid points; each is a step of an `n + 1`-state filter. RAM: the ring,
 //! `WINDOW_CAP` values, plus `2p + 1` filters.
 //! A grid over all `p` would be exponential in `p` (`3^p`): it is the price of not depending on
 //! the start. So the grid spans at most [`GRID_DIMS`] = 4 coordinates at a time, one group
@@ -112,6 +113,8 @@ const DIFF_STEP: f64 = 0.1;
 enum Phase {
     Idle,
     Anchor,
+    /// The `k`-th point carried from the previous search's list ([`WindowSearch::carry`]).
+    Carried(usize),
     Grid(usize),
     /// Brief polish of the `k`-th best point of the grid.
     Polish(usize),
@@ -175,6 +178,12 @@ pub struct WindowSearch<T: Real> {
     /// After the brief polishes: each entry's gain still ahead, as its last quadratic model
     /// predicts for one more step ([`step_gain`](Self::step_gain)).
     top_ahead: [T; TOP],
+    /// The previous search's answer and polished list, offered to this search beside the grid
+    /// (`carry`); `carried_len` of them.
+    carried: [[T; MAXP]; TOP],
+    carried_len: usize,
+    /// The last search ran to an answer the window identifies: its list is carried to the next.
+    carry_list: bool,
     /// Polish: the last accepted point, its likelihood, score and information; the damping.
     acc_theta: [T; MAXP],
     acc_ll: T,
@@ -231,6 +240,9 @@ impl<T: Real> WindowSearch<T> {
         top: [[T::ZERO; MAXP]; TOP],
         top_ll: [T::ZERO; TOP],
         top_ahead: [T::ZERO; TOP],
+        carried: [[T::ZERO; MAXP]; TOP],
+        carried_len: 0,
+        carry_list: false,
         acc_theta: [T::ZERO; MAXP],
         acc_ll: T::ZERO,
         acc_score: [T::ZERO; MAXP],
@@ -271,6 +283,8 @@ impl<T: Real> WindowSearch<T> {
     /// a running search is abandoned (its window is searched again at the next one).
     pub fn restructure(&mut self, from: &Specs, to: &Specs, theta: &[T; MAXP]) {
         self.centre = crate::adapt::params::remap(from, &self.centre, to, theta);
+        // The last search's points are in the old layout.
+        self.carry_list = false;
         self.phase = Phase::Idle;
         self.running = false;
     }
@@ -281,6 +295,8 @@ impl<T: Real> WindowSearch<T> {
     fn changed(&mut self, blocks: u32) {
         self.floor = self.floor.max(self.pushed.saturating_sub(blocks));
         self.changes = self.changes.saturating_add(1);
+        // The last search's points describe the sensor before the change.
+        self.carry_list = false;
         self.phase = Phase::Idle;
         self.running = false;
         self.next_search = self.floor.saturating_add(self.cfg.after_change.max(2));
@@ -412,6 +428,7 @@ impl<T: Real> WindowSearch<T> {
         self.wlen = avail.min(self.cfg.window as usize);
         self.w0 = (self.head + WINDOW_CAP - self.wlen) % WINDOW_CAP;
         self.started_at = self.pushed;
+        self.carry(anchor);
         // The window is frozen: its first finite mean (every pass's velocity start) once.
         self.z0 = self.first_finite();
         self.anchor = *anchor;
@@ -551,6 +568,7 @@ impl<T: Real> WindowSearch<T> {
         match self.phase {
             Phase::Idle => None,
             Phase::Anchor => Some((self.anchor, false)),
+            Phase::Carried(k) => Some((*self.carried.get(k)?, false)),
             Phase::Grid(k) => Some((self.grid_point(k, p, bounds), false)),
             Phase::Polish(_)
             | Phase::Refine(_)
@@ -579,7 +597,11 @@ impl<T: Real> WindowSearch<T> {
                 self.anchor_ll = ll;
                 self.best_ll = ll;
                 self.offer_diverse(ll, &theta, specs);
-                Phase::Grid(0)
+                self.after_carried(0)
+            }
+            Phase::Carried(k) => {
+                self.offer_diverse(ll, &theta, specs);
+                self.after_carried(k + 1)
             }
             Phase::Grid(k) => {
                 self.offer_diverse(ll, &theta, specs);
@@ -674,6 +696,7 @@ impl<T: Real> WindowSearch<T> {
             // also runs on the revisit's shorter window, and switches sooner with a wider beta
             // (worst 16 % off against 10 % on seeds 9300-9319, host pace). Skipping the test
             // on revisits was tried: then 3 of 60 logs of the switched at all.
+            self.carry_list = found.flat(p) == 0;
             if self.cfg.flat_every > 0 && self.changes == 0 && found.flat(p) != 0 {
                 let soon = self.pushed.saturating_add(self.cfg.flat_every);
                 self.next_search = self.next_search.min(soon);

@@ -81,6 +81,68 @@ impl<T: Real> WindowSearch<T> {
         }
     }
 
+    /// At the start of a search anchored at `anchor`: the previous search's answer and its
+    /// polished list become candidates of this one ([`Phase::Carried`]), evaluated after the
+    /// anchor and offered like grid points, when that search ran to an answer its window
+    /// identifies (none of its coordinates [`Found::flat`](super::Found::flat); not abandoned,
+    /// no structure switch or change in service since). Points within a quarter spacing of the
+    /// anchor or of one already carried are skipped.
+    ///
+    /// Why: consecutive windows overlap by hours, so a point that climbed towards a maximum on
+    /// the last window is a good start on this one, but the grid forgets it. Measured on seed
+    /// 95517 from a 10x accelerometer sigma: on the first full (8-h) window no grid point
+    /// near the maximum ranked in the list; the search ended in a white-noise gyro basin 3.3
+    /// nats above the anchor, which `keep_identified` rejected, and the filter ran the 6-h
+    /// answer (gyro `tau` 1 864 s) until the revisit found the maximum at 10.9 h (`tau` 326 s,
+    /// 9.8 nats up). The 6-h search's list held points on their way there (`tau` 418 and
+    /// 690 s).
+    ///
+    /// Not after a flat answer: its list is the crowd of a basin the window does not bound,
+    /// and carried, it kept the next searches there instead of the grid's other points.
+    /// Measured on development seed 83502 from (1.29, 8.68, 4.43, 0.11): every search's answer
+    /// was flat on the accelerometer's random-walk ridge, and the run ended at 4.9x the oracle
+    /// (0.99x without carrying); two seeds of 95500-95519 lost runs to a white-noise gyro
+    /// basin in the same way.
+    pub(super) fn carry(&mut self, anchor: &[T; MAXP]) {
+        self.carried_len = 0;
+        if !self.carry_list {
+            return;
+        }
+        self.carry_list = false;
+        let tol = self.cfg.spacing * T::lit(0.25);
+        let near = |a: &[T; MAXP], b: &[T; MAXP]| {
+            a.iter().zip(b.iter()).all(|(x, y)| (*x - *y).abs() <= tol)
+        };
+        let previous = core::iter::once((self.best_ll, self.best))
+            .chain(self.top_ll.iter().copied().zip(self.top.iter().copied()));
+        for (ll, t) in previous {
+            if self.carried_len >= TOP {
+                break;
+            }
+            let seen = self
+                .carried
+                .iter()
+                .take(self.carried_len)
+                .any(|c| near(c, &t));
+            if !ll.is_finite() || near(&t, anchor) || seen {
+                continue;
+            }
+            if let Some(slot) = self.carried.get_mut(self.carried_len) {
+                *slot = t;
+                self.carried_len += 1;
+            }
+        }
+    }
+
+    /// The phase after the carried points before `k`: the next carried one, or the grid.
+    pub(super) fn after_carried(&self, k: usize) -> Phase {
+        if k < self.carried_len {
+            Phase::Carried(k)
+        } else {
+            Phase::Grid(0)
+        }
+    }
+
     /// Starts a Levenberg-Marquardt polish from `start` in `phase` (every polish: the model's,
     /// an alternative's, the nested one); the first pass runs at the point itself.
     pub(super) fn begin_polish(&mut self, start: &[T; MAXP], phase: Phase) -> Phase {

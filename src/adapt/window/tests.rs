@@ -181,3 +181,60 @@ fn the_gain_ahead_is_bounded_by_the_step_limit() {
     let gain = w.step_gain(p, &wide);
     assert!(gain > 0.0 && gain <= p as f64 * limit, "{gain}");
 }
+
+/// A search that ran to an identified answer hands that answer and its polished list to the
+/// next one as candidates: non-finite entries, points near the new anchor and repeats skipped;
+/// nothing after an abandoned search, a change in service or a structure switch.
+#[test]
+fn the_last_search_s_points_are_candidates_of_the_next() {
+    use super::Phase;
+    use crate::adapt::guard::Bounds;
+    let mut w = search(WindowConfig::default_on());
+    let tol = w.cfg.spacing * 0.25;
+    let at = |v: f64| [v; MAXP];
+    let anchor = at(10.0);
+    w.best = at(1.0);
+    w.best_ll = 5.0;
+    let list = [
+        (at(2.0), 4.0),
+        (at(1.0 + 0.5 * tol), 3.9),   // the answer's own neighbourhood
+        (at(10.0 - 0.5 * tol), 3.0),  // near the new anchor
+        (at(3.0), f64::NEG_INFINITY), // never evaluated
+        (at(4.0), 1.0),
+        (at(2.0 + 0.9 * tol), 0.5), // a repeat
+    ];
+    for (k, (t, l)) in list.iter().enumerate() {
+        w.top[k] = *t;
+        w.top_ll[k] = *l;
+    }
+    w.carry_list = true;
+    w.pushed = 480;
+    w.start(&anchor);
+    assert_eq!(w.phase, Phase::Anchor);
+    assert_eq!(w.carried_len, 3);
+    let wide = Bounds {
+        lo: [-1e9; MAXP],
+        hi: [1e9; MAXP],
+    };
+    for (k, v) in [1.0, 2.0, 4.0].iter().enumerate() {
+        assert_eq!(w.after_carried(k), Phase::Carried(k));
+        w.phase = Phase::Carried(k);
+        assert_eq!(w.next_point(4, &wide), Some((at(*v), false)));
+    }
+    assert_eq!(w.after_carried(3), Phase::Grid(0));
+    // The search above was not run to its end: the next carries nothing.
+    w.start(&anchor);
+    assert_eq!((w.carried_len, w.after_carried(0)), (0, Phase::Grid(0)));
+    // Nor after a change in service or a structure switch.
+    for reset in 0..2 {
+        w.carry_list = true;
+        if reset == 0 {
+            w.changed(0);
+        } else {
+            let s = specs(&InsModel::<f64>::paper());
+            w.restructure(&s, &s, &anchor);
+        }
+        w.start(&anchor);
+        assert_eq!(w.carried_len, 0, "reset {reset}");
+    }
+}
