@@ -104,8 +104,8 @@ fn main() -> anyhow::Result<()> {
     let truth_name: String = arg_or("truth", "ec".into());
     let f32_mode = flag("f32");
     let mut cfg = AdaptConfig::<f64>::global();
-    // The structure test on (the default `global()` has it off).
-    cfg.global.structure = imu_ident::adapt::window::STRUCTURE_PENALTY;
+    // The structure test on, with its schedule (the default `global()` has it off).
+    cfg.global = imu_ident::adapt::window::WindowConfig::with_structure();
     bench_args::window_env(&mut cfg.global);
     println!("{:?}", cfg.global);
     // `START=ka,kta,kg,ktg`: the start's sigma_a, tau_a, sigma_g, tau_g as factors of `paper`'s

@@ -181,7 +181,7 @@ impl Ident {
             Self::Global => Some(imu_ident::adapt::AdaptConfig::global()),
             Self::Structure => {
                 let mut c = imu_ident::adapt::AdaptConfig::global();
-                c.global.structure = imu_ident::adapt::window::STRUCTURE_PENALTY;
+                c.global = imu_ident::adapt::window::WindowConfig::with_structure();
                 Some(c)
             }
         }

@@ -183,7 +183,7 @@ fn structure_test_keeps_the_early_search_of_a_flat_answer() {
         g.sigma *= 0.1;
     }
     let mut cfg = AdaptConfig::<f64>::global();
-    cfg.global.structure = imu_ident::adapt::window::STRUCTURE_PENALTY;
+    cfg.global = imu_ident::adapt::window::WindowConfig::with_structure();
     let (t0, t1) = (8.0 * 3600.0, HOURS as f64 * 3600.0 + 1.0);
     let oracle = replay::estimates::<f64>(&paper, &log).unwrap_or_else(|e| panic!("{e:#}"));
     let (orms, _) = tilt_window(&log, &oracle.0, t0, t1).unwrap_or_else(|| panic!("oracle"));

@@ -142,7 +142,7 @@ impl<T: Real> StepConfig<T> {
     /// (Gauss-Markov <-> exp-cosine switching; off by default, `docs/ADAPTATION.md` §7.6).
     pub fn adaptive_structure() -> Self {
         let mut a = AdaptConfig::global();
-        a.global.structure = T::lit(crate::adapt::window::STRUCTURE_PENALTY);
+        a.global = crate::adapt::window::WindowConfig::with_structure();
         Self {
             adapt: Some(a),
             ..Self::default()

@@ -9,6 +9,20 @@ use crate::Real;
 /// below 4.3 nats on 80 logs; a switch to one more parameter needs 1.5 times this, 4.5 nats).
 pub const STRUCTURE_PENALTY: f64 = 3.0;
 
+/// Blocks before the first search when the structure test is on
+/// ([`WindowConfig::with_structure`]): 3 h, not 4. The test runs only after a settled search
+/// (`structure::SETTLED`: one whose answer the next barely improves), so a switch needs two
+/// searches, and with the first at 4 h and the next 2 h later the earliest switch came near
+/// 7 h: 0 of 20 gyros switched within 6 h at firmware pace, the bar being 90 %.
+/// Measured on seeds 94800-94819 (exp-cosine gyro, firmware pace; `docs/ADAPTATION.md`
+/// §7.14): with searches every hour while the window fills, the first at 2, 2.5, 3 or 4 h:
+/// 12, 12, 11 and 0 of 20 within 6 h; `paper` logs 0 of 20 switched in each case.
+pub const STRUCTURE_FIRST: u32 = 180;
+/// Blocks between searches while the window fills when the structure test is on (1 h; see
+/// [`STRUCTURE_FIRST`]). With the first search at 3 h: every 1, 1.5 or 2 h gave 11, 11 and
+/// 10 of 20 within 6 h, and the largest `beta` error 10.0, 9.9 and 194 %.
+pub const STRUCTURE_FILLING_EVERY: u32 = 60;
+
 /// The change monitor's alarm threshold [nats] when on. Lorden's bound (at least `e^h` blocks
 /// between false alarms) holds for the right model; the watched model is a search's estimate
 /// from a window as short as 4 h. Measured on stationary `paper` logs at firmware pace (seeds
@@ -177,6 +191,18 @@ impl<T: Real> WindowConfig<T> {
             // sets of five, but rose from 2.45 to 4.09 % on the fifth, and the tilt p95 rose on
             // three (`docs/ADAPTATION.md` §7.12).
             conservative: T::ZERO,
+        }
+    }
+
+    /// [`default_on`](Self::default_on) with the structure test on ([`STRUCTURE_PENALTY`]) and
+    /// its schedule: the first search after [`STRUCTURE_FIRST`] blocks, then every
+    /// [`STRUCTURE_FILLING_EVERY`] while the window fills.
+    pub fn with_structure() -> Self {
+        Self {
+            structure: T::lit(STRUCTURE_PENALTY),
+            first: STRUCTURE_FIRST,
+            filling_every: STRUCTURE_FILLING_EVERY,
+            ..Self::default_on()
         }
     }
 

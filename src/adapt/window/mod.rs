@@ -52,6 +52,7 @@ mod found;
 mod grid;
 mod monitor;
 pub mod pass;
+mod phases;
 mod polish;
 pub mod structure;
 #[cfg(test)]
@@ -67,7 +68,7 @@ use structure::Alternative;
 
 pub use config::{
     WindowConfig, AFTER_CHANGE, CHANGE_THRESHOLD, CONSERVATIVE_CAP, FILLING_EVERY, FLAT_EVERY,
-    STRUCTURE_PENALTY,
+    STRUCTURE_FILLING_EVERY, STRUCTURE_FIRST, STRUCTURE_PENALTY,
 };
 pub use found::{Found, Switch};
 use grid::GRID;
@@ -184,6 +185,9 @@ pub struct WindowSearch<T: Real> {
     carried_len: usize,
     /// The last search ran to an answer the window identifies: its list is carried to the next.
     carry_list: bool,
+    /// The change monitor built its filter on this tick's block (`push`): the search's share
+    /// of the tick then holds no construction of its own.
+    monitor_built: bool,
     /// Polish: the last accepted point, its likelihood, score and information; the damping.
     acc_theta: [T; MAXP],
     acc_ll: T,
@@ -243,6 +247,7 @@ impl<T: Real> WindowSearch<T> {
         carried: [[T::ZERO; MAXP]; TOP],
         carried_len: 0,
         carry_list: false,
+        monitor_built: false,
         acc_theta: [T::ZERO; MAXP],
         acc_ll: T::ZERO,
         acc_score: [T::ZERO; MAXP],
@@ -362,7 +367,9 @@ impl<T: Real> WindowSearch<T> {
             self.acc = T::zero();
             self.acc_n = 0;
             self.missing = false;
-            if let Some(blocks) = self.monitor.push(mean, self.cfg.block, base, specs) {
+            let (alarm, built) = self.monitor.push(mean, self.cfg.block, base, specs);
+            self.monitor_built = built;
+            if let Some(blocks) = alarm {
                 self.changed(blocks);
                 return true;
             }
@@ -480,6 +487,11 @@ impl<T: Real> WindowSearch<T> {
         specs: &Specs,
         bounds: &Bounds<T>,
     ) -> Option<Found<T>> {
+        // A filter the change monitor built on this tick counts as the tick's construction
+        // (measured: with hourly searches the next search ran beside the monitor's rebuild
+        // after the last one, and that tick reached 641k Cortex-M4 instructions). Taken on
+        // every tick, so that it never outlives its tick.
+        let monitor_built = core::mem::take(&mut self.monitor_built);
         if self.phase == Phase::Idle {
             return None;
         }
@@ -491,7 +503,7 @@ impl<T: Real> WindowSearch<T> {
         let p = specs.len().min(MAXP);
         self.block_s = T::lit(f64::from(self.cfg.block)) * base.dt;
         let mut budget = self.cfg.budget as usize;
-        let mut prepared_this_tick = false;
+        let mut prepared_this_tick = monitor_built;
         // Each turn starts a pass, runs some blocks, or ends one: a pass takes at most three
         // turns on a tick, and a tick ends when the budget is spent.
         for _ in 0..(3 * GRID + 64 + 2 * pass::MEMBERS_MAX) {
@@ -556,169 +568,5 @@ impl<T: Real> WindowSearch<T> {
             }
         }
         None
-    }
-
-    /// Whether the running phase is the structure test's.
-    fn in_alternative(&self) -> bool {
-        matches!(self.phase, Phase::AltScan(_) | Phase::AltRefine)
-    }
-
-    /// The point to evaluate next and whether with derivatives; `None` only when idle.
-    fn next_point(&self, p: usize, bounds: &Bounds<T>) -> Option<([T; MAXP], bool)> {
-        match self.phase {
-            Phase::Idle => None,
-            Phase::Anchor => Some((self.anchor, false)),
-            Phase::Carried(k) => Some((*self.carried.get(k)?, false)),
-            Phase::Grid(k) => Some((self.grid_point(k, p, bounds), false)),
-            Phase::Polish(_)
-            | Phase::Refine(_)
-            | Phase::AltRefine
-            | Phase::NestRefine
-            | Phase::HoldRefine => Some((self.pass.theta, true)),
-            Phase::AltScan(j) => Some((self.alt.scan_point(j)?, false)),
-        }
-    }
-
-    /// Records the finished pass and moves on; the result when the search ends.
-    fn complete(
-        &mut self,
-        base: &InsModel<T>,
-        specs: &Specs,
-        bounds: &Bounds<T>,
-    ) -> Option<Found<T>> {
-        self.evaluations = self.evaluations.saturating_add(1);
-        let p = specs.len().min(MAXP);
-        let (first, second) = grid_points(p);
-        let grid_len = first + second;
-        let (theta, ll) = (self.pass.theta, self.pass.ll);
-        let next = match self.phase {
-            Phase::Idle => Phase::Idle,
-            Phase::Anchor => {
-                self.anchor_ll = ll;
-                self.best_ll = ll;
-                self.offer_diverse(ll, &theta, specs);
-                self.after_carried(0)
-            }
-            Phase::Carried(k) => {
-                self.offer_diverse(ll, &theta, specs);
-                self.after_carried(k + 1)
-            }
-            Phase::Grid(k) => {
-                self.offer_diverse(ll, &theta, specs);
-                if k + 1 < grid_len {
-                    Phase::Grid(k + 1)
-                } else {
-                    self.start_polish(0, false)
-                }
-            }
-            Phase::Polish(k) => self.polish_step(k, false, theta, ll, p, bounds),
-            Phase::Refine(k) => match self.polish_step(k, true, theta, ll, p, bounds) {
-                // The model's search is over: the structure test follows on the same window,
-                // once the model has settled (`structure::SETTLED`).
-                Phase::Idle if self.best_ll - self.anchor_ll <= T::lit(structure::SETTLED) => {
-                    self.next_alternative(base, specs, bounds)
-                }
-                Phase::Idle => Phase::Idle,
-                next => next,
-            },
-            Phase::AltScan(j) => {
-                if ll.is_finite() && ll > self.scan_ll {
-                    self.scan_ll = ll;
-                    self.scan_best = theta;
-                }
-                if j + 1 < self.alt.scan_len() {
-                    Phase::AltScan(j + 1)
-                } else {
-                    let start = self.scan_best;
-                    self.begin_polish(&start, Phase::AltRefine)
-                }
-            }
-            Phase::AltRefine => {
-                let (ap, ab) = (self.alt.specs.len().min(MAXP), self.alt.bounds);
-                match self.polish_step(0, true, theta, ll, ap, &ab) {
-                    Phase::Idle => {
-                        self.end_alternative(p);
-                        // The filter model again, from the alternative's point without its
-                        // extra parameters: measured, from wrong starts the alternative's two
-                        // scan origins sometimes found a better Gauss-Markov fit than the
-                        // search's own polish, and that difference passed for structure
-                        // (`docs/ADAPTATION.md` §7.6).
-                        let back = crate::adapt::params::remap(
-                            &self.alt.specs,
-                            &self.acc_theta,
-                            specs,
-                            &self.best,
-                        );
-                        self.begin_polish(&bounds.clamp(&back, p), Phase::NestRefine)
-                    }
-                    next => next,
-                }
-            }
-            Phase::NestRefine => match self.polish_step(0, true, theta, ll, p, bounds) {
-                Phase::Idle => self.next_alternative(base, specs, bounds),
-                next => next,
-            },
-            Phase::HoldRefine => self.polish_step(0, true, theta, ll, p, bounds),
-        };
-        // The search's last phase: what the window does not identify is held at the anchor's
-        // values and the rest polished, once (the profile likelihood of the hold).
-        let next = if next == Phase::Idle && self.cfg.hold_flat && self.fixed == 0 {
-            self.begin_hold(p, bounds)
-        } else {
-            next
-        };
-        self.phase = next;
-        if next == Phase::Idle {
-            self.fixed = 0;
-            let found = Found {
-                theta: self.best,
-                gain: self.best_ll - self.anchor_ll,
-                blocks: u32::try_from(self.wlen).unwrap_or(u32::MAX),
-                evaluations: self.evaluations,
-                fisher: self.best_fisher,
-                held: self.held,
-                hold_cost: self.best_ll - self.held_ll,
-                // The gain against the final best (a nested polish may have raised it).
-                switch: Switch {
-                    gain: self.switch_ll - self.best_ll,
-                    ..self.switch
-                },
-            };
-            // An answer the window does not identify is revisited sooner, on more data. Not
-            // after a change in service: the windows since it already double from 1 h, and
-            // measured, moving those searches re-armed the change monitor on a wrong answer
-            // before it could alarm again (fresh seed 70216 of `change_bench`, host pace:
-            // 8.3x oracle B against 1.02x).
-            // With the structure test on too. Measured at firmware pace (BENCHMARKS.md
-            // "Structure online, 2026-11-27"): without the revisit, the any-start bench with
-            // the test on (seeds 9100-9119, 640 runs) had 2 of 20 seeds with every run within
-            // 1.05x and a worst run of 8.1x; with it, 18 of 20 and 1.26x. The cost: the test
-            // also runs on the revisit's shorter window, and switches sooner with a wider beta
-            // (worst 16 % off against 10 % on seeds 9300-9319, host pace). Skipping the test
-            // on revisits was tried: then 3 of 60 logs of the switched at all.
-            self.carry_list = found.flat(p) == 0;
-            if self.cfg.flat_every > 0 && self.changes == 0 && found.flat(p) != 0 {
-                let soon = self.pushed.saturating_add(self.cfg.flat_every);
-                self.next_search = self.next_search.min(soon);
-            }
-            return Some(found);
-        }
-        None
-    }
-
-    /// Starts the hold's polish when the best point has flat coordinates; `Idle` otherwise.
-    fn begin_hold(&mut self, p: usize, bounds: &Bounds<T>) -> Phase {
-        let probe = Found {
-            theta: self.best,
-            fisher: self.best_fisher,
-            ..Found::BLANK
-        };
-        let flat = probe.flat(p);
-        if flat == 0 {
-            return Phase::Idle;
-        }
-        self.fixed = flat;
-        let start = bounds.clamp(&probe.held(&self.anchor, flat, p), p);
-        self.begin_polish(&start, Phase::HoldRefine)
     }
 }

@@ -72,10 +72,17 @@ impl<T: Real> Monitor<T> {
     }
 
     /// One block mean `z` (non-finite: missing) of `block` ticks. On an alarm, returns the
-    /// blocks since the estimated change and stops watching.
-    pub fn push(&mut self, z: T, block: u32, base: &InsModel<T>, specs: &Specs) -> Option<u32> {
+    /// blocks since the estimated change and stops watching; and whether it built its filter
+    /// (a discretisation and a block system) on this block.
+    pub fn push(
+        &mut self,
+        z: T,
+        block: u32,
+        base: &InsModel<T>,
+        specs: &Specs,
+    ) -> (Option<u32>, bool) {
         match self.state {
-            State::Off => None,
+            State::Off => (None, false),
             State::Pending => {
                 // The velocity starts at this block's mean; a missing one waits for the next.
                 if z.is_finite() {
@@ -89,8 +96,9 @@ impl<T: Real> Monitor<T> {
                             // A model that cannot be built is not watched.
                             Err(_) => State::Off,
                         };
+                    return (None, true);
                 }
-                None
+                (None, false)
             }
             State::On(n) => {
                 self.member.predict();
@@ -106,11 +114,13 @@ impl<T: Real> Monitor<T> {
                 if !self.member.kf.diagonal_healthy() {
                     // A broken filter says nothing about the sensor: stop watching.
                     self.state = State::Off;
-                    return None;
+                    return (None, false);
                 }
-                let age = self.detector.push(e2)?;
+                let Some(age) = self.detector.push(e2) else {
+                    return (None, false);
+                };
                 self.state = State::Off;
-                Some(age)
+                (Some(age), false)
             }
         }
     }

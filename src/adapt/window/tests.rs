@@ -238,3 +238,35 @@ fn the_last_search_s_points_are_candidates_of_the_next() {
         assert_eq!(w.carried_len, 0, "reset {reset}");
     }
 }
+
+/// The tick on which the change monitor built its filter holds no construction of the search
+/// (with the structure test's hourly searches, the two on one tick reached 641k Cortex-M4
+/// instructions); the search's construction comes on the next tick.
+#[test]
+fn a_tick_the_monitor_built_on_holds_no_construction_of_the_search() {
+    use crate::adapt::guard::Bounds;
+    use crate::adapt::params::theta_of;
+    let base = InsModel::<f64>::paper();
+    let s = specs(&base);
+    let theta = theta_of(&base, &s);
+    let wide = Bounds {
+        lo: [-1e9; MAXP],
+        hi: [1e9; MAXP],
+    };
+    let cfg = WindowConfig::<f64>::default_on();
+    for built in [false, true] {
+        let mut w = search(cfg);
+        for k in 0..(cfg.block * 10) {
+            w.push(1e-3 * f64::from(k % 7), &base, &s);
+        }
+        w.start(&theta);
+        w.monitor_built = built;
+        assert!(w.work(&base, &s, &wide).is_none());
+        // Without the monitor's filter, the anchor's filter is built on this tick and its
+        // pass over the 10 blocks ends; with it, nothing is built.
+        assert_eq!(w.evaluations(), u32::from(!built), "monitor built: {built}");
+        assert!(!w.monitor_built);
+        assert!(w.work(&base, &s, &wide).is_none());
+        assert!(w.evaluations() >= 1);
+    }
+}
