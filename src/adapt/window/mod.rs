@@ -21,11 +21,11 @@
 //! - Points: the anchor (the filter's current `theta`), the last search's answer and polished
 //!   list when that answer was identified (at most [`TOP`]; `polish.rs`, `carry`), then the
 //!   `3^p` grid around the start model (spacing `spacing` in `ln`: factors 0.1, 1, 10; shifted
-//!   by half a spacing every other search), then a brief polish (4 iterations) of the best [`TOP`] = 6 of them (no more than
-//!   3 sharing one component's values) and a polish to convergence of the best and of the
-//!   most promising of the others (likelihood plus the gain its next step promises), by
-//!   Levenberg-Marquardt Fisher scoring on the window: each iteration is one
-//!   pass of `2p + 1` filters giving the score and the Fisher information by central
+//!   by half a spacing every other search), then a brief polish (4 iterations) of the best
+//!   [`TOP`] = 6 of them (no more than 3 sharing one component's values) and a polish to
+//!   convergence of the best and of the most promising of the others (likelihood plus the gain
+//!   its next step promises), by Levenberg-Marquardt Fisher scoring on the window: each
+//!   iteration is one pass of `2p + 1` filters giving the score and the Fisher information by central
 //!   differences ([`pass::Pass`]), the step `(I + lambda diag I)^-1 g` is accepted when the
 //!   next pass's likelihood is not lower, and `lambda` grows tenfold when it is.
 //! - The work is time-sliced: [`WindowSearch::work`] spends at most `budget` filter steps per
@@ -37,8 +37,8 @@
 //!
 //! # Cost law (`p` identified parameters, window `W` blocks, `n` states)
 //! Filter steps per search: `W (1 + TOP + G + (4 TOP + 2 c) (2p + 1))` at most, with `c` about
-//! 3-8 scoring iterations and `G` grid points; each is a step of an `n + 1`-state filter. RAM: the ring,
-//! `WINDOW_CAP` values, plus `2p + 1` filters.
+//! 3-8 scoring iterations and `G` grid points; each is a step of an `n + 1`-state filter.
+//! RAM: the ring, `WINDOW_CAP` values, plus `2p + 1` filters.
 //! A grid over all `p` would be exponential in `p` (`3^p`): it is the price of not depending on
 //! the start. So the grid spans at most [`GRID_DIMS`] = 4 coordinates at a time, one group
 //! after another ([`grid_points`]): `G = 81` up to p = 5, `81 + 3^(p - 4)` for p = 6-8 (162 at
