@@ -96,10 +96,7 @@ impl<T: Real> super::AdaptiveFilter<T> {
     /// `1.5 c`, and the way back is taken once the exponential-cosine's advantage falls below
     /// `0.5 c`, so that a borderline component does not switch at every search).
     pub(super) fn switch_wins(&self, s: &Switch<T>) -> bool {
-        let pen = self.cfg.global.structure;
-        pen > T::zero()
-            && s.gain.is_finite()
-            && s.gain - pen * T::lit(f64::from(s.extra)) > pen * T::lit(0.5)
+        s.wins(self.cfg.global.structure)
     }
 
     /// Replaces the model's structure by the search's alternative `sw` (found on a window of

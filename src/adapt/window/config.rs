@@ -16,7 +16,8 @@ pub const STRUCTURE_PENALTY: f64 = 3.0;
 /// 7 h: 0 of 20 gyros switched within 6 h at firmware pace, the bar being 90 %.
 /// Measured on seeds 94800-94819 (exp-cosine gyro, firmware pace; `docs/ADAPTATION.md`
 /// §7.14): with searches every hour while the window fills, the first at 2, 2.5, 3 or 4 h:
-/// 12, 12, 11 and 0 of 20 within 6 h; `paper` logs 0 of 20 switched in each case.
+/// 12, 12, 11 and 0 of 20 within 6 h; `paper` logs 0 of 20 switched in each case. Since
+/// §7.15 the search after a settled one tests structure first, on its own window.
 pub const STRUCTURE_FIRST: u32 = 180;
 /// Blocks between searches while the window fills when the structure test is on (1 h; see
 /// [`STRUCTURE_FIRST`]). With the first search at 3 h: every 1, 1.5 or 2 h gave 11, 11 and

@@ -174,6 +174,17 @@ impl<T: Real> Switch<T> {
     pub fn get(&self) -> Option<&Self> {
         self.valid.then_some(self)
     }
+
+    /// The switch rule with `pen` nats per parameter (`docs/ADAPTATION.md` §7.6): the
+    /// alternative wins when `gain - pen * extra > pen / 2` (4.5 nats for one more parameter
+    /// at 3 nats each; the way back once the advantage falls below 1.5). Never with the test
+    /// off (`pen <= 0`), nor for a non-finite gain.
+    pub fn wins(&self, pen: T) -> bool {
+        self.valid
+            && pen > T::zero()
+            && self.gain.is_finite()
+            && self.gain - pen * T::lit(f64::from(self.extra)) > pen * T::lit(0.5)
+    }
 }
 
 #[cfg(test)]

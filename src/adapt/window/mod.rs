@@ -185,6 +185,20 @@ pub struct WindowSearch<T: Real> {
     carried_len: usize,
     /// The last search ran to an answer the window identifies: its list is carried to the next.
     carry_list: bool,
+    /// The last search's answer beat its anchor by at most `structure::SETTLED` nats (no
+    /// structure switch or change in service since).
+    settled_last: bool,
+    /// The running search tests structure first, from its anchor ([`phases`]: after a settled
+    /// answer an alternative beat), and has not finished that test yet.
+    early: bool,
+    /// The running search's structure test has run (it runs once per window).
+    tested: bool,
+    /// The last search's best alternative structure beat its answer (a positive gain, before
+    /// the penalty).
+    promising: bool,
+    /// Active states of the model's block filters (the last model pass's): the unit of the
+    /// budget's steps.
+    model_states: usize,
     /// The change monitor built its filter on this tick's block (`push`): the search's share
     /// of the tick then holds no construction of its own.
     monitor_built: bool,
@@ -247,6 +261,11 @@ impl<T: Real> WindowSearch<T> {
         carried: [[T::ZERO; MAXP]; TOP],
         carried_len: 0,
         carry_list: false,
+        settled_last: false,
+        early: false,
+        tested: false,
+        promising: false,
+        model_states: 0,
         monitor_built: false,
         acc_theta: [T::ZERO; MAXP],
         acc_ll: T::ZERO,
@@ -288,8 +307,10 @@ impl<T: Real> WindowSearch<T> {
     /// a running search is abandoned (its window is searched again at the next one).
     pub fn restructure(&mut self, from: &Specs, to: &Specs, theta: &[T; MAXP]) {
         self.centre = crate::adapt::params::remap(from, &self.centre, to, theta);
-        // The last search's points are in the old layout.
+        // The last search's points are in the old layout, and its model is not the filter's.
         self.carry_list = false;
+        self.settled_last = false;
+        self.promising = false;
         self.phase = Phase::Idle;
         self.running = false;
     }
@@ -300,8 +321,10 @@ impl<T: Real> WindowSearch<T> {
     fn changed(&mut self, blocks: u32) {
         self.floor = self.floor.max(self.pushed.saturating_sub(blocks));
         self.changes = self.changes.saturating_add(1);
-        // The last search's points describe the sensor before the change.
+        // The last search's points and answer describe the sensor before the change.
         self.carry_list = false;
+        self.settled_last = false;
+        self.promising = false;
         self.phase = Phase::Idle;
         self.running = false;
         self.next_search = self.floor.saturating_add(self.cfg.after_change.max(2));
@@ -435,6 +458,12 @@ impl<T: Real> WindowSearch<T> {
         self.wlen = avail.min(self.cfg.window as usize);
         self.w0 = (self.head + WINDOW_CAP - self.wlen) % WINDOW_CAP;
         self.started_at = self.pushed;
+        // Structure first when the last answer settled and its best alternative beat it, with
+        // the test on. Not after every settled answer: one can be a wrong basin's, and the
+        // test first delayed the search that leaves it (development seed 83517: two starts
+        // at 2.2x the oracle against 1.02x; `docs/ADAPTATION.md` §7.15).
+        self.early = self.cfg.structure > T::zero() && self.settled_last && self.promising;
+        self.tested = false;
         self.carry(anchor);
         // The window is frozen: its first finite mean (every pass's velocity start) once.
         self.z0 = self.first_finite();
@@ -547,7 +576,12 @@ impl<T: Real> WindowSearch<T> {
                 }
                 continue;
             }
-            let cost = self.pass.count().max(1);
+            let cost = if self.in_alternative() {
+                self.pass.cost(self.model_states)
+            } else {
+                self.model_states = self.pass.states();
+                self.pass.count().max(1)
+            };
             let steps = budget
                 .checked_div(cost)
                 .unwrap_or(0)

@@ -223,6 +223,25 @@ impl<T: Real> Pass<T> {
         self.pos = 0;
     }
 
+    /// Active states of the pass's filters (`0` before the first is built).
+    pub fn states(&self) -> usize {
+        self.members.first().map_or(0, |m| m.kf.active())
+    }
+
+    /// The budget's filter steps one block of the pass costs, in steps of a filter with
+    /// `model_states` active states (the model's): its filters times the square of the ratio
+    /// of the active sizes, rounded up. A structure alternative's filter has one or two states
+    /// more than the model's; counted as one step each, 64 of its steps on a block's last tick
+    /// took 538k Cortex-M4 instructions (`docs/ADAPTATION.md` §7.15).
+    pub fn cost(&self, model_states: usize) -> usize {
+        let n = self.states().max(1);
+        let m = model_states.max(1).min(n);
+        let filters = self.count.max(1);
+        (filters * n * n + m * m - 1)
+            .checked_div(m * m)
+            .unwrap_or(filters)
+    }
+
     /// Whether every filter of the pass is built.
     pub fn ready(&self) -> bool {
         self.prepared >= self.count
@@ -362,5 +381,34 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// A pass's block costs its filters in steps of the model's filter, weighted by the square
+    /// of the active sizes: the paper model's block filter has 5 states, its exponential-cosine
+    /// alternative's 6 (`ceil(36 / 25) = 2` per filter).
+    #[test]
+    fn an_alternative_s_steps_cost_more() {
+        use crate::adapt::params::{specs, theta_of};
+        use crate::adapt::window::structure::{site, swap};
+        let paper = InsModel::<f64>::paper();
+        let alt = swap(&paper, &site(&paper, 1).unwrap(), 0.01).unwrap();
+        let built = |m: &InsModel<f64>, derivs: bool| {
+            let s = specs(m);
+            let mut p = Pass::BLANK;
+            p.start(&theta_of(m, &s), s.len(), derivs.then_some(0.1), 60, 0.0);
+            while !p.ready() {
+                p.prepare(m, &s).unwrap();
+            }
+            p
+        };
+        let (model, single, polish) = (built(&paper, false), built(&alt, false), built(&alt, true));
+        assert_eq!((model.states(), single.states()), (5, 6));
+        assert_eq!(model.cost(5), 1);
+        assert_eq!(single.cost(5), 2);
+        assert_eq!(single.cost(6), 1);
+        // 2p + 1 = 11 filters of the five-parameter alternative: ceil(11 x 36 / 25).
+        assert_eq!((polish.count(), polish.cost(5)), (11, 16));
+        // A model size above the pass's counts as the pass's own.
+        assert_eq!(model.cost(9), 1);
     }
 }

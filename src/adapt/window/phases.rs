@@ -48,7 +48,12 @@ impl<T: Real> WindowSearch<T> {
                 self.anchor_ll = ll;
                 self.best_ll = ll;
                 self.offer_diverse(ll, &theta, specs);
-                self.after_carried(0)
+                if self.early {
+                    self.tested = true;
+                    self.after_alternative(base, specs, bounds)
+                } else {
+                    self.after_carried(0)
+                }
             }
             Phase::Carried(k) => {
                 self.offer_diverse(ll, &theta, specs);
@@ -65,8 +70,9 @@ impl<T: Real> WindowSearch<T> {
             Phase::Polish(k) => self.polish_step(k, false, theta, ll, p, bounds),
             Phase::Refine(k) => match self.polish_step(k, true, theta, ll, p, bounds) {
                 // The model's search is over: the structure test follows on the same window,
-                // once the model has settled (`structure::SETTLED`).
-                Phase::Idle if self.best_ll - self.anchor_ll <= T::lit(structure::SETTLED) => {
+                // once the model has settled (`structure::SETTLED`), unless it ran first.
+                Phase::Idle if !self.tested && self.settled() => {
+                    self.tested = true;
                     self.next_alternative(base, specs, bounds)
                 }
                 Phase::Idle => Phase::Idle,
@@ -88,25 +94,31 @@ impl<T: Real> WindowSearch<T> {
                 let (ap, ab) = (self.alt.specs.len().min(MAXP), self.alt.bounds);
                 match self.polish_step(0, true, theta, ll, ap, &ab) {
                     Phase::Idle => {
-                        self.end_alternative(p);
-                        // The filter model again, from the alternative's point without its
-                        // extra parameters: measured, from wrong starts the alternative's two
-                        // scan origins sometimes found a better Gauss-Markov fit than the
-                        // search's own polish, and that difference passed for structure
-                        // (`docs/ADAPTATION.md` §7.6).
-                        let back = crate::adapt::params::remap(
-                            &self.alt.specs,
-                            &self.acc_theta,
-                            specs,
-                            &self.best,
-                        );
-                        self.begin_polish(&bounds.clamp(&back, p), Phase::NestRefine)
+                        let could_win = self.end_alternative(p);
+                        if self.early && !could_win {
+                            // Tested first, the nested polish only confirms a winner (it can
+                            // only lower the gain), and the model's own search follows.
+                            self.after_alternative(base, specs, bounds)
+                        } else {
+                            // The filter model again, from the alternative's point without its
+                            // extra parameters: measured, from wrong starts the alternative's
+                            // two scan origins sometimes found a better Gauss-Markov fit than
+                            // the search's own polish, and that difference passed for
+                            // structure (`docs/ADAPTATION.md` §7.6).
+                            let back = crate::adapt::params::remap(
+                                &self.alt.specs,
+                                &self.acc_theta,
+                                specs,
+                                &self.best,
+                            );
+                            self.begin_polish(&bounds.clamp(&back, p), Phase::NestRefine)
+                        }
                     }
                     next => next,
                 }
             }
             Phase::NestRefine => match self.polish_step(0, true, theta, ll, p, bounds) {
-                Phase::Idle => self.next_alternative(base, specs, bounds),
+                Phase::Idle => self.after_alternative(base, specs, bounds),
                 next => next,
             },
             Phase::HoldRefine => self.polish_step(0, true, theta, ll, p, bounds),
@@ -121,6 +133,12 @@ impl<T: Real> WindowSearch<T> {
         self.phase = next;
         if next == Phase::Idle {
             self.fixed = 0;
+            self.settled_last = self.settled();
+            if !self.settled_last {
+                // The rule of the test run after the search: no switch from a model that moved
+                // (a test run first, on a model the rest of the search then moved, is void).
+                self.switch = Switch::NONE;
+            }
             let found = Found {
                 theta: self.best,
                 gain: self.best_ll - self.anchor_ll,
@@ -148,6 +166,7 @@ impl<T: Real> WindowSearch<T> {
             // (worst 16 % off against 10 % on seeds 9300-9319, host pace). Skipping the test
             // on revisits was tried: then 3 of 60 logs of the switched at all.
             self.carry_list = found.flat(p) == 0;
+            self.promising = found.switch.valid && found.switch.gain > T::zero();
             if self.cfg.flat_every > 0 && self.changes == 0 && found.flat(p) != 0 {
                 let soon = self.pushed.saturating_add(self.cfg.flat_every);
                 self.next_search = self.next_search.min(soon);
@@ -155,6 +174,51 @@ impl<T: Real> WindowSearch<T> {
             return Some(found);
         }
         None
+    }
+
+    /// The next alternative's scan or polish, or the end of the structure test.
+    fn after_alternative(
+        &mut self,
+        base: &InsModel<T>,
+        specs: &Specs,
+        bounds: &Bounds<T>,
+    ) -> Phase {
+        match self.next_alternative(base, specs, bounds) {
+            Phase::Idle => self.structure_done(specs),
+            next => next,
+        }
+    }
+
+    /// Whether the search's answer beats its anchor by at most `structure::SETTLED` nats.
+    pub(super) fn settled(&self) -> bool {
+        self.best_ll - self.anchor_ll <= T::lit(structure::SETTLED)
+    }
+
+    /// The end of the structure test. Run after the search (`early` off): the search ends.
+    /// Run first (`early`): the search ends when the best alternative already wins against
+    /// the filter's model as polished so far (the anchor and the nested polish), with that
+    /// model settled; otherwise the model's search goes on (carried points, grid, polishes),
+    /// with the nested polish's point in its list, and the switch is decided again at its end
+    /// against its answer (`Found::switch`'s gain is against the final best).
+    ///
+    /// Why first: at 64 filter steps per tick a search over a 4-5-h window (120-210 passes,
+    /// most of them polish iterations of `2p + 1` filters) ends 1-1.5 h after its window froze,
+    /// and the test after it decided on data that old. First, the decision comes after the
+    /// test alone (20-40 min). Measured, `docs/ADAPTATION.md` §7.15.
+    pub(super) fn structure_done(&mut self, specs: &Specs) -> Phase {
+        if !core::mem::take(&mut self.early) {
+            return Phase::Idle;
+        }
+        let now = Switch {
+            gain: self.switch_ll - self.best_ll,
+            ..self.switch
+        };
+        if self.settled() && now.wins(self.cfg.structure) {
+            return Phase::Idle;
+        }
+        let (ll, best) = (self.best_ll, self.best);
+        self.offer_diverse(ll, &best, specs);
+        self.after_carried(0)
     }
 
     /// Starts the hold's polish when the best point has flat coordinates; `Idle` otherwise.

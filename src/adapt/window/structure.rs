@@ -335,21 +335,22 @@ impl<T: Real> super::WindowSearch<T> {
     }
 
     /// Keeps the polished alternative if its penalised log-likelihood beats the best one so
-    /// far (`p`: the filter model's parameter count).
-    pub(super) fn end_alternative(&mut self, p: usize) {
+    /// far (`p`: the filter model's parameter count). Returns whether it was offered and wins
+    /// against the model's best point so far ([`Switch::wins`]).
+    pub(super) fn end_alternative(&mut self, p: usize) -> bool {
         let a = &self.alt;
         if !self.acc_ll.is_finite() {
-            return;
+            return false;
         }
         // A new exponential-cosine that does not oscillate is not offered (`MIN_QUALITY`):
         // `ln beta + ln tau < ln pi`.
         if let Some((b, t)) = a.scan {
             let (Some(&lb), Some(&lt)) = (self.acc_theta.get(b), self.acc_theta.get(t)) else {
-                return;
+                return false;
             };
             // NaN is not an oscillation either.
             match (lb + lt).partial_cmp(&T::lit(MIN_QUALITY).ln()) {
-                Some(core::cmp::Ordering::Less) | None => return,
+                Some(core::cmp::Ordering::Less) | None => return false,
                 _ => {}
             }
         }
@@ -371,5 +372,6 @@ impl<T: Real> super::WindowSearch<T> {
             self.switch = cand;
             self.switch_ll = self.acc_ll;
         }
+        cand.wins(pen)
     }
 }

@@ -6,6 +6,23 @@ use super::{WindowConfig, WindowSearch, CROWD, MAXP, TOP};
 use crate::adapt::params::specs;
 use crate::model::InsModel;
 
+/// The `paper` model, its identified parameters, its point, and bounds that hold anything.
+fn paper_at_truth() -> (
+    InsModel<f64>,
+    crate::adapt::params::Specs,
+    [f64; MAXP],
+    crate::adapt::guard::Bounds<f64>,
+) {
+    let base = InsModel::<f64>::paper();
+    let s = specs(&base);
+    let theta = crate::adapt::params::theta_of(&base, &s);
+    let wide = crate::adapt::guard::Bounds {
+        lo: [-1e9; MAXP],
+        hi: [1e9; MAXP],
+    };
+    (base, s, theta, wide)
+}
+
 fn search(cfg: WindowConfig<f64>) -> WindowSearch<f64> {
     let mut w = WindowSearch::BLANK;
     w.init(cfg, &[0.0; MAXP]);
@@ -244,15 +261,7 @@ fn the_last_search_s_points_are_candidates_of_the_next() {
 /// instructions); the search's construction comes on the next tick.
 #[test]
 fn a_tick_the_monitor_built_on_holds_no_construction_of_the_search() {
-    use crate::adapt::guard::Bounds;
-    use crate::adapt::params::theta_of;
-    let base = InsModel::<f64>::paper();
-    let s = specs(&base);
-    let theta = theta_of(&base, &s);
-    let wide = Bounds {
-        lo: [-1e9; MAXP],
-        hi: [1e9; MAXP],
-    };
+    let (base, s, theta, wide) = paper_at_truth();
     let cfg = WindowConfig::<f64>::default_on();
     for built in [false, true] {
         let mut w = search(cfg);
@@ -268,5 +277,110 @@ fn a_tick_the_monitor_built_on_holds_no_construction_of_the_search() {
         assert!(!w.monitor_built);
         assert!(w.work(&base, &s, &wide).is_none());
         assert!(w.evaluations() >= 1);
+    }
+}
+
+/// After a settled answer whose best alternative beat it (a positive gain, below the switch's
+/// threshold), with the test on, the next search tests structure first, from its anchor: it
+/// ends there when the best alternative already wins, and goes on to the model's search
+/// otherwise, without testing again at its end. Off, after an unsettled answer or one no
+/// alternative beat, or after a change in service or a switch, the test comes after the
+/// search as before.
+#[test]
+fn after_a_settled_answer_the_structure_test_comes_first() {
+    use super::{Phase, Switch};
+    use crate::adapt::window::structure::site;
+    let (base, s, theta, wide) = paper_at_truth();
+    // The anchor's pass finished, at log-likelihood 0.
+    let anchor_done = |w: &mut WindowSearch<f64>| {
+        w.pushed = 300;
+        w.start(&theta);
+        w.block_s = 60.0;
+        w.pass.theta = theta;
+        w.pass.ll = 0.0;
+        w.complete(&base, &s, &wide)
+    };
+    let mut w = search(WindowConfig::with_structure());
+    // The first search: the model's search first.
+    assert!(anchor_done(&mut w).is_none());
+    assert!(!w.early && !w.tested);
+    assert!(matches!(w.phase, Phase::Grid(0) | Phase::Carried(0)));
+    // After a settled answer no alternative beat: the model's search first.
+    w.settled_last = true;
+    assert!(anchor_done(&mut w).is_none());
+    assert!(!w.early && matches!(w.phase, Phase::Grid(0) | Phase::Carried(0)));
+    // After a settled answer an alternative beat: the alternative's scan (the accelerometer's
+    // component first).
+    w.settled_last = true;
+    w.promising = true;
+    assert!(anchor_done(&mut w).is_none());
+    assert!(w.early && w.tested);
+    assert_eq!(w.phase, Phase::AltScan(0));
+    assert_eq!(w.alt.site, site(&base, 0).unwrap());
+    // The test ends with an alternative 5 nats up (one more parameter at 3 nats: it wins
+    // beyond 4.5) and a model that moved 1 nat: the search ends, with the switch.
+    let winner = Switch {
+        site: site(&base, 1).unwrap(),
+        theta,
+        gain: 5.0,
+        extra: 1,
+        valid: true,
+    };
+    w.switch = winner;
+    w.switch_ll = 6.0;
+    w.best_ll = 1.0;
+    assert_eq!(w.structure_done(&s), Phase::Idle);
+    assert!(!w.early);
+    // At 4 nats it does not win: the model's search goes on, with the nested polish's point
+    // (here the anchor moved by 1 nat) in its list.
+    w.early = true;
+    w.switch_ll = 5.0;
+    w.best = [1.0; MAXP];
+    assert!(matches!(
+        w.structure_done(&s),
+        Phase::Grid(0) | Phase::Carried(0)
+    ));
+    assert!(w.top.contains(&[1.0; MAXP]));
+    // ... and its refinements end the search without a second test.
+    w.phase = Phase::Refine(super::FINAL - 1);
+    w.acc_ll = f64::INFINITY;
+    w.iterations = super::MAX_ITERATIONS;
+    assert!(w.complete(&base, &s, &wide).is_some());
+    assert_eq!(w.phase, Phase::Idle);
+    // A settled answer is required of the model too: a search that then moved by more than
+    // `SETTLED` keeps no switch.
+    w.settled_last = true;
+    w.promising = true;
+    assert!(anchor_done(&mut w).is_none());
+    assert!(w.early);
+    w.switch = winner;
+    w.switch_ll = 20.0;
+    w.best_ll = super::structure::SETTLED + 1.0;
+    assert!(matches!(
+        w.structure_done(&s),
+        Phase::Grid(0) | Phase::Carried(0)
+    ));
+    w.phase = Phase::Refine(super::FINAL - 1);
+    w.acc_ll = f64::INFINITY;
+    w.iterations = super::MAX_ITERATIONS;
+    let found = w.complete(&base, &s, &wide).unwrap();
+    assert!(found.switch.get().is_none() && !w.settled_last);
+    // Not after a change in service or a switch, nor with the test off.
+    for reset in 0..3 {
+        let mut w = search(if reset == 2 {
+            WindowConfig::default_on()
+        } else {
+            WindowConfig::with_structure()
+        });
+        w.settled_last = true;
+        w.promising = true;
+        match reset {
+            0 => w.changed(0),
+            1 => w.restructure(&s, &s, &theta),
+            _ => {}
+        }
+        assert!(anchor_done(&mut w).is_none());
+        assert!(!w.early, "reset {reset}");
+        assert!(matches!(w.phase, Phase::Grid(0) | Phase::Carried(0)));
     }
 }
