@@ -108,7 +108,8 @@ impl<T: Real> AdaptiveFilter<T> {
         // Issue 13, item 2: what the window does not bound is flagged, not left to wander.
         let was_flat = self.flat;
         self.flat = found.flat(p);
-        if let Some(sw) = found.switch.get().filter(|s| self.switch_wins(s)) {
+        let pen = self.cfg.global.structure;
+        if let Some(sw) = found.switch.get().filter(|s| s.wins(pen)) {
             if self.switch_structure(sw, found.blocks).is_ok() {
                 self.jumps = self.jumps.saturating_add(1);
                 self.switches = self.switches.saturating_add(1);

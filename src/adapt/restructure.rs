@@ -90,15 +90,6 @@ pub fn carry<T: Real>(
 
 /// The switch itself (this module is a child of [`super`], so it reads the filter's fields).
 impl<T: Real> super::AdaptiveFilter<T> {
-    /// Whether a search's best alternative structure replaces the model: its log-likelihood
-    /// gain less the penalty of its extra parameters must exceed half a parameter's penalty
-    /// (hysteresis: with `c` nats per parameter, Gauss-Markov -> exponential-cosine needs
-    /// `1.5 c`, and the way back is taken once the exponential-cosine's advantage falls below
-    /// `0.5 c`, so that a borderline component does not switch at every search).
-    pub(super) fn switch_wins(&self, s: &Switch<T>) -> bool {
-        s.wins(self.cfg.global.structure)
-    }
-
     /// Replaces the model's structure by the search's alternative `sw` (found on a window of
     /// `blocks` block means): a new bank at `sw.theta`
     /// that carries the centre's state ([`restructure`]), new specs and bounds, and fresh

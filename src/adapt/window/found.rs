@@ -176,9 +176,11 @@ impl<T: Real> Switch<T> {
     }
 
     /// The switch rule with `pen` nats per parameter (`docs/ADAPTATION.md` §7.6): the
-    /// alternative wins when `gain - pen * extra > pen / 2` (4.5 nats for one more parameter
-    /// at 3 nats each; the way back once the advantage falls below 1.5). Never with the test
-    /// off (`pen <= 0`), nor for a non-finite gain.
+    /// alternative replaces the model when `gain - pen * extra > pen / 2`. Hysteresis: with
+    /// `c` nats per parameter, Gauss-Markov -> exponential-cosine needs `1.5 c` (4.5 nats at
+    /// 3), and the way back is taken once the exponential-cosine's advantage falls below
+    /// `0.5 c`, so that a borderline component does not switch at every search. Never with
+    /// the test off (`pen <= 0`), nor for a non-finite gain.
     pub fn wins(&self, pen: T) -> bool {
         self.valid
             && pen > T::zero()

@@ -185,17 +185,16 @@ pub struct WindowSearch<T: Real> {
     carried_len: usize,
     /// The last search ran to an answer the window identifies: its list is carried to the next.
     carry_list: bool,
-    /// The last search's answer beat its anchor by at most `structure::SETTLED` nats (no
-    /// structure switch or change in service since).
-    settled_last: bool,
+    /// The last search settled (its answer beat its anchor by at most `structure::SETTLED`
+    /// nats) and its best alternative structure beat that answer (a positive gain, before
+    /// the penalty), with no structure switch or change in service since: the next search
+    /// tests structure first.
+    test_first: bool,
     /// The running search tests structure first, from its anchor ([`phases`]: after a settled
     /// answer an alternative beat), and has not finished that test yet.
     early: bool,
     /// The running search's structure test has run (it runs once per window).
     tested: bool,
-    /// The last search's best alternative structure beat its answer (a positive gain, before
-    /// the penalty).
-    promising: bool,
     /// Active states of the model's block filters (the last model pass's): the unit of the
     /// budget's steps.
     model_states: usize,
@@ -261,10 +260,9 @@ impl<T: Real> WindowSearch<T> {
         carried: [[T::ZERO; MAXP]; TOP],
         carried_len: 0,
         carry_list: false,
-        settled_last: false,
+        test_first: false,
         early: false,
         tested: false,
-        promising: false,
         model_states: 0,
         monitor_built: false,
         acc_theta: [T::ZERO; MAXP],
@@ -309,8 +307,7 @@ impl<T: Real> WindowSearch<T> {
         self.centre = crate::adapt::params::remap(from, &self.centre, to, theta);
         // The last search's points are in the old layout, and its model is not the filter's.
         self.carry_list = false;
-        self.settled_last = false;
-        self.promising = false;
+        self.test_first = false;
         self.phase = Phase::Idle;
         self.running = false;
     }
@@ -323,8 +320,7 @@ impl<T: Real> WindowSearch<T> {
         self.changes = self.changes.saturating_add(1);
         // The last search's points and answer describe the sensor before the change.
         self.carry_list = false;
-        self.settled_last = false;
-        self.promising = false;
+        self.test_first = false;
         self.phase = Phase::Idle;
         self.running = false;
         self.next_search = self.floor.saturating_add(self.cfg.after_change.max(2));
@@ -462,7 +458,7 @@ impl<T: Real> WindowSearch<T> {
         // the test on. Not after every settled answer: one can be a wrong basin's, and the
         // test first delayed the search that leaves it (development seed 83517: two starts
         // at 2.2x the oracle against 1.02x; `docs/ADAPTATION.md` §7.15).
-        self.early = self.cfg.structure > T::zero() && self.settled_last && self.promising;
+        self.early = self.cfg.structure > T::zero() && self.test_first;
         self.tested = false;
         self.carry(anchor);
         // The window is frozen: its first finite mean (every pass's velocity start) once.

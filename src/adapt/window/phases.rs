@@ -133,8 +133,7 @@ impl<T: Real> WindowSearch<T> {
         self.phase = next;
         if next == Phase::Idle {
             self.fixed = 0;
-            self.settled_last = self.settled();
-            if !self.settled_last {
+            if !self.settled() {
                 // The rule of the test run after the search: no switch from a model that moved
                 // (a test run first, on a model the rest of the search then moved, is void).
                 self.switch = Switch::NONE;
@@ -166,7 +165,8 @@ impl<T: Real> WindowSearch<T> {
             // (worst 16 % off against 10 % on seeds 9300-9319, host pace). Skipping the test
             // on revisits was tried: then 3 of 60 logs of the switched at all.
             self.carry_list = found.flat(p) == 0;
-            self.promising = found.switch.valid && found.switch.gain > T::zero();
+            // (An unsettled search holds no switch: see above.)
+            self.test_first = found.switch.valid && found.switch.gain > T::zero();
             if self.cfg.flat_every > 0 && self.changes == 0 && found.flat(p) != 0 {
                 let soon = self.pushed.saturating_add(self.cfg.flat_every);
                 self.next_search = self.next_search.min(soon);

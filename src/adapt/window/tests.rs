@@ -281,7 +281,8 @@ fn a_tick_the_monitor_built_on_holds_no_construction_of_the_search() {
 }
 
 /// After a settled answer whose best alternative beat it (a positive gain, below the switch's
-/// threshold), with the test on, the next search tests structure first, from its anchor: it
+/// threshold; `test_first`, set when a search ends), with the test on, the next search tests
+/// structure first, from its anchor: it
 /// ends there when the best alternative already wins, and goes on to the model's search
 /// otherwise, without testing again at its end. Off, after an unsettled answer or one no
 /// alternative beat, or after a change in service or a switch, the test comes after the
@@ -305,20 +306,6 @@ fn after_a_settled_answer_the_structure_test_comes_first() {
     assert!(anchor_done(&mut w).is_none());
     assert!(!w.early && !w.tested);
     assert!(matches!(w.phase, Phase::Grid(0) | Phase::Carried(0)));
-    // After a settled answer no alternative beat: the model's search first.
-    w.settled_last = true;
-    assert!(anchor_done(&mut w).is_none());
-    assert!(!w.early && matches!(w.phase, Phase::Grid(0) | Phase::Carried(0)));
-    // After a settled answer an alternative beat: the alternative's scan (the accelerometer's
-    // component first).
-    w.settled_last = true;
-    w.promising = true;
-    assert!(anchor_done(&mut w).is_none());
-    assert!(w.early && w.tested);
-    assert_eq!(w.phase, Phase::AltScan(0));
-    assert_eq!(w.alt.site, site(&base, 0).unwrap());
-    // The test ends with an alternative 5 nats up (one more parameter at 3 nats: it wins
-    // beyond 4.5) and a model that moved 1 nat: the search ends, with the switch.
     let winner = Switch {
         site: site(&base, 1).unwrap(),
         theta,
@@ -326,6 +313,31 @@ fn after_a_settled_answer_the_structure_test_comes_first() {
         extra: 1,
         valid: true,
     };
+    // A search that ends settled (1 nat above its anchor), its structure test run and its best
+    // alternative `gain` nats above its answer.
+    let finish = |w: &mut WindowSearch<f64>, gain: f64| {
+        w.phase = Phase::Refine(super::FINAL - 1);
+        w.tested = true;
+        w.switch = winner;
+        (w.best_ll, w.acc_ll, w.switch_ll) = (1.0, 1.0, 1.0 + gain);
+        w.iterations = super::MAX_ITERATIONS;
+        w.complete(&base, &s, &wide)
+    };
+    // After a settled answer no alternative beat: the model's search first.
+    assert!(finish(&mut w, -0.5).is_some());
+    assert!(!w.test_first);
+    assert!(anchor_done(&mut w).is_none());
+    assert!(!w.early && matches!(w.phase, Phase::Grid(0) | Phase::Carried(0)));
+    // After a settled answer an alternative beat (below the switch's threshold): the
+    // alternative's scan (the accelerometer's component first).
+    assert!(finish(&mut w, 1.0).is_some());
+    assert!(w.test_first);
+    assert!(anchor_done(&mut w).is_none());
+    assert!(w.early && w.tested);
+    assert_eq!(w.phase, Phase::AltScan(0));
+    assert_eq!(w.alt.site, site(&base, 0).unwrap());
+    // The test ends with an alternative 5 nats up (one more parameter at 3 nats: it wins
+    // beyond 4.5) and a model that moved 1 nat: the search ends, with the switch.
     w.switch = winner;
     w.switch_ll = 6.0;
     w.best_ll = 1.0;
@@ -349,8 +361,7 @@ fn after_a_settled_answer_the_structure_test_comes_first() {
     assert_eq!(w.phase, Phase::Idle);
     // A settled answer is required of the model too: a search that then moved by more than
     // `SETTLED` keeps no switch.
-    w.settled_last = true;
-    w.promising = true;
+    w.test_first = true;
     assert!(anchor_done(&mut w).is_none());
     assert!(w.early);
     w.switch = winner;
@@ -364,7 +375,7 @@ fn after_a_settled_answer_the_structure_test_comes_first() {
     w.acc_ll = f64::INFINITY;
     w.iterations = super::MAX_ITERATIONS;
     let found = w.complete(&base, &s, &wide).unwrap();
-    assert!(found.switch.get().is_none() && !w.settled_last);
+    assert!(found.switch.get().is_none() && !w.test_first);
     // Not after a change in service or a switch, nor with the test off.
     for reset in 0..3 {
         let mut w = search(if reset == 2 {
@@ -372,8 +383,7 @@ fn after_a_settled_answer_the_structure_test_comes_first() {
         } else {
             WindowConfig::with_structure()
         });
-        w.settled_last = true;
-        w.promising = true;
+        w.test_first = true;
         match reset {
             0 => w.changed(0),
             1 => w.restructure(&s, &s, &theta),
