@@ -193,6 +193,7 @@ pub fn adapt_config<T: Real>(c: &AdaptConfig<f64>) -> AdaptConfig<T> {
             keep_start: c.global.keep_start,
             keep_identified: c.global.keep_identified,
             conservative: T::lit(c.global.conservative),
+            prior: T::lit(c.global.prior),
         },
     }
 }

@@ -53,6 +53,7 @@ pub fn window_env(w: &mut imu_ident::adapt::window::WindowConfig<f64>) {
     w.keep_start = env_or("KEEP", u8::from(w.keep_start)) != 0;
     w.keep_identified = env_or("KEEPID", u8::from(w.keep_identified)) != 0;
     w.conservative = env_or("CONS", w.conservative);
+    w.prior = env_or("PRIOR", w.prior);
 }
 
 /// The `q`-quantile of `v` (nearest rank; NaN when empty). Sorts `v`.

@@ -52,6 +52,12 @@ pub const FILLING_EVERY: u32 = 120;
 /// 1.05x (BENCHMARKS.md "Flat answers searched again sooner").
 pub const FLAT_EVERY: u32 = 60;
 
+/// Standard deviation [decades] of the default prior on each searched parameter about the
+/// start model ([`WindowConfig::prior`]): weak, a factor 100 at one sigma. An identified
+/// parameter (Cramér-Rao deviation at most half a decade) has at least 16 times its
+/// information, so the prior moves it by less than a sixteenth of its distance from the start.
+pub const PRIOR_DECADES: f64 = 2.0;
+
 /// Tuning of the global stage.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -122,6 +128,9 @@ pub struct WindowConfig<T> {
     /// before the filter runs it, at most [`CONSERVATIVE_CAP`] in `ln`; flat coordinates are
     /// not raised. `0`: the filter runs the window's maximum.
     pub conservative: T,
+    /// Standard deviation [decades] of a normal prior on each searched `ln` parameter about
+    /// the start model's value (`prior.rs`); `0`: none, the window's maximum likelihood.
+    pub prior: T,
 }
 
 /// Largest raise of one intensity by [`WindowConfig::conservative`] (`ln`: a factor 1.42).
@@ -148,6 +157,7 @@ impl<T: Real> WindowConfig<T> {
         keep_start: false,
         keep_identified: false,
         conservative: T::ZERO,
+        prior: T::ZERO,
     };
 
     /// The measured default (`docs/ADAPTATION.md` §7): 60-s blocks, 8-h window, first search
@@ -192,6 +202,12 @@ impl<T: Real> WindowConfig<T> {
             // sets of five, but rose from 2.45 to 4.09 % on the fifth, and the tilt p95 rose on
             // three (`docs/ADAPTATION.md` §7.12).
             conservative: T::ZERO,
+            // On, 2 decades: after a change in service the windows' flat ridges ended far
+            // from the truth either way (a gyro sigma 3 decades low, an accelerometer bias of
+            // 13 mg); with the prior, fresh seeds 98300-98319 at firmware pace went from 10 to
+            // 12 of 20 runs within 1.10x oracle B (tilt p95 4.21 -> 1.72x), and the any-start
+            // bench did not move (`docs/ADAPTATION.md` §7.16).
+            prior: T::lit(PRIOR_DECADES),
         }
     }
 

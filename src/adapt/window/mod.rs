@@ -54,6 +54,7 @@ mod monitor;
 pub mod pass;
 mod phases;
 mod polish;
+mod prior;
 pub mod structure;
 #[cfg(test)]
 mod tests;
@@ -68,7 +69,7 @@ use structure::Alternative;
 
 pub use config::{
     WindowConfig, AFTER_CHANGE, CHANGE_THRESHOLD, CONSERVATIVE_CAP, FILLING_EVERY, FLAT_EVERY,
-    STRUCTURE_FILLING_EVERY, STRUCTURE_FIRST, STRUCTURE_PENALTY,
+    PRIOR_DECADES, STRUCTURE_FILLING_EVERY, STRUCTURE_FIRST, STRUCTURE_PENALTY,
 };
 pub use found::{Found, Switch};
 use grid::GRID;
@@ -225,6 +226,8 @@ pub struct WindowSearch<T: Real> {
     switch_ll: T,
     /// Seconds per block (for the scan's periods).
     block_s: T,
+    /// The running pass's prior ([`WindowConfig::prior`]).
+    prior: prior::Prior<T>,
 }
 
 impl<T: Real> WindowSearch<T> {
@@ -283,6 +286,7 @@ impl<T: Real> WindowSearch<T> {
         switch: Switch::NONE,
         switch_ll: T::ZERO,
         block_s: T::ZERO,
+        prior: prior::Prior::BLANK,
     };
 
     /// Starts empty with `cfg`, the grid centred on `centre` (the start model's parameters), in
@@ -541,6 +545,7 @@ impl<T: Real> WindowSearch<T> {
                     p
                 };
                 self.pass.start(&theta, np, h, self.cfg.block, self.z0);
+                self.set_prior(specs);
                 self.running = true;
             }
             if !self.pass.ready() {

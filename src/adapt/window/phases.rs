@@ -41,7 +41,8 @@ impl<T: Real> WindowSearch<T> {
         let p = specs.len().min(MAXP);
         let (first, second) = grid_points(p);
         let grid_len = first + second;
-        let (theta, ll) = (self.pass.theta, self.pass.ll);
+        let theta = self.pass.theta;
+        let ll = self.pass.ll + self.log_prior(&theta);
         let next = match self.phase {
             Phase::Idle => Phase::Idle,
             Phase::Anchor => {

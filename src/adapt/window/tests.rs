@@ -394,3 +394,53 @@ fn after_a_settled_answer_the_structure_test_comes_first() {
         assert!(matches!(w.phase, Phase::Grid(0) | Phase::Carried(0)));
     }
 }
+
+/// The prior (`prior.rs`): weights `1 / (prior ln 10)^2` on every searched coordinate but an
+/// exponential-cosine's `beta`; its gradient and information are those of its log-density
+/// (central differences, exact for a quadratic); off, it adds exactly nothing.
+#[test]
+fn the_prior_is_a_normal_about_the_start_model_without_beta() {
+    let paper = InsModel::<f64>::paper();
+    let site = super::structure::site(&paper, 1).unwrap();
+    let ec = super::structure::swap(&paper, &site, 0.01).unwrap();
+    let s = specs(&ec);
+    let beta = s
+        .iter()
+        .position(|x| x.kind == crate::model::Quantity::Beta)
+        .unwrap();
+    let cfg = WindowConfig::default_on();
+    assert_eq!(cfg.prior, super::PRIOR_DECADES);
+    let mut w = search(WindowConfig { prior: 2.0, ..cfg });
+    w.centre = [0.5; MAXP];
+    w.set_prior(&s);
+    let weight = 1.0 / (2.0 * core::f64::consts::LN_10).powi(2);
+    for i in 0..MAXP {
+        let want = if i < s.len() && i != beta {
+            weight
+        } else {
+            0.0
+        };
+        assert_eq!(w.prior.weight[i], want, "coordinate {i}");
+    }
+    let theta: [f64; MAXP] = core::array::from_fn(|i| 0.1 * i as f64 - 0.3);
+    let (mut g, mut f) = ([0.0; MAXP], [[0.0; MAXP]; MAXP]);
+    w.add_prior(&theta, &mut g, &mut f);
+    for i in 0..MAXP {
+        let (mut up, mut dn) = (theta, theta);
+        up[i] += 1e-3;
+        dn[i] -= 1e-3;
+        let fd = (w.log_prior(&up) - w.log_prior(&dn)) / 2e-3;
+        assert!((g[i] - fd).abs() < 1e-9, "gradient {i}: {} vs {fd}", g[i]);
+        let curv = (w.log_prior(&up) - 2.0 * w.log_prior(&theta) + w.log_prior(&dn)) / 1e-6;
+        assert!((f[i][i] + curv).abs() < 1e-6, "information {i}");
+    }
+    // Off: nothing, bit for bit.
+    let mut off = search(WindowConfig { prior: 0.0, ..cfg });
+    off.centre = [0.5; MAXP];
+    off.set_prior(&s);
+    assert_eq!(off.log_prior(&theta), 0.0);
+    let (g0, f0) = ([0.25; MAXP], [[0.75; MAXP]; MAXP]);
+    let (mut g1, mut f1) = (g0, f0);
+    off.add_prior(&theta, &mut g1, &mut f1);
+    assert_eq!((g1, f1), (g0, f0));
+}
