@@ -14,12 +14,15 @@
 //! continuous: 2.85x oracle B, 0 % outside 3 sigma).
 //!
 //! An exponential-cosine's `beta` has no prior (the start model has none; the structure test
-//! scans it). The flag stays the data's: [`Found::flat`] reads the information the polish
-//! measured plus the prior's, and a flat coordinate's deviation is then at most the prior's,
-//! still above [`IDENTIFIABLE_SD`](crate::model::IDENTIFIABLE_SD) for a prior of more than
-//! half a decade.
+//! scans it). The answer's information ([`Found::fisher`]) is the window's plus the prior's,
+//! so a flat coordinate's deviation (in the records and telemetry) is now at most the prior's
+//! 2 decades instead of unbounded. It is still above
+//! [`IDENTIFIABLE_SD`](crate::model::IDENTIFIABLE_SD) (half a decade): the flag
+//! ([`Found::flat`]) and what it changes are as before, except for a window's own deviation
+//! between 0.50 and 0.52 decade, which the 2-decade prior brings under the threshold.
 //!
 //! [`Found::flat`]: super::Found::flat
+//! [`Found::fisher`]: super::Found::fisher
 
 use super::WindowSearch;
 use crate::adapt::params::{Specs, MAXP};
