@@ -42,7 +42,7 @@ impl<T: Real> WindowSearch<T> {
         let (first, second) = grid_points(p);
         let grid_len = first + second;
         let theta = self.pass.theta;
-        let ll = self.pass.ll + self.log_prior(&theta);
+        let ll = self.pass.ll + self.prior.log(&theta);
         let next = match self.phase {
             Phase::Idle => Phase::Idle,
             Phase::Anchor => {

@@ -313,9 +313,8 @@ impl<T: Real> WindowSearch<T> {
             self.acc_ll = ll;
             self.acc_score = self.pass.info.score;
             self.acc_fisher = self.pass.info.fisher;
-            let (mut g, mut f) = (self.acc_score, self.acc_fisher);
-            self.add_prior(&theta, &mut g, &mut f);
-            (self.acc_score, self.acc_fisher) = (g, f);
+            self.prior
+                .add(&theta, &mut self.acc_score, &mut self.acc_fisher);
             self.lambda = (self.lambda / T::lit(3.0)).max(T::lit(1e-3));
             let converged = self.iterations > 1 && moved < self.cfg.min_step;
             if converged || self.iterations >= most {

@@ -44,6 +44,38 @@ impl<T: Real> Prior<T> {
         centre: [T::ZERO; MAXP],
         weight: [T::ZERO; MAXP],
     };
+
+    /// The log-prior of `theta` (zero without a prior).
+    pub(super) fn log(&self, theta: &[T; MAXP]) -> T {
+        let mut s = T::zero();
+        for ((t, c), w) in theta.iter().zip(self.centre.iter()).zip(self.weight.iter()) {
+            let d = *t - *c;
+            s += *w * d * d;
+        }
+        -T::lit(0.5) * s
+    }
+
+    /// Adds the log-prior's gradient and information at `theta` to a pass's score and Fisher
+    /// information.
+    pub(super) fn add(
+        &self,
+        theta: &[T; MAXP],
+        score: &mut [T; MAXP],
+        fisher: &mut [[T; MAXP]; MAXP],
+    ) {
+        for (i, (((g, row), t), (c, w))) in score
+            .iter_mut()
+            .zip(fisher.iter_mut())
+            .zip(theta.iter())
+            .zip(self.centre.iter().zip(self.weight.iter()))
+            .enumerate()
+        {
+            *g -= *w * (*t - *c);
+            if let Some(v) = row.get_mut(i) {
+                *v += *w;
+            }
+        }
+    }
 }
 
 impl<T: Real> WindowSearch<T> {
@@ -69,39 +101,6 @@ impl<T: Real> WindowSearch<T> {
                 Some(Quantity::Beta) | None => T::zero(),
                 Some(_) => w,
             };
-        }
-    }
-
-    /// The log-prior of `theta` (zero without a prior).
-    pub(super) fn log_prior(&self, theta: &[T; MAXP]) -> T {
-        let mut s = T::zero();
-        let (centre, weight) = (&self.prior.centre, &self.prior.weight);
-        for ((t, c), w) in theta.iter().zip(centre.iter()).zip(weight.iter()) {
-            let d = *t - *c;
-            s += *w * d * d;
-        }
-        -T::lit(0.5) * s
-    }
-
-    /// Adds the log-prior's gradient and information at `theta` to a pass's score and Fisher
-    /// information.
-    pub(super) fn add_prior(
-        &self,
-        theta: &[T; MAXP],
-        score: &mut [T; MAXP],
-        fisher: &mut [[T; MAXP]; MAXP],
-    ) {
-        for (i, (((g, row), t), (c, w))) in score
-            .iter_mut()
-            .zip(fisher.iter_mut())
-            .zip(theta.iter())
-            .zip(self.prior.centre.iter().zip(self.prior.weight.iter()))
-            .enumerate()
-        {
-            *g -= *w * (*t - *c);
-            if let Some(v) = row.get_mut(i) {
-                *v += *w;
-            }
         }
     }
 }

@@ -424,23 +424,23 @@ fn the_prior_is_a_normal_about_the_start_model_without_beta() {
     }
     let theta: [f64; MAXP] = core::array::from_fn(|i| 0.1 * i as f64 - 0.3);
     let (mut g, mut f) = ([0.0; MAXP], [[0.0; MAXP]; MAXP]);
-    w.add_prior(&theta, &mut g, &mut f);
+    w.prior.add(&theta, &mut g, &mut f);
     for i in 0..MAXP {
         let (mut up, mut dn) = (theta, theta);
         up[i] += 1e-3;
         dn[i] -= 1e-3;
-        let fd = (w.log_prior(&up) - w.log_prior(&dn)) / 2e-3;
+        let fd = (w.prior.log(&up) - w.prior.log(&dn)) / 2e-3;
         assert!((g[i] - fd).abs() < 1e-9, "gradient {i}: {} vs {fd}", g[i]);
-        let curv = (w.log_prior(&up) - 2.0 * w.log_prior(&theta) + w.log_prior(&dn)) / 1e-6;
+        let curv = (w.prior.log(&up) - 2.0 * w.prior.log(&theta) + w.prior.log(&dn)) / 1e-6;
         assert!((f[i][i] + curv).abs() < 1e-6, "information {i}");
     }
     // Off: nothing, bit for bit.
     let mut off = search(WindowConfig { prior: 0.0, ..cfg });
     off.centre = [0.5; MAXP];
     off.set_prior(&s);
-    assert_eq!(off.log_prior(&theta), 0.0);
+    assert_eq!(off.prior.log(&theta), 0.0);
     let (g0, f0) = ([0.25; MAXP], [[0.75; MAXP]; MAXP]);
     let (mut g1, mut f1) = (g0, f0);
-    off.add_prior(&theta, &mut g1, &mut f1);
+    off.prior.add(&theta, &mut g1, &mut f1);
     assert_eq!((g1, f1), (g0, f0));
 }
