@@ -106,6 +106,7 @@ fn main() {
             min_gain: arg_or("min_gain", d.bank.min_gain),
             memory: arg_or("memory", d.bank.memory),
             conservative: arg_or("bank_conservative", u8::from(d.bank.conservative)) != 0,
+            flat_waits: arg_or("flat_waits", u8::from(d.bank.flat_waits)) != 0,
             ..d.bank
         },
         gnss_sd: arg_or("gnss_sd", u8::from(d.gnss_sd)) != 0,

@@ -208,6 +208,11 @@ pub enum Command {
         /// BENCHMARKS.md "The GNSS noise online" and "The GNSS factors in the bank".
         #[arg(long, default_value_t = ADAPT.gnss_sd, action = clap::ArgAction::Set, value_name = "BOOL")]
         adapt_gnss_sd: bool,
+        /// With --adapt-method bank: a coordinate the window does not bound yet (its parabola
+        /// not concave) waits while a bounded one moves out of the shadows' grid
+        /// (OnlineConfig::flat_waits). BENCHMARKS.md "Flat coordinates wait in the bank".
+        #[arg(long, default_value_t = ADAPT.bank.flat_waits, action = clap::ArgAction::Set, value_name = "BOOL")]
+        adapt_flat_waits: bool,
     },
     /// Simulate a strapdown drive (figure-eights, climbs): imu.csv, truth.csv, gnss.csv.
     SimulateDrive {

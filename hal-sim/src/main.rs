@@ -60,6 +60,7 @@ fn main() -> Result<()> {
             adapt_taus,
             adapt_memory,
             adapt_gnss_sd,
+            adapt_flat_waits,
             qemu_elf,
         } => {
             // Read first: a bad truth file should stop the command before the run.
@@ -150,6 +151,11 @@ fn main() -> Result<()> {
                             "--adapt-every, --adapt-window, --adapt-memory: expected positive seconds"
                         );
                     }
+                    if !adapt_flat_waits && !bank {
+                        anyhow::bail!(
+                            "--adapt-flat-waits: the rule is the bank's; add --adapt-method bank"
+                        );
+                    }
                     if adapt_memory.is_finite() && !bank {
                         anyhow::bail!(
                             "--adapt-memory: the window's memory is the bank's; add \
@@ -173,6 +179,7 @@ fn main() -> Result<()> {
                             first,
                             every,
                             memory: adapt_memory,
+                            flat_waits: adapt_flat_waits,
                             ..cfg.bank
                         },
                         gnss_sd: adapt_gnss_sd,

@@ -24,6 +24,14 @@
 //!   7.02 m; the bounds leave that margin to a different identification path (the search is
 //!   flat along the bias walks).
 //!
+//! - the MCU's online identification, the bank of shadow filters (`--adapt --adapt-method
+//!   bank`, decisions every 60 s from the datasheet model), is no worse at the end of the
+//!   outages than the hand-inflated model, and the rule that a coordinate the window does not
+//!   bound waits while a bounded one leaves the grid (`OnlineConfig::flat_waits`) is what
+//!   brings it there: without it the flat coordinates climbed to their bound together with
+//!   the bounded ones and the bank ended worse. Measured 7.81 m with the rule, 10.64 m
+//!   without, 8.00 m hand-inflated (BENCHMARKS.md "Flat coordinates wait in the bank").
+//!
 //! The identification with the constraint's factor in the search (`--identify --nhc`, ~50 s)
 //! is the ignored test `real_drive_identifies_the_constraint_sd`.
 
@@ -297,4 +305,65 @@ fn real_drive_online_with_the_gnss_noise_beats_the_hand_inflated_model() {
     }
     assert!(rms(&online) <= rms(&fixed), "online {} m", rms(&online));
     assert!(rms(&online) <= 7.15, "online {} m", rms(&online));
+}
+
+/// The bank on the drive (module docs): decisions every 60 s from the datasheet model, with
+/// and without `OnlineConfig::flat_waits`, against the hand-inflated fixed model. Three runs of
+/// a few seconds each.
+#[test]
+fn real_drive_bank_with_flat_coordinates_waiting_is_no_worse_than_hand_inflated() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let Some((args, samples, fixes)) = drive(dir.path()) else {
+        return;
+    };
+    let inflated = NavArgs {
+        model: hal_sim::nav::model::load("drive-inflated").unwrap_or_else(|e| panic!("{e:#}")),
+        model_name: "drive-inflated".into(),
+        ..args.clone()
+    };
+    let rms = |r: &hal_sim::nav::NavRun| r.summary.outage_rms_m.unwrap_or(f64::NAN);
+    let fixed =
+        rms(&run_with::<f64>(&inflated, &samples, &fixes).unwrap_or_else(|e| panic!("{e:#}")));
+    let bank = |flat_waits: bool| {
+        let d = hal_sim::nav::adapt::AdaptConfig::DEFAULT;
+        let cfg = hal_sim::nav::adapt::AdaptConfig {
+            first: 60.0,
+            every: 60.0,
+            method: hal_sim::nav::adapt::AdaptMethod::Bank,
+            bank: imu_ident::nav::OnlineConfig {
+                first: 60.0,
+                every: 60.0,
+                flat_waits,
+                ..d.bank
+            },
+            gnss_sd: true,
+            ..d
+        };
+        let run = run_with::<f64>(
+            &NavArgs {
+                adapt: Some(cfg),
+                ..args.clone()
+            },
+            &samples,
+            &fixes,
+        )
+        .unwrap_or_else(|e| panic!("{e:#}"));
+        let decisions = run.adapt.as_ref().map_or(0, |l| l.searches.len());
+        (rms(&run), decisions)
+    };
+    let (with, n_with) = bank(true);
+    let (without, n_without) = bank(false);
+    println!(
+        "bank from the datasheet model, every 60 s: {with:.2} m with flat coordinates waiting \
+         ({n_with} decisions), {without:.2} m without ({n_without}); hand-inflated {fixed:.2} m"
+    );
+    assert!(
+        n_with >= 8 && n_without >= 8,
+        "{n_with} {n_without} decisions"
+    );
+    assert!(with <= fixed, "bank {with} m, hand-inflated {fixed} m");
+    assert!(
+        without > with,
+        "without the rule {without} m, with it {with} m"
+    );
 }

@@ -3,10 +3,10 @@
 //! the order the host driver processes them. The loop that consumes it is
 //! [`NavReplay`](super::run::NavReplay).
 //!
-//! # Format (version 6, all integers and floats little-endian)
+//! # Format (version 7, all integers and floats little-endian)
 //!
 //! ```text
-//! header     magic "IMUN" | version u16 = 6 | reserved u16 = 0 | record count u32      12 bytes
+//! header     magic "IMUN" | version u16 = 7 | reserved u16 = 0 | record count u32      12 bytes
 //! setup      52 f64, in this order:                                                   424 bytes
 //!              t0 [s] | lat, lon [rad], h [m] | q_b^n w, x, y, z | v N, E, D [m/s]
 //!              | gyro bias x, y, z [rad/s] (NaN: none) | lever arm x, y, z [m, body FRD]
@@ -40,8 +40,8 @@
 //!
 //! With the online identification on ([`OnlineConfig`], setup flags
 //! [`setup_flags::ONLINE_PER_AXIS`], [`setup_flags::ONLINE_TAUS`],
-//! [`setup_flags::ONLINE_CONSERVATIVE`], [`setup_flags::ONLINE_HOLD_FLAT_TAUS`] and
-//! [`setup_flags::ONLINE_GNSS_SD`]), the loop
+//! [`setup_flags::ONLINE_CONSERVATIVE`], [`setup_flags::ONLINE_HOLD_FLAT_TAUS`],
+//! [`setup_flags::ONLINE_GNSS_SD`] and [`setup_flags::ONLINE_FLAT_WAITS`]), the loop
 //! runs the bank of shadow filters ([`crate::nav::online`]) and, after every filter step, takes its decision
 //! ([`NavReplay::imu`](super::run::NavReplay::imu)), as the host does (`nav --adapt
 //! --adapt-method bank`).
@@ -50,7 +50,8 @@
 //! padding in version 1); version 3 the ZUPT (sd and the rest detector's three bounds); version 4
 //! the online identification (seven values and four flags); version 5 its memory
 //! ([`OnlineConfig::memory`], an eighth value, infinite for none); version 6 its GNSS factors
-//! ([`OnlineConfig::gnss_sd`], a fifth flag). Older
+//! ([`OnlineConfig::gnss_sd`], a fifth flag); version 7 the flat coordinates' wait
+//! ([`OnlineConfig::flat_waits`], a sixth). Older
 //! replays are rejected ([`NavReplayError::BadVersion`]), not read with the new aiding off:
 //! the replay is an intermediate file that `hal_sim::nav_qemu` writes afresh for every run, so there is nothing to migrate, and one layout keeps the
 //! firmware's decoder to one panic-free path.
@@ -77,8 +78,9 @@ use crate::strapdown::{Geodetic, Quat};
 
 /// First four bytes.
 pub const MAGIC: [u8; 4] = *b"IMUN";
-/// Format version (6: the online identification's GNSS factors; module docs).
-pub const VERSION: u16 = 6;
+/// Format version (7: the online identification's flat coordinates wait; 6: its GNSS
+/// factors; module docs).
+pub const VERSION: u16 = 7;
 /// Header length.
 pub const HEADER_LEN: usize = 12;
 /// Setup block length (51 `f64`, then `max_rejections`, six counts and the setup flags).
@@ -125,13 +127,19 @@ pub mod setup_flags {
     ///
     /// [`OnlineConfig::gnss_sd`]: crate::nav::OnlineConfig::gnss_sd
     pub const ONLINE_GNSS_SD: u8 = 32;
+    /// The online identification holds a flat coordinate while a bounded one leaves the grid
+    /// ([`OnlineConfig::flat_waits`]).
+    ///
+    /// [`OnlineConfig::flat_waits`]: crate::nav::OnlineConfig::flat_waits
+    pub const ONLINE_FLAT_WAITS: u8 = 64;
     /// Every defined bit.
     pub const ALL: u8 = HEADING_KNOWN
         | ONLINE_PER_AXIS
         | ONLINE_TAUS
         | ONLINE_CONSERVATIVE
         | ONLINE_HOLD_FLAT_TAUS
-        | ONLINE_GNSS_SD;
+        | ONLINE_GNSS_SD
+        | ONLINE_FLAT_WAITS;
 }
 
 /// Bits of [`GnssRecord::flags`].
@@ -379,6 +387,10 @@ pub fn encode(
         | flag(
             s.online.is_some_and(|o| o.gnss_sd),
             setup_flags::ONLINE_GNSS_SD,
+        )
+        | flag(
+            s.online.is_some_and(|o| o.flat_waits),
+            setup_flags::ONLINE_FLAT_WAITS,
         )]);
     for c in axes(&s.imu).into_iter().flat_map(|a| a.iter()) {
         let kind = c.kind();

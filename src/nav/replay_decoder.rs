@@ -266,6 +266,7 @@ impl Decoder {
             taus: flags & setup_flags::ONLINE_TAUS != 0,
             hold_flat_taus: flags & setup_flags::ONLINE_HOLD_FLAT_TAUS != 0,
             gnss_sd: flags & setup_flags::ONLINE_GNSS_SD != 0,
+            flat_waits: flags & setup_flags::ONLINE_FLAT_WAITS != 0,
         });
         s.imu = ImuErrorModel::default();
         let too_many = counts.iter().any(|&c| usize::from(c) > MAX_AXIS_COMPONENTS);

@@ -68,6 +68,7 @@ fn setup() -> NavSetup {
             taus: true,
             hold_flat_taus: true,
             gnss_sd: true,
+            flat_waits: false,
         }),
         heading_known: true,
     }
@@ -205,24 +206,25 @@ fn header_errors_are_specific() {
     bad[HEADER_LEN + SETUP_LEN - 7] = 9; // gyro x: 9 components
     assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
     let mut bad = good;
-    bad[HEADER_LEN + SETUP_LEN - 1] = 64; // an undefined setup flag
+    bad[HEADER_LEN + SETUP_LEN - 1] = 128; // an undefined setup flag
     assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
 }
 
-/// Version-1 to version-5 replays (shorter setups: no constraint, zero-velocity update or
-/// online identification; the online identification without its memory or GNSS factors)
+/// Version-1 to version-6 replays (shorter setups: no constraint, zero-velocity update or
+/// online identification; the online identification without its memory or GNSS factors;
+/// version 6 without the flat coordinates' flag)
 /// are refused at their header with the version they have, before their setup could be
 /// misread; the message says which one is read.
 #[test]
 fn older_versions_are_refused_with_their_number() {
-    for v in [1u16, 2, 3, 4, 5] {
+    for v in [1u16, 2, 3, 4, 5, 6] {
         let mut old = encoded(&setup(), &records(2));
         old[4..6].copy_from_slice(&v.to_le_bytes());
         let e = decoded(&old).err();
         assert_eq!(e, Some(NavReplayError::BadVersion(v)));
         let msg = std::format!("{}", NavReplayError::BadVersion(v));
         assert!(
-            msg.contains(&std::format!("version {v}")) && msg.contains("version 6"),
+            msg.contains(&std::format!("version {v}")) && msg.contains("version 7"),
             "{msg}"
         );
         let mut dec = Decoder::new();

@@ -154,6 +154,7 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
             per_axis: false,
             taus: false,
             hold_flat_taus: false,
+            flat_waits: false,
             gnss_sd: false,
         },
         coords: Vec::new(),

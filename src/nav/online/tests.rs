@@ -3,7 +3,7 @@
 use super::coords::{coordinates, MAX_PARAMS};
 use super::newton::{pairs, step, Quad};
 use super::OnlineConfig;
-use crate::model::{Component, GaussMarkov};
+use crate::model::{Component, GaussMarkov, WhiteNoise};
 use crate::nav::ImuErrorModel;
 
 /// One Gauss-Markov gyro component: coordinates sigma (0) and tau (1), one pair.
@@ -343,4 +343,61 @@ fn a_variance_factor_moves_to_the_maximum_of_its_model() {
     }
     // Sums that rise on both sides of the centre: no variance scale fits.
     assert!(variance_scale(0.0, -10.0, 0.25).is_none());
+}
+
+/// White noise on the gyros and on the accelerometers: two intensity coordinates, no pair.
+fn two_white() -> ImuErrorModel<f64> {
+    let mut m = ImuErrorModel::default();
+    let white = |density| [Component::White(WhiteNoise { density })];
+    m.set_all_gyro(&white(1e-3))
+        .unwrap_or_else(|e| panic!("{e:?}"));
+    m.set_all_accel(&white(1e-2))
+        .unwrap_or_else(|e| panic!("{e:?}"));
+    m
+}
+
+/// `OnlineConfig::flat_waits`: coordinate 0 has an exact parabola with its vertex at `top`
+/// (curvature 100 nats/decade^2); coordinate 1 rises linearly, 40 nats/decade, and is slightly
+/// convex, so it is not bounded and would step `2 d` up its slope. It waits while coordinate
+/// 0 leaves the grid (`top` beyond `d`), and steps when coordinate 0 settles inside it.
+#[test]
+fn a_flat_coordinate_waits_while_a_bounded_one_leaves_the_grid() {
+    let c = coordinates(&two_white(), false, true).unwrap_or_else(|e| panic!("{e:?}"));
+    assert_eq!((c.len(), pairs(&c).len()), (2, 0));
+    let d = 0.5;
+    let sums = |top: f64| {
+        let bounded = |y: f64| -50.0 * (y - top) * (y - top) + 50.0 * top * top;
+        let flat = |y: f64| 40.0 * y + 2.0 * y * y;
+        [bounded(d), bounded(-d), flat(d), flat(-d), 0.0]
+    };
+    let run = |cfg: &OnlineConfig, top: f64| {
+        let q = Quad::from_sums(d, 2, &[], &sums(top));
+        let mut sd = [0.0; MAX_PARAMS];
+        let out = step(cfg, 2, &c, &[], &q, &[0.0; MAX_PARAMS], &mut sd);
+        // The flat coordinate is flagged either way: not concave, no Cramér-Rao interval.
+        assert!(sd[1].is_infinite() && (sd[0] - 0.1).abs() < 1e-12, "{sd:?}");
+        [out[0], out[1]]
+    };
+    let on = OnlineConfig::DEFAULT;
+    assert!(on.flat_waits);
+    let off = OnlineConfig {
+        flat_waits: false,
+        ..on
+    };
+    // The bounded coordinate leaves the grid (0.8 > d): the flat one waits with the rule.
+    let [s0, s1] = run(&on, 0.8);
+    assert!((s0 - 0.8).abs() < 1e-9 && s1 == 0.0, "{s0} {s1}");
+    let [s0, s1] = run(&off, 0.8);
+    assert!(
+        (s0 - 0.8).abs() < 1e-9 && (s1 - 2.0 * d).abs() < 1e-12,
+        "{s0} {s1}"
+    );
+    // It settles inside the grid (0.3 <= d): the flat one steps `2 d` up its slope either way.
+    for cfg in [&on, &off] {
+        let [s0, s1] = run(cfg, 0.3);
+        assert!(
+            (s0 - 0.3).abs() < 1e-9 && (s1 - 2.0 * d).abs() < 1e-12,
+            "{s0} {s1}"
+        );
+    }
 }
