@@ -93,13 +93,8 @@ fn real_drive_identified_model_is_consistent_and_no_worse_than_hand_inflated() {
         return;
     };
     let datasheet = run_with::<f64>(&args, &samples, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
-    let inflated_args = NavArgs {
-        model: hal_sim::nav::model::load("drive-inflated").unwrap_or_else(|e| panic!("{e:#}")),
-        model_name: "drive-inflated".into(),
-        ..args.clone()
-    };
-    let inflated =
-        run_with::<f64>(&inflated_args, &samples, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let inflated = run_with::<f64>(&hand_inflated(&args), &samples, &fixes)
+        .unwrap_or_else(|e| panic!("{e:#}"));
     let id = identify::identify(&args, &samples, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let id_args = NavArgs {
         model: id.model.clone(),
@@ -254,11 +249,7 @@ fn real_drive_online_with_the_gnss_noise_beats_the_hand_inflated_model() {
     let Some((args, samples, fixes)) = drive(dir.path()) else {
         return;
     };
-    let inflated = NavArgs {
-        model: hal_sim::nav::model::load("drive-inflated").unwrap_or_else(|e| panic!("{e:#}")),
-        model_name: "drive-inflated".into(),
-        ..args.clone()
-    };
+    let inflated = hand_inflated(&args);
     let fixed = run_with::<f64>(&inflated, &samples, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let cfg = hal_sim::nav::adapt::AdaptConfig {
         first: 60.0,
@@ -307,6 +298,15 @@ fn real_drive_online_with_the_gnss_noise_beats_the_hand_inflated_model() {
     assert!(rms(&online) <= 7.15, "online {} m", rms(&online));
 }
 
+/// `args` with the data's hand-inflated noise model.
+fn hand_inflated(args: &NavArgs) -> NavArgs {
+    NavArgs {
+        model: hal_sim::nav::model::load("drive-inflated").unwrap_or_else(|e| panic!("{e:#}")),
+        model_name: "drive-inflated".into(),
+        ..args.clone()
+    }
+}
+
 /// The bank on the drive (module docs): decisions every 60 s from the datasheet model, with
 /// and without `OnlineConfig::flat_waits`, against the hand-inflated fixed model. Three runs of
 /// a few seconds each.
@@ -316,11 +316,7 @@ fn real_drive_bank_with_flat_coordinates_waiting_is_no_worse_than_hand_inflated(
     let Some((args, samples, fixes)) = drive(dir.path()) else {
         return;
     };
-    let inflated = NavArgs {
-        model: hal_sim::nav::model::load("drive-inflated").unwrap_or_else(|e| panic!("{e:#}")),
-        model_name: "drive-inflated".into(),
-        ..args.clone()
-    };
+    let inflated = hand_inflated(&args);
     let rms = |r: &hal_sim::nav::NavRun| r.summary.outage_rms_m.unwrap_or(f64::NAN);
     let fixed =
         rms(&run_with::<f64>(&inflated, &samples, &fixes).unwrap_or_else(|e| panic!("{e:#}")));
