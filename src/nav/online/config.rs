@@ -56,9 +56,9 @@ pub struct OnlineConfig {
     /// a coordinate they do bound moves out of the shadows' grid (`newton.rs`). On by default:
     /// where several noise sources explain the same excess innovation variance, each one's
     /// slope is measured with the others at the centre, and all of them stepping `2 d` up
-    /// their slopes at once overshot the joint maximum. On the real drive the bank ended
-    /// 10.6-22.6 m RMS at the outage ends without it and 7.5-8.3 m with it (BENCHMARKS.md
-    /// "Flat coordinates wait in the bank").
+    /// their slopes at once overshot the joint maximum. On the real drive, from the datasheet
+    /// model, the bank ended 10.6-22.6 m RMS at the outage ends without it and 7.5-8.3 m with
+    /// it (BENCHMARKS.md "Flat coordinates wait in the bank").
     pub flat_waits: bool,
 }
 
