@@ -118,8 +118,9 @@ pub(super) fn step(
     let at = |a: &[f64], i: usize| a.get(i).copied().unwrap_or(0.0);
     let mut out = [0.0; MAX_PARAMS];
     let mut gains = [0.0; MAX_PARAMS];
-    // The coordinates whose parabola is not concave ([`OnlineConfig::flat_waits`]).
-    let mut flat = [false; MAX_PARAMS];
+    // The coordinates the window bounds: a concave parabola, or a variance factor's model
+    // ([`OnlineConfig::flat_waits`]).
+    let mut bounded = [false; MAX_PARAMS];
     let clamp = |s: f64, i: usize| {
         let xi = at(x, i);
         within(s, -cfg.bound - xi, cfg.bound - xi)
@@ -130,8 +131,9 @@ pub(super) fn step(
         // when the shadows fit it (`variance_scale`), else the parabola's as any coordinate.
         if i >= coords.len() {
             if let Some((s, gain, sd)) = variance_scale(g, c, d) {
-                if let Some(v) = cr_sd.get_mut(i) {
+                if let (Some(v), Some(bd)) = (cr_sd.get_mut(i), bounded.get_mut(i)) {
                     *v = sd;
+                    *bd = true;
                 }
                 if gain >= cfg.min_gain {
                     if let (Some(o), Some(gv)) = (out.get_mut(i), gains.get_mut(i)) {
@@ -142,8 +144,8 @@ pub(super) fn step(
                 continue;
             }
         }
-        if let Some(f) = flat.get_mut(i) {
-            *f = c <= 0.0 || c.is_nan();
+        if let Some(b) = bounded.get_mut(i) {
+            *b = c > 0.0;
         }
         let s = if c > 0.0 {
             g / c
@@ -226,9 +228,9 @@ pub(super) fn step(
         }
     }
     // A bounded coordinate leaving the grid holds the flat ones (module docs).
-    let leaves = |i: usize| !flat.get(i).copied().unwrap_or(true) && libm::fabs(at(&out, i)) > d;
-    if cfg.flat_waits && (0..p).any(leaves) {
-        for (o, _) in out.iter_mut().zip(flat.iter()).filter(|(_, f)| **f) {
+    let leaves = |(o, b): (&f64, &bool)| *b && libm::fabs(*o) > d;
+    if cfg.flat_waits && out.iter().zip(bounded.iter()).any(leaves) {
+        for (o, _) in out.iter_mut().zip(bounded.iter()).filter(|(_, b)| !**b) {
             *o = 0.0;
         }
     }
