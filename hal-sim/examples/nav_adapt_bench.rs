@@ -107,6 +107,7 @@ fn main() {
             memory: arg_or("memory", d.bank.memory),
             conservative: arg_or("bank_conservative", u8::from(d.bank.conservative)) != 0,
             flat_waits: arg_or("flat_waits", u8::from(d.bank.flat_waits)) != 0,
+            exit_z: arg_or("exit_z", d.bank.exit_z),
             ..d.bank
         },
         gnss_sd: arg_or("gnss_sd", u8::from(d.gnss_sd)) != 0,

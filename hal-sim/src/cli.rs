@@ -213,6 +213,12 @@ pub enum Command {
         /// (OnlineConfig::flat_waits). BENCHMARKS.md "Flat coordinates wait in the bank".
         #[arg(long, default_value_t = ADAPT.bank.flat_waits, action = clap::ArgAction::Set, value_name = "BOOL")]
         adapt_flat_waits: bool,
+        /// With --adapt-method bank: a coordinate the window bounds leaves the shadows' grid
+        /// (which restarts the window) only when its vertex is beyond the grid's edge by this
+        /// many Cramér-Rao sds; otherwise it stops at the edge (OnlineConfig::exit_z). 0: it
+        /// leaves whenever its vertex is beyond the edge.
+        #[arg(long, default_value_t = ADAPT.bank.exit_z, value_name = "Z")]
+        adapt_exit_z: f64,
     },
     /// Simulate a strapdown drive (figure-eights, climbs): imu.csv, truth.csv, gnss.csv.
     SimulateDrive {

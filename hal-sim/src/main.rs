@@ -61,6 +61,7 @@ fn main() -> Result<()> {
             adapt_memory,
             adapt_gnss_sd,
             adapt_flat_waits,
+            adapt_exit_z,
             qemu_elf,
         } => {
             // Read first: a bad truth file should stop the command before the run.
@@ -156,6 +157,14 @@ fn main() -> Result<()> {
                             "--adapt-flat-waits: the rule is the bank's; add --adapt-method bank"
                         );
                     }
+                    if !(adapt_exit_z.is_finite() && adapt_exit_z >= 0.0) {
+                        anyhow::bail!("--adapt-exit-z: expected a finite number >= 0");
+                    }
+                    if adapt_exit_z != imu_ident::nav::OnlineConfig::DEFAULT.exit_z && !bank {
+                        anyhow::bail!(
+                            "--adapt-exit-z: the rule is the bank's; add --adapt-method bank"
+                        );
+                    }
                     if adapt_memory.is_finite() && !bank {
                         anyhow::bail!(
                             "--adapt-memory: the window's memory is the bank's; add \
@@ -180,6 +189,7 @@ fn main() -> Result<()> {
                             every,
                             memory: adapt_memory,
                             flat_waits: adapt_flat_waits,
+                            exit_z: adapt_exit_z,
                             ..cfg.bank
                         },
                         gnss_sd: adapt_gnss_sd,

@@ -29,8 +29,10 @@
 //!   outages than the hand-inflated model, and the rule that a coordinate the window does not
 //!   bound waits while a bounded one leaves the grid (`OnlineConfig::flat_waits`) is what
 //!   brings it there: without it the flat coordinates climbed to their bound together with
-//!   the bounded ones and the bank ended worse. Measured 7.81 m with the rule, 10.64 m
-//!   without, 8.00 m hand-inflated (BENCHMARKS.md "Flat coordinates wait in the bank").
+//!   the bounded ones and the bank ended worse. Measured 7.66 m with the rule, 10.33 m
+//!   without, 8.00 m hand-inflated, with the default exit test (`OnlineConfig::exit_z`;
+//!   7.81 m and 10.64 m before it; BENCHMARKS.md "Flat coordinates wait in the bank" and
+//!   "Leaving the grid on evidence").
 //!   With the non-holonomic constraint on both it is within the drive's bar, 7.15 m: 2.73 m
 //!   against 6.60 m hand-inflated.
 //!

@@ -487,3 +487,26 @@ fn a_window_memory_needs_the_bank_and_positive_seconds() {
     );
     assert!(!Path::new("never-written").exists());
 }
+
+/// `--adapt-exit-z` (the bank's test for leaving the grid): refused with the window replay
+/// unless at its default, and refused when negative or not finite.
+#[test]
+fn an_exit_test_needs_the_bank_and_a_finite_z() {
+    let exit = |method, z: &str| {
+        let z = format!("--adapt-exit-z={z}");
+        refused_nav(&["--adapt", "--adapt-method", method, &z])
+    };
+    let e = exit("replay", "3");
+    assert!(
+        e.contains("--adapt-exit-z") && e.contains("--adapt-method bank"),
+        "{e}"
+    );
+    for z in ["-1", "inf", "NaN"] {
+        let e = exit("bank", z);
+        assert!(
+            e.contains("--adapt-exit-z") && e.contains(">= 0"),
+            "{z}: {e}"
+        );
+    }
+    assert!(!Path::new("never-written").exists());
+}

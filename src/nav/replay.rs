@@ -3,11 +3,11 @@
 //! the order the host driver processes them. The loop that consumes it is
 //! [`NavReplay`](super::run::NavReplay).
 //!
-//! # Format (version 7, all integers and floats little-endian)
+//! # Format (version 8, all integers and floats little-endian)
 //!
 //! ```text
 //! header     magic "IMUN" | version u16 = 7 | reserved u16 = 0 | record count u32      12 bytes
-//! setup      52 f64, in this order:                                                   424 bytes
+//! setup      53 f64, in this order:                                                   432 bytes
 //!              t0 [s] | lat, lon [rad], h [m] | q_b^n w, x, y, z | v N, E, D [m/s]
 //!              | gyro bias x, y, z [rad/s] (NaN: none) | lever arm x, y, z [m, body FRD]
 //!              | sd_att N, E, D [rad] | sd_vel [m/s] | sd_pos [m] | obs_sd x 6
@@ -17,7 +17,7 @@
 //!              | ZUPT sd [m/s] (NaN: none) | ZUPT rate, specific-force, speed bounds
 //!              | online identification: first decision [s] (NaN: none) | interval [s]
 //!              | offset, smallest offset, bound [decades] | least gain [nats] | fixes
-//!              | memory [s] (infinite: none)
+//!              | memory [s] (infinite: none) | exit z (0: none)
 //!            then max_rejections u8 | components per axis u8 x 6 (gyro x, y, z, accel x, y, z)
 //!            | setup flags u8
 //! components per component, axes in the order above: kind u8 | a, b, c f64             25 bytes
@@ -51,7 +51,8 @@
 //! the online identification (seven values and four flags); version 5 its memory
 //! ([`OnlineConfig::memory`], an eighth value, infinite for none); version 6 its GNSS factors
 //! ([`OnlineConfig::gnss_sd`], a fifth flag); version 7 the flat coordinates' wait
-//! ([`OnlineConfig::flat_waits`], a sixth). Older
+//! ([`OnlineConfig::flat_waits`], a sixth); version 8 the test for leaving the grid
+//! ([`OnlineConfig::exit_z`], a ninth value). Older
 //! replays are rejected ([`NavReplayError::BadVersion`]), not read with the new aiding off:
 //! the replay is an intermediate file that `hal_sim::nav_qemu` writes afresh for every run, so there is nothing to migrate, and one layout keeps the
 //! firmware's decoder to one panic-free path.
@@ -78,15 +79,15 @@ use crate::strapdown::{Geodetic, Quat};
 
 /// First four bytes.
 pub const MAGIC: [u8; 4] = *b"IMUN";
-/// Format version (7: the online identification's flat coordinates wait; 6: its GNSS
-/// factors; module docs).
-pub const VERSION: u16 = 7;
+/// Format version (8: the online identification's test for leaving the grid; 7: its flat
+/// coordinates wait; 6: its GNSS factors; module docs).
+pub const VERSION: u16 = 8;
 /// Header length.
 pub const HEADER_LEN: usize = 12;
-/// Setup block length (51 `f64`, then `max_rejections`, six counts and the setup flags).
+/// Setup block length (53 `f64`, then `max_rejections`, six counts and the setup flags).
 pub const SETUP_LEN: usize = SETUP_F64 * 8 + 8;
 /// `f64` fields of the setup block.
-const SETUP_F64: usize = 52;
+const SETUP_F64: usize = 53;
 /// One component.
 pub const COMPONENT_LEN: usize = 25;
 /// IMU record payload (after the tag).
@@ -330,7 +331,7 @@ pub fn encode(
     let zupt = s.zupt.map_or([f64::NAN; 4], |z| {
         [z.sd, z.gyro_max, z.accel_max, z.speed_max]
     });
-    let online = s.online.map_or([f64::NAN; 8], |o| {
+    let online = s.online.map_or([f64::NAN; 9], |o| {
         [
             o.first,
             o.every,
@@ -340,6 +341,7 @@ pub fn encode(
             o.min_gain,
             f64::from(o.min_fixes),
             o.memory,
+            o.exit_z,
         ]
     });
     let parts: [&[f64]; 16] = [

@@ -241,7 +241,7 @@ impl Decoder {
             accel_max: z[2],
             speed_max: z[3],
         });
-        let o = [(); 8].map(|()| r.f64());
+        let o = [(); 9].map(|()| r.f64());
         s.max_rejections = r.u8();
         let counts: [u8; 6] = r.take();
         let flags = r.u8();
@@ -267,6 +267,7 @@ impl Decoder {
             hold_flat_taus: flags & setup_flags::ONLINE_HOLD_FLAT_TAUS != 0,
             gnss_sd: flags & setup_flags::ONLINE_GNSS_SD != 0,
             flat_waits: flags & setup_flags::ONLINE_FLAT_WAITS != 0,
+            exit_z: o[8],
         });
         s.imu = ImuErrorModel::default();
         let too_many = counts.iter().any(|&c| usize::from(c) > MAX_AXIS_COMPONENTS);

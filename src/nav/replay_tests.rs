@@ -69,6 +69,7 @@ fn setup() -> NavSetup {
             hold_flat_taus: true,
             gnss_sd: true,
             flat_waits: false,
+            exit_z: 1.5,
         }),
         heading_known: true,
     }
@@ -210,21 +211,22 @@ fn header_errors_are_specific() {
     assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
 }
 
-/// Version-1 to version-6 replays (shorter setups: no constraint, zero-velocity update or
+/// Version-1 to version-7 replays (shorter setups: no constraint, zero-velocity update or
 /// online identification; the online identification without its memory or GNSS factors;
-/// version 6 without the flat coordinates' flag)
+/// version 6 without the flat coordinates' flag, version 7 without the test for leaving the
+/// grid)
 /// are refused at their header with the version they have, before their setup could be
 /// misread; the message says which one is read.
 #[test]
 fn older_versions_are_refused_with_their_number() {
-    for v in [1u16, 2, 3, 4, 5, 6] {
+    for v in [1u16, 2, 3, 4, 5, 6, 7] {
         let mut old = encoded(&setup(), &records(2));
         old[4..6].copy_from_slice(&v.to_le_bytes());
         let e = decoded(&old).err();
         assert_eq!(e, Some(NavReplayError::BadVersion(v)));
         let msg = std::format!("{}", NavReplayError::BadVersion(v));
         assert!(
-            msg.contains(&std::format!("version {v}")) && msg.contains("version 7"),
+            msg.contains(&std::format!("version {v}")) && msg.contains("version 8"),
             "{msg}"
         );
         let mut dec = Decoder::new();

@@ -60,6 +60,19 @@ pub struct OnlineConfig {
     /// model, the bank ended 10.6-22.6 m RMS at the outage ends without it and 7.5-8.3 m with
     /// it (BENCHMARKS.md "Flat coordinates wait in the bank").
     pub flat_waits: bool,
+    /// A coordinate the window bounds leaves the shadows' grid (a step over `d`, which
+    /// restarts the window) only when its vertex lies beyond the grid's edge by at least this
+    /// many of its Cramér-Rao sds (a one-sided Wald test that the maximum is outside the
+    /// grid, 2.3 % false alarms at 2); otherwise it stops at the edge, inside the grid, and
+    /// the window keeps growing. And an estimate settled inside the grid more than `d / 2`
+    /// off its centre, with `exit_z` sds under `d / 2`, is measured again about itself with
+    /// half the offset (`newton::settled_off_centre`). 0: every vertex beyond the edge
+    /// leaves, and an estimate inside the grid stays in it. 2 by default: without it the
+    /// vertex's noise on a 10-min window (0.1-0.2 decade) was larger than the settled offset
+    /// (1/16-1/8 decade), so nearly every decision left the grid and no window grew past one
+    /// interval; with it 76 of 96 development runs passed against 66 (BENCHMARKS.md "Leaving
+    /// the grid on evidence").
+    pub exit_z: f64,
 }
 
 impl OnlineConfig {
@@ -79,6 +92,7 @@ impl OnlineConfig {
         hold_flat_taus: false,
         gnss_sd: false,
         flat_waits: true,
+        exit_z: 2.0,
     };
 }
 
@@ -98,6 +112,8 @@ impl OnlineConfig {
             && self.bound > 0.0
             && self.min_gain.is_finite()
             && self.min_gain >= 0.0
+            && self.exit_z.is_finite()
+            && self.exit_z >= 0.0
             && self.memory > 0.0;
         if ok {
             Ok(self)

@@ -22,6 +22,13 @@
 //! coordinate, and a flat one held by those would never move (tried: a MEMS run from 0.1x
 //! kept its white noise 10x too small, 19 % of epochs outside 3 sigma).
 //!
+//! With [`OnlineConfig::exit_z`] (2 by default) a bounded coordinate leaves the grid only when
+//! its vertex is beyond the edge by `exit_z` Cramér-Rao sds; otherwise it stops at the edge.
+//! Without it the vertex's noise on a 10-min window (0.1-0.2 decade) was larger than the
+//! settled offset, so nearly every decision left the grid and restarted the window, which
+//! then never grew to lower that noise ([`settled_off_centre`] is its counterpart inside
+//! the grid).
+//!
 //! With [`OnlineConfig::hold_flat_taus`] a correlation time the data do not bound is held
 //! (issue 13: a flat direction is flagged, not left to wander): in a pair whose tau has a marginal Cramér-Rao sd (from the inverse of
 //! the 2x2 curvature matrix) above [`IDENTIFIABLE_SD`], or whose curvature matrix is not
@@ -227,6 +234,32 @@ pub(super) fn step(
             }
         }
     }
+    // A bounded coordinate leaves the grid only when its vertex is beyond the edge by
+    // `exit_z` Cramér-Rao sds (the pair's marginal sds where its curvature matrix is positive
+    // definite); otherwise it stops at the edge.
+    if cfg.exit_z > 0.0 {
+        let mut sd = *cr_sd;
+        for (k, &(i, j)) in pairs.iter().enumerate() {
+            let (cii, cjj, cij) = (at(&q.c, i), at(&q.c, j), at(&q.cx, k));
+            let det = cii * cjj - cij * cij;
+            if cii > 0.0 && det > 0.0 && det.is_finite() {
+                if let Some(v) = sd.get_mut(i) {
+                    *v = libm::sqrt(cjj / det);
+                }
+                if let Some(v) = sd.get_mut(j) {
+                    *v = libm::sqrt(cii / det);
+                }
+            }
+        }
+        for ((o, b), s) in out.iter_mut().zip(bounded.iter()).zip(sd.iter()) {
+            let a = libm::fabs(*o);
+            // A NaN sd is no evidence: the coordinate stops at the edge.
+            let evident = a - d >= cfg.exit_z * *s;
+            if *b && a > d && !evident {
+                *o = if *o > 0.0 { d } else { -d };
+            }
+        }
+    }
     // A bounded coordinate leaving the grid holds the flat ones (module docs).
     let leaves = |(o, b): (&f64, &bool)| *b && libm::fabs(*o) > d;
     if cfg.flat_waits && out.iter().zip(bounded.iter()).any(leaves) {
@@ -235,6 +268,31 @@ pub(super) fn step(
         }
     }
     out
+}
+
+/// With [`OnlineConfig::exit_z`]: whether the estimate `est`, inside the grid about `x`, has
+/// settled off its centre, more than `d / 2` on a coordinate whose Cramér-Rao sd (`cr_sd`)
+/// times `exit_z` is under `d / 2`, while `d` is above its smallest. The bank then measures
+/// again about the estimate with half the offset ([`super::OnlineIdent::decide`]): a parabola
+/// through shadows `d` away is biased where the likelihood is not quadratic over them (an
+/// intensity's is not over a 10x variance), and with the exit test the estimate would
+/// otherwise stay at that biased vertex, the window growing about it.
+pub(super) fn settled_off_centre(
+    cfg: &OnlineConfig,
+    d: f64,
+    p: usize,
+    est: &[f64; MAX_PARAMS],
+    x: &[f64; MAX_PARAMS],
+    cr_sd: &[f64; MAX_PARAMS],
+) -> bool {
+    cfg.exit_z > 0.0
+        && d > cfg.min_offset
+        && est
+            .iter()
+            .zip(x.iter())
+            .zip(cr_sd.iter())
+            .take(p)
+            .any(|((e, c), sd)| libm::fabs(e - c) > 0.5 * d && cfg.exit_z * sd < 0.5 * d)
 }
 
 /// The move of a factor on the variance of the observations, from its parabola's gradient `g`

@@ -1,7 +1,7 @@
 //! Unit tests of the decision rule ([`super::newton`]) on exact quadratic log-likelihoods.
 
 use super::coords::{coordinates, MAX_PARAMS};
-use super::newton::{pairs, step, Quad};
+use super::newton::{pairs, settled_off_centre, step, Quad};
 use super::OnlineConfig;
 use crate::model::{Component, GaussMarkov, WhiteNoise};
 use crate::nav::ImuErrorModel;
@@ -84,8 +84,11 @@ fn with_the_option_a_tau_the_data_do_not_bound_is_held() {
     let top = [0.3, 0.3];
     let q = Quad::from_sums(0.5, 2, &pr, &sums(h, top, 0.5));
     let mut sd = [0.0; MAX_PARAMS];
+    // Without the exit test (`exit_z`): the sigma's own step, 0.6, is beyond the edge by
+    // less than 2 of its marginal sds (0.5), so with the test it would stop at the edge.
     let hold = OnlineConfig {
         hold_flat_taus: true,
+        exit_z: 0.0,
         ..OnlineConfig::DEFAULT
     };
     let out = step(&hold, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut sd);
@@ -94,7 +97,10 @@ fn with_the_option_a_tau_the_data_do_not_bound_is_held() {
     assert_eq!(out[1], 0.0, "the tau moved: {out:?}");
     assert!(sd[1] > super::IDENTIFIABLE_SD, "{sd:?}");
     // Without the option the pair takes its joint Newton step (to the vertex, within 2d).
-    let cfg = OnlineConfig::DEFAULT;
+    let cfg = OnlineConfig {
+        exit_z: 0.0,
+        ..OnlineConfig::DEFAULT
+    };
     let out = step(&cfg, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut sd);
     assert!((out[0] - top[0]).abs() < 1e-9, "{out:?}");
     assert!((out[1] - top[1]).abs() < 1e-9, "{out:?}");
@@ -168,6 +174,16 @@ fn a_bank_refuses_bad_settings_and_non_finite_times() {
         OnlineIdent::<f64, 24, 8>::new(bad, &nav, 0.0).err(),
         Some(ModelError::BadSigma)
     );
+    for exit_z in [-1.0, f64::NAN, f64::INFINITY] {
+        let bad = OnlineConfig {
+            exit_z,
+            ..OnlineConfig::DEFAULT
+        };
+        assert_eq!(
+            OnlineIdent::<f64, 24, 8>::new(bad, &nav, 0.0).err(),
+            Some(ModelError::BadSigma)
+        );
+    }
 }
 
 /// The grid rule on [`navigator`]'s bank (coordinates density, sigma, tau; shadows `+d, -d`
@@ -180,15 +196,18 @@ fn an_estimate_inside_the_grid_keeps_the_window_and_one_outside_moves_it() {
     let nav = navigator();
     // The estimate itself as the running model: a decision hands over a model only when the
     // estimate moved.
+    // Without the exit test (`exit_z`, at the end).
     let cfg = OnlineConfig {
         conservative: false,
+        exit_z: 0.0,
         ..OnlineConfig::DEFAULT
     };
     let mut id = OnlineIdent::<f64, 24, 8>::new(cfg, &nav, 0.0).unwrap_or_else(|e| panic!("{e:?}"));
     let d = id.d;
     // L(y) = -50 |y - top|^2 at each shadow's offset from the centre.
-    let fill = |id: &mut OnlineIdent<f64, 24, 8>, top: [f64; 3]| {
-        let l = |y: [f64; 3]| -50.0 * (0..3).map(|i| (y[i] - top[i]).powi(2)).sum::<f64>();
+    // L(y) = -w |y - top|^2 (curvature 2 w, Cramér-Rao sd 1 / sqrt(2 w)).
+    let fill_w = |id: &mut OnlineIdent<f64, 24, 8>, top: [f64; 3], w: f64| {
+        let l = |y: [f64; 3]| -w * (0..3).map(|i| (y[i] - top[i]).powi(2)).sum::<f64>();
         let at = [
             [d, 0.0, 0.0],
             [-d, 0.0, 0.0],
@@ -204,6 +223,7 @@ fn an_estimate_inside_the_grid_keeps_the_window_and_one_outside_moves_it() {
         }
         id.fixes = 100;
     };
+    let fill = |id: &mut OnlineIdent<f64, 24, 8>, top: [f64; 3]| fill_w(id, top, 50.0);
     let top = [0.3, -0.2, 0.1];
     fill(&mut id, top);
     let before = id.window_sums().to_vec();
@@ -227,6 +247,33 @@ fn an_estimate_inside_the_grid_keeps_the_window_and_one_outside_moves_it() {
     assert_eq!(id.log10_factors(), id.centre());
     assert!(id.window_sums().iter().all(|s| *s == 0.0));
     assert_eq!((id.window_start(), id.fixes()), (3000.0, 0));
+
+    // With the exit test, sd 0.2 decade (curvature 25): a vertex 0.3 beyond the edge (under
+    // 2 sd) stops at the edge and keeps the window (2 sd = 0.4 is not under d / 2: not
+    // settled). With sd 0.1 (curvature 100) the same vertex leaves the grid; and a vertex
+    // 0.3 inside the edge, settled (2 sd = 0.2 < d / 2), is measured again about itself at
+    // half the offset.
+    let cfg = OnlineConfig { exit_z: 2.0, ..cfg };
+    let mut id = OnlineIdent::<f64, 24, 8>::new(cfg, &nav, 0.0).unwrap_or_else(|e| panic!("{e:?}"));
+    fill_w(&mut id, [d + 0.3, 0.0, 0.0], 12.5);
+    assert!(id.decide(600.0).is_some());
+    assert_eq!(id.log10_factors(), [d, 0.0, 0.0]);
+    assert_eq!(id.centre(), [0.0; 3], "the shadows stay");
+    assert_eq!(id.fixes(), 100, "the sums keep accumulating");
+    let mut out = id.clone();
+    fill(&mut out, [d + 0.3, 0.0, 0.0]);
+    assert!(out.decide(1200.0).is_some());
+    assert!(
+        (out.centre()[0] - (d + 0.3)).abs() < 1e-12,
+        "it leaves: {:?}",
+        out.centre()
+    );
+    fill(&mut id, [0.3, 0.0, 0.0]);
+    assert!(id.decide(1200.0).is_some());
+    assert_eq!(id.centre(), [0.3, 0.0, 0.0]);
+    assert_eq!(id.log10_factors(), id.centre());
+    assert!(id.window_sums().iter().all(|s| *s == 0.0));
+    assert_eq!(id.d, 0.5 * d);
 }
 
 /// The shadows that differ from the centre in an intensity share its discretisation
@@ -400,4 +447,76 @@ fn a_flat_coordinate_waits_while_a_bounded_one_leaves_the_grid() {
             "{s0} {s1}"
         );
     }
+}
+
+/// `OnlineConfig::exit_z`: coordinate 0 has an exact parabola of curvature 100 nats/decade^2
+/// (Cramér-Rao sd 0.1 decade) with its vertex at `top`; the grid's offset is `d = 0.5`. With
+/// `exit_z = 2` it leaves the grid only when `top` is beyond the edge by 2 sd (0.2 decade):
+/// at 0.8 it does, at 0.6 and -0.6 it stops at the edge, which keeps the window. The flat
+/// coordinate 1 then does not wait (nothing leaves the grid). Without the test every vertex
+/// beyond the edge is taken.
+#[test]
+fn a_bounded_coordinate_leaves_the_grid_only_when_its_vertex_is_significantly_beyond() {
+    let c = coordinates(&two_white(), false, true).unwrap_or_else(|e| panic!("{e:?}"));
+    let d = 0.5;
+    let run = |cfg: &OnlineConfig, top: f64| {
+        let bounded = |y: f64| -50.0 * (y - top) * (y - top) + 50.0 * top * top;
+        let flat = |y: f64| 40.0 * y + 2.0 * y * y;
+        let sums = [bounded(d), bounded(-d), flat(d), flat(-d), 0.0];
+        let q = Quad::from_sums(d, 2, &[], &sums);
+        let mut sd = [0.0; MAX_PARAMS];
+        let out = step(cfg, 2, &c, &[], &q, &[0.0; MAX_PARAMS], &mut sd);
+        assert!((sd[0] - 0.1).abs() < 1e-12, "{sd:?}");
+        [out[0], out[1]]
+    };
+    let test = OnlineConfig {
+        exit_z: 2.0,
+        ..OnlineConfig::DEFAULT
+    };
+    let none = OnlineConfig {
+        exit_z: 0.0,
+        ..test
+    };
+    let [s0, s1] = run(&test, 0.8);
+    assert!((s0 - 0.8).abs() < 1e-9 && s1 == 0.0, "{s0} {s1}");
+    for top in [0.6, -0.6] {
+        let [s0, s1] = run(&test, top);
+        assert!(
+            (s0 - d * top.signum()).abs() < 1e-12 && (s1 - 2.0 * d).abs() < 1e-12,
+            "{top}: {s0} {s1}"
+        );
+        let [s0, s1] = run(&none, top);
+        assert!((s0 - top).abs() < 1e-9 && s1 == 0.0, "{top}: {s0} {s1}");
+    }
+}
+
+/// `OnlineConfig::exit_z`: an estimate inside the grid is measured again about itself (half
+/// the offset) when it has settled more than `d / 2` off the centre on a coordinate whose sd,
+/// times `exit_z`, is under `d / 2`; not when it is near the centre, not when that sd is
+/// large, not at the smallest offset and not without the test.
+#[test]
+fn an_estimate_settled_off_the_centre_is_measured_again_about_itself() {
+    let cfg = OnlineConfig {
+        exit_z: 2.0,
+        ..OnlineConfig::DEFAULT
+    };
+    let (d, x) = (0.5, [0.0; MAX_PARAMS]);
+    let mut est = [0.0; MAX_PARAMS];
+    let mut sd = [f64::INFINITY; MAX_PARAMS];
+    est[1] = 0.3;
+    sd[1] = 0.1;
+    assert!(settled_off_centre(&cfg, d, 2, &est, &x, &sd));
+    // Only the leading p coordinates count.
+    assert!(!settled_off_centre(&cfg, d, 1, &est, &x, &sd));
+    // Near the centre (0.2 <= d / 2), or an sd too large (2 x 0.13 > d / 2): it stays.
+    est[1] = 0.2;
+    assert!(!settled_off_centre(&cfg, d, 2, &est, &x, &sd));
+    est[1] = -0.3;
+    sd[1] = 0.13;
+    assert!(!settled_off_centre(&cfg, d, 2, &est, &x, &sd));
+    sd[1] = 0.1;
+    assert!(settled_off_centre(&cfg, d, 2, &est, &x, &sd));
+    assert!(!settled_off_centre(&cfg, cfg.min_offset, 2, &est, &x, &sd));
+    let none = OnlineConfig { exit_z: 0.0, ..cfg };
+    assert!(!settled_off_centre(&none, d, 2, &est, &x, &sd));
 }
