@@ -177,6 +177,9 @@ pub(super) fn step(
             }
         }
     }
+    // The sds of the exit test (`exit_z`): each coordinate's own, and a pair's marginal ones
+    // where its curvature matrix is positive definite.
+    let mut exit_sd = *cr_sd;
     // The pairs: the 2x2 Newton step when the curvature matrix is positive definite, else
     // the one move that promises most; with `hold_flat_taus`, a tau the data do not bound
     // held and its partner by its own step.
@@ -190,6 +193,13 @@ pub(super) fn step(
         } else {
             (f64::INFINITY, f64::INFINITY)
         };
+        if pd {
+            for (m, sd) in [(i, sd_i), (j, sd_j)] {
+                if let Some(v) = exit_sd.get_mut(m) {
+                    *v = sd;
+                }
+            }
+        }
         // The marginal sds are reported with the option; without it each coordinate keeps its
         // own parabola's (the conservative running model's raise was measured with those).
         if pd && cfg.hold_flat_taus {
@@ -238,20 +248,7 @@ pub(super) fn step(
     // `exit_z` Cramér-Rao sds (the pair's marginal sds where its curvature matrix is positive
     // definite); otherwise it stops at the edge.
     if cfg.exit_z > 0.0 {
-        let mut sd = *cr_sd;
-        for (k, &(i, j)) in pairs.iter().enumerate() {
-            let (cii, cjj, cij) = (at(&q.c, i), at(&q.c, j), at(&q.cx, k));
-            let det = cii * cjj - cij * cij;
-            if cii > 0.0 && det > 0.0 && det.is_finite() {
-                if let Some(v) = sd.get_mut(i) {
-                    *v = libm::sqrt(cjj / det);
-                }
-                if let Some(v) = sd.get_mut(j) {
-                    *v = libm::sqrt(cii / det);
-                }
-            }
-        }
-        for ((o, b), s) in out.iter_mut().zip(bounded.iter()).zip(sd.iter()) {
+        for ((o, b), s) in out.iter_mut().zip(bounded.iter()).zip(exit_sd.iter()) {
             let a = libm::fabs(*o);
             // A NaN sd is no evidence: the coordinate stops at the edge.
             let evident = a - d >= cfg.exit_z * *s;
