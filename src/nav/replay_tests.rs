@@ -236,17 +236,17 @@ fn older_versions_are_refused_with_their_number() {
 }
 
 /// Every setup field lands at its documented offset: the constraint's sd and lever arm, the
-/// zero-velocity update's sd and bounds, then the online identification's eight values are
-/// the last sixteen `f64` of the block, the setup flags its last byte.
+/// zero-velocity update's sd and bounds, then the online identification's nine values are
+/// the last seventeen `f64` of the block, the setup flags its last byte.
 #[test]
-fn version_6_fields_are_at_their_documented_offsets() {
+fn version_8_fields_are_at_their_documented_offsets() {
     let s = setup();
     let bytes = encoded(&s, &[]);
     let f64_at = |k: usize| {
         let o = HEADER_LEN + 8 * k;
         f64::from_le_bytes(bytes[o..o + 8].try_into().unwrap_or([0; 8]))
     };
-    assert_eq!(SETUP_LEN, 52 * 8 + 8);
+    assert_eq!(SETUP_LEN, 53 * 8 + 8);
     assert_eq!(f64_at(36), 0.05);
     assert_eq!([f64_at(37), f64_at(38), f64_at(39)], s.nhc_lever);
     assert_eq!(
@@ -254,8 +254,8 @@ fn version_6_fields_are_at_their_documented_offsets() {
         [0.02, 0.15, 0.6, 0.5]
     );
     assert_eq!(
-        (44..52).map(f64_at).collect::<Vec<_>>(),
-        [300.0, 900.0, 0.25, 0.03125, 1.5, 2.0, 30.0, 1800.0]
+        (44..53).map(f64_at).collect::<Vec<_>>(),
+        [300.0, 900.0, 0.25, 0.03125, 1.5, 2.0, 30.0, 1800.0, 1.5]
     );
     assert_eq!(
         bytes[HEADER_LEN + SETUP_LEN - 1],
