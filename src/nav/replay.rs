@@ -6,7 +6,7 @@
 //! # Format (version 8, all integers and floats little-endian)
 //!
 //! ```text
-//! header     magic "IMUN" | version u16 = 7 | reserved u16 = 0 | record count u32      12 bytes
+//! header     magic "IMUN" | version u16 = 8 | reserved u16 = 0 | record count u32      12 bytes
 //! setup      53 f64, in this order:                                                   432 bytes
 //!              t0 [s] | lat, lon [rad], h [m] | q_b^n w, x, y, z | v N, E, D [m/s]
 //!              | gyro bias x, y, z [rad/s] (NaN: none) | lever arm x, y, z [m, body FRD]

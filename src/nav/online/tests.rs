@@ -195,8 +195,7 @@ fn an_estimate_inside_the_grid_keeps_the_window_and_one_outside_moves_it() {
     use super::OnlineIdent;
     let nav = navigator();
     // The estimate itself as the running model: a decision hands over a model only when the
-    // estimate moved.
-    // Without the exit test (`exit_z`, at the end).
+    // estimate moved. Without the exit test (`exit_z`) until the end.
     let cfg = OnlineConfig {
         conservative: false,
         exit_z: 0.0,
@@ -204,8 +203,8 @@ fn an_estimate_inside_the_grid_keeps_the_window_and_one_outside_moves_it() {
     };
     let mut id = OnlineIdent::<f64, 24, 8>::new(cfg, &nav, 0.0).unwrap_or_else(|e| panic!("{e:?}"));
     let d = id.d;
-    // L(y) = -50 |y - top|^2 at each shadow's offset from the centre.
-    // L(y) = -w |y - top|^2 (curvature 2 w, Cramér-Rao sd 1 / sqrt(2 w)).
+    // L(y) = -w |y - top|^2 at each shadow's offset from the centre (curvature 2 w,
+    // Cramér-Rao sd 1 / sqrt(2 w)); `fill` takes w = 50.
     let fill_w = |id: &mut OnlineIdent<f64, 24, 8>, top: [f64; 3], w: f64| {
         let l = |y: [f64; 3]| -w * (0..3).map(|i| (y[i] - top[i]).powi(2)).sum::<f64>();
         let at = [
