@@ -30,7 +30,7 @@
 //!   bound waits while a bounded one leaves the grid (`OnlineConfig::flat_waits`) is what
 //!   brings it there: without it the flat coordinates climbed to their bound together with
 //!   the bounded ones and the bank ended worse. Measured 7.66 m with the rule, 10.33 m
-//!   without, 8.00 m hand-inflated, with the default exit test (`OnlineConfig::exit_z`;
+//!   without, 7.99 m hand-inflated, with the default exit test (`OnlineConfig::exit_z`;
 //!   7.81 m and 10.64 m before it; BENCHMARKS.md "Flat coordinates wait in the bank" and
 //!   "Leaving the grid on evidence").
 //!   With the non-holonomic constraint on both it is within the drive's bar, 7.15 m: 2.73 m
