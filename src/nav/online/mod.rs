@@ -33,7 +33,9 @@
 //! `-d, 0, +d` gives its gradient and curvature; a pair's `(+d, +d)` shadow gives the cross
 //! curvature, and a pair moves by the 2x2 Newton step. A coordinate's step goes to the vertex,
 //! at most `2 d` (a pattern search's extension), or `2 d` up the slope where the parabola is
-//! not concave, and only when it promises [`OnlineConfig::min_gain`] nats. The estimate, the
+//! not concave and the shadow on that side measured 1.92 nats over the centre (a
+//! likelihood-ratio test at 5 %, `newton.rs`), and only when it promises
+//! [`OnlineConfig::min_gain`] nats. The estimate, the
 //! centre plus the step, is the running filter's new point ([`OnlineIdent::decide`] hands
 //! its model to the caller, [`Navigator::retune_imu_model`]).
 //! - **The estimate inside the grid** (every step at most `d`): the shadows stay, and their

@@ -22,6 +22,14 @@
 //! coordinate, and a flat one held by those would never move (tried: a MEMS run from 0.1x
 //! kept its white noise 10x too small, 19 % of epochs outside 3 sigma).
 //!
+//! A flat coordinate steps `2 d` up its slope only on evidence: its shadow on that side must
+//! have measured [`FLAT_EVIDENCE`] nats over the centre, `|g| d - c d^2 / 2` (a
+//! likelihood-ratio test at 5 %). The parabola's promise at `2 d`, `2 |g| d - 2 c d^2`, grows
+//! with the parabola's convexity, which is the window's noise and not a maximum: on a tactical
+//! run from 0.1x a flat gyro Gauss-Markov tau stepped 1 decade down on that promise and ended
+//! 0.75 decade low, with the attitude at 1.45x the true-model filter where the data's ML
+//! reference is at 1.05x (BENCHMARKS.md "A flat coordinate moves on evidence").
+//!
 //! With [`OnlineConfig::exit_z`] (2 by default) a bounded coordinate leaves the grid only when
 //! its vertex is beyond the edge by `exit_z` Cramér-Rao sds; otherwise it stops at the edge.
 //! Without it the vertex's noise on a 10-min window (0.1-0.2 decade) was larger than the
@@ -40,6 +48,13 @@ use super::coords::{Coordinate, MAX_COORDS, MAX_PARAMS};
 use super::{OnlineConfig, IDENTIFIABLE_SD};
 use crate::model::Quantity;
 use heapless::Vec;
+
+/// The likelihood gain [nats] that the shadow up a flat coordinate's slope must have measured
+/// over the centre before the coordinate steps `2 d` that way (module docs): half the 95 %
+/// point of the chi-square distribution with one degree of freedom (3.84), a likelihood-ratio
+/// test at 5 % that the shadow's model beats the centre's. The parabola's extrapolation to
+/// `2 d`, which a convex parabola inflates, is not evidence.
+pub(super) const FLAT_EVIDENCE: f64 = 1.92;
 
 /// The pairs of coordinates that are quantities of one component (on the same axes).
 pub(super) fn pairs(coords: &[Coordinate]) -> Vec<(usize, usize), MAX_COORDS> {
@@ -105,7 +120,8 @@ impl Quad {
 /// `d = q.d` (`coords` the IMU's,
 /// the first ones; the rest, the GNSS factors, are intensities of no pair): each to its
 /// parabola's vertex when it is concave, at most `2 d` away (a pattern search's extension), or
-/// `2 d` up the slope when it is not; only when that promises [`OnlineConfig::min_gain`] nats;
+/// `2 d` up the slope when it is not and its shadow on that side measured [`FLAT_EVIDENCE`]
+/// nats over the centre; only when that promises [`OnlineConfig::min_gain`] nats;
 /// within [`OnlineConfig::bound`] of the start; the pairs by their 2x2 Newton step (module
 /// docs), with [`OnlineConfig::hold_flat_taus`] a flat pair's tau held. Writes each
 /// coordinate's Cramér-Rao sd into `cr_sd`: `1 / sqrt(c)` (with the option, the marginal sd
@@ -162,7 +178,19 @@ pub(super) fn step(
             -2.0 * d
         };
         let s = within(s, -2.0 * d, 2.0 * d);
-        let gain = g * s - 0.5 * c * s * s;
+        // A concave coordinate: the parabola's promise at its step. A flat one: what its
+        // shadow up the slope measured over the centre, `|g| d - c d^2 / 2` (module docs),
+        // which must pass the likelihood-ratio test [`FLAT_EVIDENCE`] as well.
+        let gain = if c > 0.0 {
+            g * s - 0.5 * c * s * s
+        } else {
+            let measured = libm::fabs(g) * d - 0.5 * c * d * d;
+            if measured >= FLAT_EVIDENCE {
+                measured
+            } else {
+                f64::NEG_INFINITY
+            }
+        };
         if let Some(sd) = cr_sd.get_mut(i) {
             *sd = if c > 0.0 {
                 1.0 / libm::sqrt(c)

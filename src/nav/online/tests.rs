@@ -448,6 +448,39 @@ fn a_flat_coordinate_waits_while_a_bounded_one_leaves_the_grid() {
     }
 }
 
+/// A flat coordinate (coordinate 1: `a y + y^2`, convex) steps `2 d` up its slope only when
+/// its shadow on that side measured `FLAT_EVIDENCE` (1.92 nats) over the centre. At `a = 2` the
+/// shadow at `+d` measured 1.25 nats: held, although the parabola's promise at `2 d`
+/// (`2 g d - 2 c d^2` = 3 nats) passes `min_gain`. At `a = 4` it measured 2.25: it steps.
+#[test]
+fn a_flat_coordinate_moves_only_on_what_its_shadow_measured() {
+    let c = coordinates(&two_white(), false, true).unwrap_or_else(|e| panic!("{e:?}"));
+    let d = 0.5;
+    let run = |a: f64| {
+        let flat = |y: f64| a * y + y * y;
+        let q = Quad::from_sums(d, 2, &[], &[0.0, 0.0, flat(d), flat(-d), 0.0]);
+        let mut sd = [0.0; MAX_PARAMS];
+        let out = step(
+            &OnlineConfig::DEFAULT,
+            2,
+            &c,
+            &[],
+            &q,
+            &[0.0; MAX_PARAMS],
+            &mut sd,
+        );
+        assert!(sd[1].is_infinite(), "{sd:?}");
+        [out[0], out[1]]
+    };
+    assert_eq!(run(2.0), [0.0, 0.0]);
+    assert_eq!(run(-2.0), [0.0, 0.0]);
+    let [s0, s1] = run(4.0);
+    assert!(s0 == 0.0 && (s1 - 2.0 * d).abs() < 1e-12, "{s0} {s1}");
+    // Down the slope alike: the shadow at `-d` measured `-a d + d^2` = 2.25 nats.
+    let [s0, s1] = run(-4.0);
+    assert!(s0 == 0.0 && (s1 + 2.0 * d).abs() < 1e-12, "{s0} {s1}");
+}
+
 /// `OnlineConfig::exit_z`: coordinate 0 has an exact parabola of curvature 100 nats/decade^2
 /// (Cramér-Rao sd 0.1 decade) with its vertex at `top`; the grid's offset is `d = 0.5`. With
 /// `exit_z = 2` it leaves the grid only when `top` is beyond the edge by 2 sd (0.2 decade):
