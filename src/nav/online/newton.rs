@@ -179,12 +179,13 @@ pub(super) fn step(
         };
         let s = within(s, -2.0 * d, 2.0 * d);
         // A concave coordinate: the parabola's promise at its step. A flat one: what its
-        // shadow up the slope measured over the centre, `|g| d - c d^2 / 2` (module docs),
+        // shadow up the slope measured over the centre (`shadow_gains`, module docs),
         // which must pass the likelihood-ratio test [`FLAT_EVIDENCE`] as well.
         let gain = if c > 0.0 {
             g * s - 0.5 * c * s * s
         } else {
-            let measured = libm::fabs(g) * d - 0.5 * c * d * d;
+            let (up, down) = shadow_gains(g, c, d);
+            let measured = if g >= 0.0 { up } else { down };
             if measured >= FLAT_EVIDENCE {
                 measured
             } else {
@@ -335,7 +336,7 @@ pub(super) fn settled_off_centre(
 /// is at most `2 d`, as any coordinate's.
 pub(super) fn variance_scale(g: f64, c: f64, d: f64) -> Option<(f64, f64, f64)> {
     let a = core::f64::consts::LN_10;
-    let (dp, dm) = (g * d - 0.5 * c * d * d, -g * d - 0.5 * c * d * d);
+    let (dp, dm) = shadow_gains(g, c, d);
     let e = libm::exp(-2.0 * a * d);
     // D+ = -n/2 (2 a d + K (E - 1)),  D- = -n/2 (-2 a d + K (1/E - 1)).
     let den = dp * (1.0 / e - 1.0) - dm * (e - 1.0);
@@ -348,6 +349,12 @@ pub(super) fn variance_scale(g: f64, c: f64, d: f64) -> Option<(f64, f64, f64)> 
     let gain = -0.5 * n * (2.0 * a * s + k * (libm::exp(-2.0 * a * s) - 1.0));
     let sd = 1.0 / (a * libm::sqrt(2.0 * n));
     (s.is_finite() && gain.is_finite()).then_some((s, gain, sd))
+}
+
+/// The window sums of a coordinate's shadows at `+d` and `-d` less the centre's, given back by
+/// its parabola's gradient `g` and curvature `c`: `D+- = +-g d - c d^2 / 2`.
+fn shadow_gains(g: f64, c: f64, d: f64) -> (f64, f64) {
+    (g * d - 0.5 * c * d * d, -g * d - 0.5 * c * d * d)
 }
 
 /// `v` limited to `[lo, hi]` (`max` then `min`: unlike `f64::clamp`, no panic path when the
