@@ -552,3 +552,55 @@ fn an_estimate_settled_off_the_centre_is_measured_again_about_itself() {
     let none = OnlineConfig { exit_z: 0.0, ..cfg };
     assert!(!settled_off_centre(&none, d, 2, &est, &x, &sd));
 }
+
+/// A pair's Newton step with one quantity stopped at the edge (`exit_z`): the other takes the
+/// quadratic's maximum given it, not its share of the joint step. Exact quadratic with
+/// `H = [[400, 360], [360, 400]]` and vertex `(0.2, 0.6)`, offset `d = 0.5`: the tau's step
+/// 0.6 is beyond the edge by 0.1, under 2 marginal sds (`2 sqrt(400 / 30 400)` = 0.23), so
+/// it stops at 0.5; the sigma's maximum given tau = 0.5 is
+/// `0.2 + 360 (0.6 - 0.5) / 400` = 0.29 (its share of the joint step was 0.2).
+#[test]
+fn a_pair_with_one_quantity_at_the_edge_moves_the_other_to_its_maximum_given_that_one() {
+    let c = coordinates(&gm_model(), false, true).unwrap_or_else(|e| panic!("{e:?}"));
+    let pr = pairs(&c);
+    let (h, top, d) = ([[400.0, 360.0], [360.0, 400.0]], [0.2, 0.6], 0.5);
+    let q = Quad::from_sums(d, 2, &pr, &sums(h, top, d));
+    let mut sd = [0.0; MAX_PARAMS];
+    let out = step(
+        &OnlineConfig::DEFAULT,
+        2,
+        &c,
+        &pr,
+        &q,
+        &[0.0; MAX_PARAMS],
+        &mut sd,
+    );
+    assert!((out[1] - d).abs() < 1e-12, "{out:?}");
+    assert!((out[0] - 0.29).abs() < 1e-9, "{out:?}");
+    // Without the exit test both reach the vertex.
+    let none = OnlineConfig {
+        exit_z: 0.0,
+        ..OnlineConfig::DEFAULT
+    };
+    let out = step(&none, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut sd);
+    assert!(
+        (out[0] - top[0]).abs() < 1e-9 && (out[1] - top[1]).abs() < 1e-9,
+        "{out:?}"
+    );
+    // A vertex beyond the edge by more than 2 sds leaves: the joint step stands.
+    let far = [0.2, 0.9];
+    let q = Quad::from_sums(d, 2, &pr, &sums(h, far, d));
+    let out = step(
+        &OnlineConfig::DEFAULT,
+        2,
+        &c,
+        &pr,
+        &q,
+        &[0.0; MAX_PARAMS],
+        &mut sd,
+    );
+    assert!(
+        (out[0] - far[0]).abs() < 1e-9 && (out[1] - far[1]).abs() < 1e-9,
+        "{out:?}"
+    );
+}
