@@ -37,11 +37,12 @@
 //! then never grew to lower that noise ([`settled_off_centre`] is its counterpart inside
 //! the grid). A pair's Newton step is optimal only jointly, so when the exit test stops one
 //! of its quantities at the edge, the other moves to the quadratic model's maximum given that
-//! one, `s_n = (g_n - c_nm s_m) / c_nn`, and takes the exit test in turn. Its share of the
+//! one, `s_n = (g_n - c_nm s_m) / c_nn`, and takes the exit test in turn, on the sd of that
+//! move, `1 / sqrt(c_nn)` (the marginal sd is that of a move along the ridge). Its share of the
 //! joint step overshot along the ridge `sigma^2 / tau` = const: on a tactical run from 0.1x
 //! the gyro's Gauss-Markov tau stayed at the edge for an hour while its sigma, moving by its
 //! share, reached 0.95 decade over the truth with a Cramér-Rao sd of 0.07 (attitude 1.51x the
-//! true-model filter; 1.01x with the conditional step).
+//! true-model filter; 1.04x with the conditional step).
 //!
 //! With [`OnlineConfig::hold_flat_taus`] a correlation time the data do not bound is held
 //! (issue 13: a flat direction is flagged, not left to wander): in a pair whose tau has a marginal Cramér-Rao sd (from the inverse of
@@ -298,7 +299,9 @@ pub(super) fn step(
         // A pair's Newton step is optimal only jointly: with one of its quantities stopped
         // at the edge, the other takes the quadratic model's maximum given that one, not its
         // share of the joint step (module docs; BENCHMARKS.md "A pair's step with one
-        // quantity at the edge"). A partner that did not move (no gain) stays.
+        // quantity at the edge"). That move is along its own coordinate, so its exit test
+        // takes its own curvature's sd, `1 / sqrt(c_nn)`, not the marginal one. A partner
+        // that did not move (no gain) stays.
         for (k, &(i, j)) in pairs.iter().enumerate() {
             let is_stopped = |m: usize| stopped.get(m).copied().unwrap_or(false);
             let (m, n) = match (is_stopped(i), is_stopped(j)) {
@@ -317,7 +320,7 @@ pub(super) fn step(
                 d,
                 s,
                 bounded.get(n).copied().unwrap_or(false),
-                at(&exit_sd, n),
+                1.0 / libm::sqrt(cnn),
             );
             if let Some(o) = out.get_mut(n) {
                 *o = if !s.is_finite() {

@@ -558,7 +558,8 @@ fn an_estimate_settled_off_the_centre_is_measured_again_about_itself() {
 /// `H = [[400, 360], [360, 400]]` and vertex `(0.2, 0.6)`, offset `d = 0.5`: the tau's step
 /// 0.6 is beyond the edge by 0.1, under 2 marginal sds (`2 sqrt(400 / 30 400)` = 0.23), so
 /// it stops at 0.5; the sigma's maximum given tau = 0.5 is
-/// `0.2 + 360 (0.6 - 0.5) / 400` = 0.29 (its share of the joint step was 0.2).
+/// `0.2 + 360 (0.6 - 0.5) / 400` = 0.29 (its share of the joint step was 0.2). That move is
+/// the sigma's own, so its exit test takes its conditional sd, `1 / sqrt(H_00)`.
 #[test]
 fn a_pair_with_one_quantity_at_the_edge_moves_the_other_to_its_maximum_given_that_one() {
     let c = coordinates(&gm_model(), false, true).unwrap_or_else(|e| panic!("{e:?}"));
@@ -577,6 +578,23 @@ fn a_pair_with_one_quantity_at_the_edge_moves_the_other_to_its_maximum_given_tha
     );
     assert!((out[1] - d).abs() < 1e-12, "{out:?}");
     assert!((out[0] - 0.29).abs() < 1e-9, "{out:?}");
+    // Given the tau at the edge, the sigma's move is along its own coordinate, whose
+    // Cramér-Rao sd is its conditional one, `1 / sqrt(400)` = 0.05 (its marginal one is
+    // 0.115). Vertex `(0.45, 0.7)`: the tau stops at 0.5 (beyond by 0.2, under 0.23); the
+    // sigma's maximum given it, `0.45 + 0.9 (0.7 - 0.5)` = 0.63, is beyond the edge by 0.13,
+    // over 2 conditional sds: it leaves the grid.
+    let q2 = Quad::from_sums(d, 2, &pr, &sums(h, [0.45, 0.7], d));
+    let out = step(
+        &OnlineConfig::DEFAULT,
+        2,
+        &c,
+        &pr,
+        &q2,
+        &[0.0; MAX_PARAMS],
+        &mut sd,
+    );
+    assert!((out[1] - d).abs() < 1e-12, "{out:?}");
+    assert!((out[0] - 0.63).abs() < 1e-9, "{out:?}");
     // Without the exit test both reach the vertex.
     let none = OnlineConfig {
         exit_z: 0.0,
