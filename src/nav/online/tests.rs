@@ -564,61 +564,30 @@ fn an_estimate_settled_off_the_centre_is_measured_again_about_itself() {
 fn a_pair_with_one_quantity_at_the_edge_moves_the_other_to_its_maximum_given_that_one() {
     let c = coordinates(&gm_model(), false, true).unwrap_or_else(|e| panic!("{e:?}"));
     let pr = pairs(&c);
-    let (h, top, d) = ([[400.0, 360.0], [360.0, 400.0]], [0.2, 0.6], 0.5);
-    let q = Quad::from_sums(d, 2, &pr, &sums(h, top, d));
-    let mut sd = [0.0; MAX_PARAMS];
-    let out = step(
-        &OnlineConfig::DEFAULT,
-        2,
-        &c,
-        &pr,
-        &q,
-        &[0.0; MAX_PARAMS],
-        &mut sd,
-    );
-    assert!((out[1] - d).abs() < 1e-12, "{out:?}");
-    assert!((out[0] - 0.29).abs() < 1e-9, "{out:?}");
+    let (h, d) = ([[400.0, 360.0], [360.0, 400.0]], 0.5);
+    // The step from the exact quadratic with its vertex at `top`.
+    let decide = |cfg: &OnlineConfig, top: [f64; 2]| {
+        let q = Quad::from_sums(d, 2, &pr, &sums(h, top, d));
+        let mut sd = [0.0; MAX_PARAMS];
+        let out = step(cfg, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut sd);
+        [out[0], out[1]]
+    };
+    let near = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9;
+    let cfg = OnlineConfig::DEFAULT;
+    let out = decide(&cfg, [0.2, 0.6]);
+    assert!(near(out, [0.29, d]), "{out:?}");
     // Given the tau at the edge, the sigma's move is along its own coordinate, whose
     // Cramér-Rao sd is its conditional one, `1 / sqrt(400)` = 0.05 (its marginal one is
     // 0.115). Vertex `(0.45, 0.7)`: the tau stops at 0.5 (beyond by 0.2, under 0.23); the
     // sigma's maximum given it, `0.45 + 0.9 (0.7 - 0.5)` = 0.63, is beyond the edge by 0.13,
     // over 2 conditional sds: it leaves the grid.
-    let q2 = Quad::from_sums(d, 2, &pr, &sums(h, [0.45, 0.7], d));
-    let out = step(
-        &OnlineConfig::DEFAULT,
-        2,
-        &c,
-        &pr,
-        &q2,
-        &[0.0; MAX_PARAMS],
-        &mut sd,
-    );
-    assert!((out[1] - d).abs() < 1e-12, "{out:?}");
-    assert!((out[0] - 0.63).abs() < 1e-9, "{out:?}");
+    let out = decide(&cfg, [0.45, 0.7]);
+    assert!(near(out, [0.63, d]), "{out:?}");
     // Without the exit test both reach the vertex.
-    let none = OnlineConfig {
-        exit_z: 0.0,
-        ..OnlineConfig::DEFAULT
-    };
-    let out = step(&none, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut sd);
-    assert!(
-        (out[0] - top[0]).abs() < 1e-9 && (out[1] - top[1]).abs() < 1e-9,
-        "{out:?}"
-    );
+    let none = OnlineConfig { exit_z: 0.0, ..cfg };
+    let out = decide(&none, [0.2, 0.6]);
+    assert!(near(out, [0.2, 0.6]), "{out:?}");
     // A vertex beyond the edge by more than 2 sds leaves: the joint step stands.
-    let far = [0.2, 0.9];
-    let q = Quad::from_sums(d, 2, &pr, &sums(h, far, d));
-    let out = step(
-        &OnlineConfig::DEFAULT,
-        2,
-        &c,
-        &pr,
-        &q,
-        &[0.0; MAX_PARAMS],
-        &mut sd,
-    );
-    assert!(
-        (out[0] - far[0]).abs() < 1e-9 && (out[1] - far[1]).abs() < 1e-9,
-        "{out:?}"
-    );
+    let out = decide(&cfg, [0.2, 0.9]);
+    assert!(near(out, [0.2, 0.9]), "{out:?}");
 }
