@@ -583,6 +583,16 @@ fn a_pair_with_one_quantity_at_the_edge_moves_the_other_to_its_maximum_given_tha
     // over 2 conditional sds: it leaves the grid.
     let out = decide(&cfg, [0.45, 0.7]);
     assert!(near(out, [0.63, d]), "{out:?}");
+    // A partner whose share the bound cut to nothing moves too. Sigma at the bound
+    // (`x_0` = 2) with `H_01` = -360 and vertex `(0.05, 0.7)`: its share, 0.05, is cut to 0;
+    // the tau stops at 0.5; the sigma's maximum given it is `0.05 - 0.9 (0.7 - 0.5)` = -0.13.
+    let hn = [[400.0, -360.0], [-360.0, 400.0]];
+    let q = Quad::from_sums(d, 2, &pr, &sums(hn, [0.05, 0.7], d));
+    let mut x = [0.0; MAX_PARAMS];
+    x[0] = cfg.bound;
+    let mut sd = [0.0; MAX_PARAMS];
+    let out = step(&cfg, 2, &c, &pr, &q, &x, &mut sd);
+    assert!(near([out[0], out[1]], [-0.13, d]), "{out:?}");
     // Without the exit test both reach the vertex.
     let none = OnlineConfig { exit_z: 0.0, ..cfg };
     let out = decide(&none, [0.2, 0.6]);
