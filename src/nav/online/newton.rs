@@ -216,6 +216,8 @@ pub(super) fn step(
     // The sds of the exit test (`exit_z`): each coordinate's own, and a pair's marginal ones
     // where its curvature matrix is positive definite.
     let mut exit_sd = *cr_sd;
+    // Whether each pair's curvature matrix is positive definite (its quadratic has a maximum).
+    let mut pair_pd = [false; MAX_COORDS];
     // The pairs: the 2x2 Newton step when the curvature matrix is positive definite, else
     // the one move that promises most; with `hold_flat_taus`, a tau the data do not bound
     // held and its partner by its own step.
@@ -224,6 +226,9 @@ pub(super) fn step(
         let (cii, cjj, cij) = (at(&q.c, i), at(&q.c, j), at(&q.cx, k));
         let det = cii * cjj - cij * cij;
         let pd = cii > 0.0 && det > 0.0 && det.is_finite();
+        if let Some(v) = pair_pd.get_mut(k) {
+            *v = pd;
+        }
         let (sd_i, sd_j) = if pd {
             (libm::sqrt(cjj / det), libm::sqrt(cii / det))
         } else {
@@ -291,10 +296,7 @@ pub(super) fn step(
             .zip(exit_sd.iter())
             .zip(stopped.iter_mut())
         {
-            *st = stops_at_edge(cfg, d, *o, *b, *s);
-            if *st {
-                *o = if *o > 0.0 { d } else { -d };
-            }
+            (*o, *st) = exit_test(cfg, d, *o, *b, *s);
         }
         // A pair's Newton step is optimal only jointly: with one of its quantities stopped
         // at the edge, the other takes the quadratic model's maximum given that one, not its
@@ -312,35 +314,17 @@ pub(super) fn step(
                 (false, true) => (j, i),
                 _ => continue,
             };
+            // Positive definite: `c_nn > 0` as well.
+            let pd = pair_pd.get(k).copied().unwrap_or(false);
+            if !pd || (cfg.hold_flat_taus && is_tau(n)) {
+                continue;
+            }
             let (cnn, cnm) = (at(&q.c, n), at(&q.cx, k));
-            let det = at(&q.c, m) * cnn - cnm * cnm;
-            if cnn.is_nan() || cnn <= 0.0 || det.is_nan() || det <= 0.0 {
-                continue;
-            }
-            if cfg.hold_flat_taus && is_tau(n) {
-                continue;
-            }
             let s = within((at(&q.g, n) - cnm * at(&out, m)) / cnn, -2.0 * d, 2.0 * d);
-            let s = clamp(s, n);
-            let stop = stops_at_edge(
-                cfg,
-                d,
-                s,
-                bounded.get(n).copied().unwrap_or(false),
-                1.0 / libm::sqrt(cnn),
-            );
+            let bn = bounded.get(n).copied().unwrap_or(false);
+            let (s, _) = exit_test(cfg, d, clamp(s, n), bn, 1.0 / libm::sqrt(cnn));
             if let Some(o) = out.get_mut(n) {
-                *o = if !s.is_finite() {
-                    0.0
-                } else if stop {
-                    if s > 0.0 {
-                        d
-                    } else {
-                        -d
-                    }
-                } else {
-                    s
-                };
+                *o = if s.is_finite() { s } else { 0.0 };
             }
         }
     }
@@ -415,17 +399,21 @@ fn shadow_gains(g: f64, c: f64, d: f64) -> (f64, f64) {
     (g * d - 0.5 * c * d * d, -g * d - 0.5 * c * d * d)
 }
 
-/// `v` limited to `[lo, hi]` (`max` then `min`: unlike `f64::clamp`, no panic path when the
-/// bounds are NaN or crossed, for the firmware's link-time no-panic proof).
-/// The exit test ([`OnlineConfig::exit_z`]): a bounded coordinate whose step `o` leaves the
-/// grid (beyond `d`) by fewer than `exit_z` sds `sd` stops at the edge. A NaN sd is no
-/// evidence: the coordinate stops.
-fn stops_at_edge(cfg: &OnlineConfig, d: f64, o: f64, bounded: bool, sd: f64) -> bool {
+/// The exit test ([`OnlineConfig::exit_z`]): the step `o` of a bounded coordinate that
+/// leaves the grid (beyond `d`) by fewer than `exit_z` sds `sd` stops at the edge. Returns the
+/// step and whether it stopped. A NaN sd is no evidence: the coordinate stops.
+fn exit_test(cfg: &OnlineConfig, d: f64, o: f64, bounded: bool, sd: f64) -> (f64, bool) {
     let a = libm::fabs(o);
     let evident = a - d >= cfg.exit_z * sd;
-    bounded && a > d && !evident
+    if bounded && a > d && !evident {
+        (if o > 0.0 { d } else { -d }, true)
+    } else {
+        (o, false)
+    }
 }
 
+/// `v` limited to `[lo, hi]` (`max` then `min`: unlike `f64::clamp`, no panic path when the
+/// bounds are NaN or crossed, for the firmware's link-time no-panic proof).
 fn within(v: f64, lo: f64, hi: f64) -> f64 {
     v.max(lo).min(hi)
 }
