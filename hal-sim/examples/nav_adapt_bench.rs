@@ -30,7 +30,14 @@
 //! fraction outside 3 sigma (issue 13's form of the bar: what the data up to the scoring
 //! allow); the summary counts those, and gives the mean `log10` of each ratio over the
 //! reference, a finer score than a count at a threshold for comparing two rules on the same
-//! runs.
+//! runs. The reference's line gives its factors on the truth and its log-likelihood of the
+//! fixes over `[0, score_from]` less the true model's; `ml_from=K` starts its search from the
+//! true model with every standard deviation times `K` (1 by default: from the truth), which
+//! tells whether the search's answer depends on its start. `probe=F1,F2,..;G1,..` runs, per
+//! seed and in place of the runs, fixed filters at the true model moved by each list of
+//! `log10` factors (the tied coordinates in the bank's order: per sensor, gyro then
+//! accelerometer, each component's quantities) and prints their ratios and log-likelihoods
+//! against the true-model filter's: what an error in one coordinate costs.
 //!
 //! Per seed: a figure-eight drive (`Profile::figure_eight_course`, 100 Hz, GNSS 1 Hz with 60-s
 //! outages every 20 min from 10 min, withheld by the run); the true-model filter; then one
@@ -73,6 +80,15 @@ fn random(m: &ImuErrorModel<f64>, rng: &mut impl Rng) -> ImuErrorModel<f64> {
         }
     }
     out
+}
+
+/// The innovation log-likelihood of the fixes over `t <= to` [nats].
+fn loglik(run: &hal_sim::nav::NavRun, to: f64) -> f64 {
+    run.epochs
+        .iter()
+        .filter(|e| e.t <= to)
+        .map(|e| e.loglik)
+        .sum()
 }
 
 fn main() {
@@ -130,12 +146,14 @@ fn main() {
         g => panic!("grade={g}: mems or tactical"),
     };
     let truth_axes: f64 = arg_or("truth_axes", 1.0);
+    let probe = arg("probe");
     println!("# {grade}, {seeds} seeds from {first}, {hours} h at {rate} Hz, scored from {from} s; truth_axes {truth_axes}; {cfg:?}");
     // Per start: ratios (horizontal, attitude), worst 3-sigma fractions.
     let mut ratios: Vec<Vec<[f64; 2]>> = vec![vec![]; starts.len()];
     let mut out3: Vec<Vec<f64>> = vec![vec![]; starts.len()];
     let mut true_out3 = vec![];
     let ml_ref = arg_or("ml_ref", 0) != 0;
+    let ml_from: f64 = arg_or("ml_from", 1.0);
     // Per run: within the larger of 1.10x and 1.05x its seed's ML reference on both ratios,
     // and at most the larger of 2 % and the reference's fraction outside 3 sigma.
     let mut within_ref = 0usize;
@@ -172,7 +190,7 @@ fn main() {
             NavArgs::simulated_drive(dir.path(), &fixes, &truth, model, name)
         };
         // A fixed filter over the whole log at `est` (log10 factors on `start`, tied; no
-        // raise): its score.
+        // raise): its score, and its innovation log-likelihood of the fixes over [0, from].
         let fixed_at = |start: &ImuErrorModel<f64>, est: &[f64], name: &str| {
             use imu_ident::nav::online::coords;
             let c = coords::coordinates(start, false, true).unwrap_or_else(|e| panic!("{e:?}"));
@@ -182,8 +200,35 @@ fn main() {
                 ..base(fixed, name)
             };
             let run = run_with::<f64>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
-            score(&run, &truth, from)
+            (
+                score(&run, &truth, from),
+                [loglik(&run, from), loglik(&run, f64::INFINITY)],
+            )
         };
+        // `probe=`: fixed filters at the truth moved by the given log10 factors, one list per
+        // `;`, scored against the true-model filter (how much each coordinate's error costs).
+        if let Some(spec) = &probe {
+            let oracle = run_with::<f64>(&base(truth_model.clone(), "true"), &imu, &fixes)
+                .unwrap_or_else(|e| panic!("{e:#}"));
+            let o = score(&oracle, &truth, from);
+            for v in spec.split(';') {
+                let est: Vec<f64> = v
+                    .split(',')
+                    .map(|x| {
+                        x.trim()
+                            .parse()
+                            .unwrap_or_else(|e| panic!("probe {v}: {e}"))
+                    })
+                    .collect();
+                let (r, ll) = fixed_at(&truth_model, &est, "probe");
+                println!(
+                    "seed {seed} probe {v}: horizontal {:.3}x, attitude {:.3}x, worst outside 3 sigma {:.2} %; log-likelihood over [0, {from}] {:+.1}, over the log {:+.1} nats on the true model's",
+                    r.0 / o.0, r.1 / o.1, r.2 * 100.0, ll[0] - loglik(&oracle, from),
+                    ll[1] - loglik(&oracle, f64::INFINITY)
+                );
+            }
+            continue;
+        }
         let t = std::time::Instant::now();
         let oracle = run_with::<f64>(&base(truth_model.clone(), "true"), &imu, &fixes)
             .unwrap_or_else(|e| panic!("{e:#}"));
@@ -205,20 +250,29 @@ fn main() {
                 method: AdaptMethod::Replay,
                 ..cfg
             };
+            let fit_start = hal_sim::nav::model::scaled_sd(&truth_model, ml_from);
             let args = NavArgs {
                 adapt: Some(fit),
                 gnss_sd_factor: [gnss_stated; 2],
-                ..base(truth_model.clone(), "ml")
+                ..base(fit_start.clone(), "ml")
             };
             let run = run_with::<f64>(&args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
             let log = run.adapt.as_ref().expect("adapt log");
             let est = log.searches.last().map_or_else(Vec::new, |l| l.log10_factors.clone());
-            let r = fixed_at(&truth_model, &est, "ml");
+            let (r, ll) = fixed_at(&fit_start, &est, "ml");
             let ratio = [r.0 / o.0, r.1 / o.1, r.2];
+            // Its factors on the truth (a standard deviation's start was `ml_from` times it).
+            let coords = imu_ident::nav::online::coords::coordinates(&fit_start, false, true)
+                .unwrap_or_else(|e| panic!("{e:?}"));
+            let on_truth = est.iter().enumerate().map(|(i, x)| {
+                let sd = coords.get(i).is_some_and(|c| c.quantity != Quantity::Tau);
+                x + if sd { ml_from.log10() } else { 0.0 }
+            });
             println!(
-                "seed {seed} ML reference: horizontal {:.3}x, attitude {:.3}x, worst outside 3 sigma {:.2} %; log10 factors {:?} ({:.1} s)",
+                "seed {seed} ML reference: horizontal {:.3}x, attitude {:.3}x, worst outside 3 sigma {:.2} %; log10 factors on the truth {:?}; log-likelihood over [0, {from}] {:+.1} nats on the true model's ({:.1} s)",
                 ratio[0], ratio[1], r.2 * 100.0,
-                est.iter().map(|x| (x * 100.0).round() / 100.0).collect::<Vec<_>>(),
+                on_truth.map(|x| (x * 100.0).round() / 100.0).collect::<Vec<_>>(),
+                ll[0] - loglik(&oracle, from),
                 t.elapsed().as_secs_f64()
             );
             refs.push(ratio);
@@ -286,10 +340,10 @@ fn main() {
             // estimate (no raise): tells a wrong estimate from the path to it.
             if arg_or("fixed_final", 0) != 0 {
                 if let Some(l) = last {
-                    let r = fixed_at(&args.model, &l.log10_factors, s);
+                    let (r, ll) = fixed_at(&args.model, &l.log10_factors, s);
                     println!(
-                        "seed {seed} start {s} fixed at final: horizontal {:.3}x, attitude {:.3}x, worst outside 3 sigma {:.2} %",
-                        r.0 / o.0, r.1 / o.1, r.2 * 100.0
+                        "seed {seed} start {s} fixed at final: horizontal {:.3}x, attitude {:.3}x, worst outside 3 sigma {:.2} %; log-likelihood over the log {:+.1} nats on the true model's",
+                        r.0 / o.0, r.1 / o.1, r.2 * 100.0, ll[1] - loglik(&oracle, f64::INFINITY)
                     );
                 }
             }

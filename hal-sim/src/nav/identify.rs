@@ -510,6 +510,7 @@ pub fn identify_axes(
         &[1.0, 0.5, 0.25, 0.125],
         6,
         &|i| tied.bounds(i, args, &carried),
+        &[],
         &mut |y| eval(&tied.point(y)),
     )?;
     let mut layout = tied;
@@ -527,6 +528,7 @@ pub fn identify_axes(
             &[0.5, 0.25, 0.125],
             6,
             &|i| per_axis.bounds(i, args, &carried),
+            &[],
             &mut |z| eval(&per_axis.point(z)),
         )?;
         let df = 2 * carried.iter().filter(|&&c| c).count();

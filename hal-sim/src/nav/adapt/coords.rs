@@ -106,6 +106,31 @@ impl Coordinate {
     }
 }
 
+/// The `(sigma, tau)` pairs of `coords` that are one Gauss-Markov component's (the same
+/// sensor, axes and component): the pattern search's ridge moves (`nav::pattern`).
+pub(super) fn ridges(coords: &[Coordinate]) -> Vec<(usize, usize)> {
+    let of = |c: &Coordinate, q: Quantity| match c.target {
+        Target::Imu(s, cq) => (cq == q).then_some(s),
+        Target::GnssSd(_) => None,
+    };
+    let mut out = vec![];
+    for (i, a) in coords.iter().enumerate() {
+        let Some(sensor) = of(a, Quantity::Sigma) else {
+            continue;
+        };
+        let tau = coords.iter().position(|b| {
+            of(b, Quantity::Tau) == Some(sensor)
+                && b.axes == a.axes
+                && b.component == a.component
+                && b.kind == ComponentKind::GaussMarkov.name()
+        });
+        if let (Some(j), true) = (tau, a.kind == ComponentKind::GaussMarkov.name()) {
+            out.push((i, j));
+        }
+    }
+    out
+}
+
 /// The coordinates of `model` under `cfg`.
 pub fn coordinates(model: &ImuErrorModel<f64>, cfg: &AdaptConfig) -> Vec<Coordinate> {
     let mut out = Vec::new();

@@ -339,12 +339,14 @@ impl<T: Real> Adapter<T> {
         // Tested: the intensities first, the correlation times held where they are.
         let held_taus = |i: usize| (!is_tau[i]).then_some((-MAX_DECADES, MAX_DECADES));
         let all = |_: usize| Some((-MAX_DECADES, MAX_DECADES));
+        let ridges = coords::ridges(&self.coords);
         pattern::maximise(
             &mut x,
             &mut best,
             steps,
             max_passes,
             if tested { &held_taus } else { &all },
+            &ridges,
             &mut eval,
         )?;
         let mut tau_test = None;
@@ -354,7 +356,15 @@ impl<T: Real> Adapter<T> {
             // chi-square(n_tau) under the held values).
             let mut y = x.clone();
             let mut best_free = best;
-            pattern::maximise(&mut y, &mut best_free, steps, max_passes, &all, &mut eval)?;
+            pattern::maximise(
+                &mut y,
+                &mut best_free,
+                steps,
+                max_passes,
+                &all,
+                &ridges,
+                &mut eval,
+            )?;
             let threshold = ChiSquared::new(n_tau as f64)
                 .map(|d| 0.5 * d.inverse_cdf(TAU_TEST_LEVEL))
                 .unwrap_or(f64::INFINITY);

@@ -203,7 +203,7 @@ pub(super) fn search(
             (c - HALF_WIDTH, c + HALF_WIDTH)
         })
     };
-    crate::nav::pattern::maximise(x, ll, &STEPS, 4, &bounds, eval)
+    crate::nav::pattern::maximise(x, ll, &STEPS, 4, &bounds, &[], eval)
 }
 
 #[cfg(test)]
