@@ -109,26 +109,24 @@ impl Coordinate {
 /// The `(sigma, tau)` pairs of `coords` that are one Gauss-Markov component's (the same
 /// sensor, axes and component): the pattern search's ridge moves (`nav::pattern`).
 pub(super) fn ridges(coords: &[Coordinate]) -> Vec<(usize, usize)> {
-    let of = |c: &Coordinate, q: Quantity| match c.target {
-        Target::Imu(s, cq) => (cq == q).then_some(s),
-        Target::GnssSd(_) => None,
+    // The sensor of a Gauss-Markov component's quantity `q`.
+    let gm = |c: &Coordinate, q: Quantity| match c.target {
+        Target::Imu(s, cq) if cq == q && c.kind == ComponentKind::GaussMarkov.name() => Some(s),
+        _ => None,
     };
-    let mut out = vec![];
-    for (i, a) in coords.iter().enumerate() {
-        let Some(sensor) = of(a, Quantity::Sigma) else {
-            continue;
-        };
-        let tau = coords.iter().position(|b| {
-            of(b, Quantity::Tau) == Some(sensor)
-                && b.axes == a.axes
-                && b.component == a.component
-                && b.kind == ComponentKind::GaussMarkov.name()
-        });
-        if let (Some(j), true) = (tau, a.kind == ComponentKind::GaussMarkov.name()) {
-            out.push((i, j));
-        }
-    }
-    out
+    coords
+        .iter()
+        .enumerate()
+        .filter_map(|(i, a)| {
+            let sensor = gm(a, Quantity::Sigma)?;
+            let j = coords.iter().position(|b| {
+                gm(b, Quantity::Tau) == Some(sensor)
+                    && b.axes == a.axes
+                    && b.component == a.component
+            })?;
+            Some((i, j))
+        })
+        .collect()
 }
 
 /// The coordinates of `model` under `cfg`.
@@ -229,4 +227,40 @@ pub fn apply(base: &ImuErrorModel<f64>, coords: &[Coordinate], x: &[f64]) -> Imu
         }
     }
     m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// White noise plus a Gauss-Markov on every axis of both sensors: the ridge pairs are each
+    /// sensor's Gauss-Markov `(sigma, tau)`, tied or per axis, and none with the taus held.
+    #[test]
+    fn the_ridges_are_each_gauss_markov_sigma_and_tau() {
+        let model = crate::trajectory::errors::ImuErrorModel::mems()
+            .to_core()
+            .unwrap();
+        let cfg = AdaptConfig::default();
+        let c = coordinates(&model, &cfg);
+        assert_eq!(ridges(&c), vec![(1, 2), (4, 5)]);
+        let per_axis = coordinates(
+            &model,
+            &AdaptConfig {
+                per_axis: true,
+                ..cfg
+            },
+        );
+        let r = ridges(&per_axis);
+        assert_eq!(r.len(), 6);
+        for (i, j) in r {
+            assert_eq!(per_axis[i].quantity, Quantity::Sigma.name());
+            assert_eq!(per_axis[j].quantity, Quantity::Tau.name());
+            assert_eq!(per_axis[i].axes, per_axis[j].axes);
+        }
+        let held = AdaptConfig {
+            taus: TauMode::Held,
+            ..cfg
+        };
+        assert!(ridges(&coordinates(&model, &held)).is_empty());
+    }
 }
