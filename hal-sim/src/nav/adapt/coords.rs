@@ -237,9 +237,17 @@ mod tests {
     /// sensor's Gauss-Markov `(sigma, tau)`, tied or per axis, and none with the taus held.
     #[test]
     fn the_ridges_are_each_gauss_markov_sigma_and_tau() {
-        let model = crate::trajectory::errors::ImuErrorModel::mems()
-            .to_core()
-            .unwrap();
+        use imu_ident::model::{Component, GaussMarkov, WhiteNoise};
+        let mut model = ImuErrorModel::<f64>::default();
+        let axis = [
+            Component::White(WhiteNoise { density: 1e-4 }),
+            Component::GaussMarkov(GaussMarkov {
+                sigma: 1e-5,
+                tau: 300.0,
+            }),
+        ];
+        model.set_all_gyro(&axis).unwrap();
+        model.set_all_accel(&axis).unwrap();
         let cfg = AdaptConfig::default();
         let c = coordinates(&model, &cfg);
         assert_eq!(ridges(&c), vec![(1, 2), (4, 5)]);
