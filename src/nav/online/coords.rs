@@ -71,6 +71,31 @@ pub fn coordinates<T: Real>(
     taus: bool,
 ) -> Result<Vec<Coordinate, MAX_COORDS>, ModelError> {
     let mut out = Vec::new();
+    each_coordinate(model, per_axis, taus, |c| {
+        out.push(c).map_err(|_| ModelError::TooManyStates)
+    })?;
+    Ok(out)
+}
+
+/// The coordinates of [`coordinates`], in its order, handed to `f` one by one (the host's
+/// window search has no capacity limit); stops at `f`'s first error.
+///
+/// ```
+/// use imu_ident::model::{Component, WhiteNoise};
+/// use imu_ident::nav::online::coords::each_coordinate;
+/// use imu_ident::nav::ImuErrorModel;
+/// let mut m = ImuErrorModel::<f64>::default();
+/// m.set_all_gyro(&[Component::White(WhiteNoise { density: 1e-4 })]).unwrap();
+/// let mut n = 0;
+/// each_coordinate(&m, true, true, |_| Ok::<(), ()>(n += 1)).unwrap();
+/// assert_eq!(n, 3); // one white density per gyro axis
+/// ```
+pub fn each_coordinate<T: Real, E>(
+    model: &ImuErrorModel<T>,
+    per_axis: bool,
+    taus: bool,
+    mut f: impl FnMut(Coordinate) -> Result<(), E>,
+) -> Result<(), E> {
     for s in [ImuSensor::Gyro, ImuSensor::Accel] {
         let axes = model.sensor(s);
         let same = |a: usize, b: usize| {
@@ -99,20 +124,19 @@ pub fn coordinates<T: Real>(
                         _ => true,
                     };
                     if wanted {
-                        out.push(Coordinate {
+                        f(Coordinate {
                             sensor: s,
                             axis: if tied { None } else { Some(a) },
                             component: k as u8,
                             kind,
                             quantity: q,
-                        })
-                        .map_err(|_| ModelError::TooManyStates)?;
+                        })?;
                     }
                 }
             }
         }
     }
-    Ok(out)
+    Ok(())
 }
 
 /// `model` with every tied coordinate's quantity set, on each of its axes, to the geometric

@@ -5,7 +5,8 @@
 
 use super::{AdaptConfig, TauMode};
 use imu_ident::model::{ComponentKind, Quantity};
-use imu_ident::nav::{ImuErrorModel, ImuSensor};
+use imu_ident::nav::online::coords as online;
+use imu_ident::nav::ImuErrorModel;
 use serde::Serialize;
 
 /// Whether the window search identifies the GNSS standard deviations by default
@@ -19,8 +20,9 @@ pub const GNSS_SD: [&str; 2] = ["position_sd", "velocity_sd"];
 /// What a coordinate scales.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) enum Target {
-    /// A quantity of one component of a sensor's axes.
-    Imu(ImuSensor, Quantity),
+    /// A quantity of one component of a sensor's axes: the core's coordinate, which the
+    /// model's [`tie`] and [`apply`] go through.
+    Imu(online::Coordinate),
     /// The GNSS position (0) or velocity (1) standard deviations.
     GnssSd(usize),
 }
@@ -43,15 +45,16 @@ pub struct Coordinate {
 }
 
 impl Coordinate {
-    /// The coordinate of the bank's `c` (an IMU quantity).
-    pub fn of_bank(c: &imu_ident::nav::online::coords::Coordinate) -> Self {
+    /// The coordinate of the core's `c` (an IMU quantity; the bank's, or the window
+    /// search's from [`coordinates`]).
+    pub fn of_bank(c: &online::Coordinate) -> Self {
         Self {
             sensor: c.sensor.name(),
             axes: c.axes().collect(),
             component: usize::from(c.component),
             kind: c.kind.name(),
             quantity: c.quantity.name(),
-            target: Target::Imu(c.sensor, c.quantity),
+            target: Target::Imu(*c),
         }
     }
 
@@ -64,6 +67,14 @@ impl Coordinate {
             kind: "fix",
             quantity: GNSS_SD.get(i).copied().unwrap_or("sd"),
             target: Target::GnssSd(i),
+        }
+    }
+
+    /// The core's coordinate of an IMU quantity (`None` for a GNSS factor).
+    pub fn imu(&self) -> Option<online::Coordinate> {
+        match self.target {
+            Target::Imu(c) => Some(c),
+            Target::GnssSd(_) => None,
         }
     }
 
@@ -110,9 +121,10 @@ impl Coordinate {
 /// sensor, axes and component): the pattern search's ridge moves (`nav::pattern`).
 pub(super) fn ridges(coords: &[Coordinate]) -> Vec<(usize, usize)> {
     // The sensor of a Gauss-Markov component's quantity `q`.
-    let gm = |c: &Coordinate, q: Quantity| match c.target {
-        Target::Imu(s, cq) if cq == q && c.kind == ComponentKind::GaussMarkov.name() => Some(s),
-        _ => None,
+    let gm = |c: &Coordinate, q: Quantity| {
+        c.imu()
+            .filter(|k| k.quantity == q && k.kind == ComponentKind::GaussMarkov)
+            .map(|k| k.sensor)
     };
     coords
         .iter()
@@ -129,42 +141,15 @@ pub(super) fn ridges(coords: &[Coordinate]) -> Vec<(usize, usize)> {
         .collect()
 }
 
-/// The coordinates of `model` under `cfg`.
+/// The coordinates of `model` under `cfg`: the core's ([`online::each_coordinate`], the bank's
+/// order), then the GNSS factors.
 pub fn coordinates(model: &ImuErrorModel<f64>, cfg: &AdaptConfig) -> Vec<Coordinate> {
     let mut out = Vec::new();
-    for s in [ImuSensor::Gyro, ImuSensor::Accel] {
-        let axes = model.sensor(s);
-        // Tied only when the three axes carry the same kinds in the same order.
-        let kinds = |a: usize| axes[a].iter().map(|c| c.kind()).collect::<Vec<_>>();
-        let tied = !cfg.per_axis && kinds(0) == kinds(1) && kinds(1) == kinds(2);
-        let groups: Vec<Vec<usize>> = if tied {
-            vec![vec![0, 1, 2]]
-        } else {
-            (0..3).map(|a| vec![a]).collect()
-        };
-        for g in groups {
-            for (k, c) in axes[g[0]].iter().enumerate() {
-                let kind: ComponentKind = c.kind();
-                for &q in kind.identified() {
-                    let wanted = match q {
-                        Quantity::Beta => false,
-                        Quantity::Tau => cfg.taus != TauMode::Held,
-                        _ => true,
-                    };
-                    if wanted {
-                        out.push(Coordinate {
-                            sensor: s.name(),
-                            axes: g.clone(),
-                            component: k,
-                            kind: kind.name(),
-                            quantity: q.name(),
-                            target: Target::Imu(s, q),
-                        });
-                    }
-                }
-            }
-        }
-    }
+    let taus = cfg.taus != TauMode::Held;
+    let Ok(()) = online::each_coordinate(model, cfg.per_axis, taus, |c| {
+        out.push(Coordinate::of_bank(&c));
+        Ok::<(), std::convert::Infallible>(())
+    });
     if cfg.gnss_sd {
         out.extend((0..GNSS_SD.len()).map(Coordinate::gnss));
     }
@@ -183,50 +168,27 @@ pub fn gnss_factors(base: [f64; 2], coords: &[Coordinate], x: &[f64]) -> [f64; 2
     f
 }
 
-/// `model` with every tied coordinate's quantity set, on each of its axes, to the geometric
-/// mean over those axes: tying means one value per sensor, so a start that differs between
-/// the axes must not keep its differences under a common factor.
-pub fn tie(model: &ImuErrorModel<f64>, coords: &[Coordinate]) -> ImuErrorModel<f64> {
-    let mut m = model.clone();
-    for c in coords.iter().filter(|c| c.axes.len() > 1) {
-        let Target::Imu(s, q) = c.target else {
-            continue;
-        };
-        let axes = m.sensor_mut(s);
-        let logs: Vec<f64> = c
-            .axes
-            .iter()
-            .filter_map(|&a| axes[a].get(c.component).and_then(|comp| comp.get(q)))
-            .map(f64::ln)
-            .collect();
-        let mean = (logs.iter().sum::<f64>() / logs.len() as f64).exp();
-        for &a in &c.axes {
-            if let Some(comp) = axes[a].get_mut(c.component) {
-                comp.set(q, mean);
-            }
-        }
-    }
-    m
+/// The core's coordinates of the IMU quantities among `coords`, with their values in `x`.
+fn imu_part(coords: &[Coordinate], x: &[f64]) -> (Vec<online::Coordinate>, Vec<f64>) {
+    coords
+        .iter()
+        .zip(x)
+        .filter_map(|(c, &lx)| Some((c.imu()?, lx)))
+        .unzip()
 }
 
-/// `base` with IMU coordinate `i`'s quantity multiplied by `10^x[i]` (the GNSS coordinates:
-/// [`gnss_factors`]).
+/// `model` with every tied coordinate's quantity set, on each of its axes, to the geometric
+/// mean over those axes ([`online::tie`]).
+pub fn tie(model: &ImuErrorModel<f64>, coords: &[Coordinate]) -> ImuErrorModel<f64> {
+    let imu: Vec<online::Coordinate> = coords.iter().filter_map(Coordinate::imu).collect();
+    online::tie(model, &imu)
+}
+
+/// `base` with IMU coordinate `i`'s quantity multiplied by `10^x[i]` ([`online::apply`]; the
+/// GNSS coordinates: [`gnss_factors`]).
 pub fn apply(base: &ImuErrorModel<f64>, coords: &[Coordinate], x: &[f64]) -> ImuErrorModel<f64> {
-    let mut m = base.clone();
-    for (c, &lx) in coords.iter().zip(x) {
-        let Target::Imu(s, q) = c.target else {
-            continue;
-        };
-        let axes = m.sensor_mut(s);
-        for &a in &c.axes {
-            if let Some(comp) = axes[a].get_mut(c.component) {
-                if let Some(v) = comp.get(q) {
-                    comp.set(q, v * 10f64.powf(lx));
-                }
-            }
-        }
-    }
-    m
+    let (imu, lx) = imu_part(coords, x);
+    online::apply(base, &imu, &lx)
 }
 
 #[cfg(test)]

@@ -332,7 +332,7 @@ impl<T: Real> Adapter<T> {
         let is_tau: Vec<bool> = self
             .coords
             .iter()
-            .map(|c| matches!(c.target, Target::Imu(_, Quantity::Tau)))
+            .map(|c| c.imu().is_some_and(|k| k.quantity == Quantity::Tau))
             .collect();
         let n_tau = is_tau.iter().filter(|&&t| t).count();
         let tested = self.cfg.taus == TauMode::Tested && n_tau > 0;

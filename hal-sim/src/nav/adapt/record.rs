@@ -76,7 +76,7 @@ impl AdaptLog {
 /// deviations.
 pub fn value(m: &ImuErrorModel<f64>, gnss: [f64; 2], c: &Coordinate) -> f64 {
     let (s, q) = match c.target {
-        super::Target::Imu(s, q) => (s, q),
+        super::Target::Imu(k) => (k.sensor, k.quantity),
         super::Target::GnssSd(i) => return gnss.get(i).copied().unwrap_or(f64::NAN),
     };
     c.axes
