@@ -30,7 +30,7 @@ pub fn bank_log<T: Real>(shadows: &Shadows<T>, gnss_sd_factor: [f64; 2]) -> Opti
     let coordinates = id
         .coordinates()
         .iter()
-        .map(Coordinate::of_bank)
+        .map(Coordinate::of_core)
         .chain((0..id.gnss_coordinates()).map(Coordinate::gnss))
         .collect();
     let nan = f64::NAN;

@@ -47,7 +47,7 @@ pub struct Coordinate {
 impl Coordinate {
     /// The coordinate of the core's `c` (an IMU quantity; the bank's, or the window
     /// search's from [`coordinates`]).
-    pub fn of_bank(c: &online::Coordinate) -> Self {
+    pub fn of_core(c: &online::Coordinate) -> Self {
         Self {
             sensor: c.sensor.name(),
             axes: c.axes().collect(),
@@ -147,7 +147,7 @@ pub fn coordinates(model: &ImuErrorModel<f64>, cfg: &AdaptConfig) -> Vec<Coordin
     let mut out = Vec::new();
     let taus = cfg.taus != TauMode::Held;
     let Ok(()) = online::each_coordinate(model, cfg.per_axis, taus, |c| {
-        out.push(Coordinate::of_bank(&c));
+        out.push(Coordinate::of_core(&c));
         Ok::<(), std::convert::Infallible>(())
     });
     if cfg.gnss_sd {
@@ -168,15 +168,6 @@ pub fn gnss_factors(base: [f64; 2], coords: &[Coordinate], x: &[f64]) -> [f64; 2
     f
 }
 
-/// The core's coordinates of the IMU quantities among `coords`, with their values in `x`.
-fn imu_part(coords: &[Coordinate], x: &[f64]) -> (Vec<online::Coordinate>, Vec<f64>) {
-    coords
-        .iter()
-        .zip(x)
-        .filter_map(|(c, &lx)| Some((c.imu()?, lx)))
-        .unzip()
-}
-
 /// `model` with every tied coordinate's quantity set, on each of its axes, to the geometric
 /// mean over those axes ([`online::tie`]).
 pub fn tie(model: &ImuErrorModel<f64>, coords: &[Coordinate]) -> ImuErrorModel<f64> {
@@ -187,7 +178,11 @@ pub fn tie(model: &ImuErrorModel<f64>, coords: &[Coordinate]) -> ImuErrorModel<f
 /// `base` with IMU coordinate `i`'s quantity multiplied by `10^x[i]` ([`online::apply`]; the
 /// GNSS coordinates: [`gnss_factors`]).
 pub fn apply(base: &ImuErrorModel<f64>, coords: &[Coordinate], x: &[f64]) -> ImuErrorModel<f64> {
-    let (imu, lx) = imu_part(coords, x);
+    let (imu, lx): (Vec<online::Coordinate>, Vec<f64>) = coords
+        .iter()
+        .zip(x)
+        .filter_map(|(c, &lx)| Some((c.imu()?, lx)))
+        .unzip();
     online::apply(base, &imu, &lx)
 }
 
