@@ -9,7 +9,7 @@
 //! Other keys: `grade=tactical`, `hours=` (2), `rate=` (IMU Hz, 100), `score_from=` (3600 s),
 //! `adapt_first=`, `every=`, `window=` (600, 1200, 7200 s), `method=bank` (the core's
 //! shadow-filter bank, `nav --adapt-method bank`; with it `every=` defaults to 1200 s and
-//! `offset=`, `min_offset=`, `min_gain=`, `memory=`, `bank_conservative=1` set its `OnlineConfig`), `per_axis=1`, `taus=` (`held`,
+//! `offset=`, `min_offset=`, `min_gain=`, `memory=`, `bank_conservative=1` set its `OnlineConfig`), `per_axis=1` (`per_axis=2`: per axis, tied first, `--adapt-tied-first`), `taus=` (`held`,
 //! `tested`, `free`; default the command's), `conservative=0`, `gnss_sd=0` (the window
 //! search does not identify the GNSS standard deviations, `--adapt-gnss-sd false`; on by
 //! default),
@@ -110,6 +110,7 @@ fn main() {
         every: arg_or("every", if bank { d.bank.every } else { d.every }),
         window: arg_or("window", 7200.0),
         per_axis: arg_or("per_axis", 0) != 0,
+        tied_first: arg_or("per_axis", 0) == 2,
         taus: match arg("taus").as_deref() {
             None => AdaptConfig::default().taus,
             Some("0" | "held") => TauMode::Held,
@@ -193,7 +194,11 @@ fn main() {
         // raise): its score, and its innovation log-likelihood of the fixes over [0, from].
         let fixed_at = |start: &ImuErrorModel<f64>, est: &[f64], name: &str| {
             use imu_ident::nav::online::coords;
-            let c = coords::coordinates(start, false, true).unwrap_or_else(|e| panic!("{e:?}"));
+            // The estimate's own coordinates (`coordinates` under `cfg`): per axis with
+            // `per_axis=1` (tied, a start whose axes differ would be replaced by its geometric
+            // mean, and 20 factors applied to 8 coordinates), the taus unless held.
+            let c = coords::coordinates(start, cfg.per_axis, cfg.taus != TauMode::Held)
+                .unwrap_or_else(|e| panic!("{e:?}"));
             let fixed = coords::apply(&coords::tie(start, &c), &c, est);
             let args = NavArgs {
                 gnss_sd_factor: [gnss_stated; 2],
@@ -262,8 +267,12 @@ fn main() {
             let (r, ll) = fixed_at(&fit_start, &est, "ml");
             let ratio = [r.0 / o.0, r.1 / o.1, r.2];
             // Its factors on the truth (a standard deviation's start was `ml_from` times it).
-            let coords = imu_ident::nav::online::coords::coordinates(&fit_start, false, true)
-                .unwrap_or_else(|e| panic!("{e:?}"));
+            let coords = imu_ident::nav::online::coords::coordinates(
+                &fit_start,
+                cfg.per_axis,
+                cfg.taus != TauMode::Held,
+            )
+            .unwrap_or_else(|e| panic!("{e:?}"));
             let on_truth = est.iter().enumerate().map(|(i, x)| {
                 let sd = coords.get(i).is_some_and(|c| c.quantity != Quantity::Tau);
                 x + if sd { ml_from.log10() } else { 0.0 }

@@ -189,6 +189,10 @@ pub enum Command {
         /// One factor per axis instead of one per sensor and component.
         #[arg(long)]
         adapt_per_axis: bool,
+        /// With --adapt-method bank and --adapt-per-axis: tied until the bank settles, then
+        /// per axis from its point (host only; docs/ADAPTATION.md §9, "Tied first").
+        #[arg(long)]
+        adapt_tied_first: bool,
         /// The correlation times: searched like the intensities (free), held at the model's
         /// values, or tested (moved only when the window's likelihood rejects the held values
         /// at 1 %); chosen by measurement, BENCHMARKS.md "Online identification in the

@@ -57,6 +57,7 @@ fn main() -> Result<()> {
             adapt_method,
             adapt_window,
             adapt_per_axis,
+            adapt_tied_first,
             adapt_taus,
             adapt_memory,
             adapt_gnss_sd,
@@ -171,6 +172,13 @@ fn main() -> Result<()> {
                              --adapt-method bank"
                         );
                     }
+                    if adapt_tied_first && !(bank && adapt_per_axis && qemu_elf.is_none()) {
+                        anyhow::bail!(
+                            "--adapt-tied-first: the switch from the tied bank to the per-axis \
+                             one runs on the host; use it with --adapt-method bank and \
+                             --adapt-per-axis, without --qemu-elf"
+                        );
+                    }
                     if qemu_elf.is_some() && !bank {
                         anyhow::bail!(
                             "--adapt with --qemu-elf: the firmware runs the core's bank, not the \
@@ -182,6 +190,7 @@ fn main() -> Result<()> {
                         every,
                         window: adapt_window,
                         per_axis: adapt_per_axis,
+                        tied_first: adapt_tied_first,
                         taus: adapt_taus,
                         method: adapt_method,
                         bank: imu_ident::nav::OnlineConfig {

@@ -92,6 +92,7 @@ const ONE_SEARCH: AdaptConfig = AdaptConfig {
     every: 1e6,
     window: 1e6,
     per_axis: false,
+    tied_first: false,
     taus: TauMode::Held,
     conservative: true,
     method: AdaptMethod::Replay,

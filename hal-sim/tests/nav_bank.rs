@@ -76,6 +76,19 @@ fn bank(first: f64, every: f64) -> AdaptConfig {
     }
 }
 
+/// The right IMU model, the receiver's stated standard deviations 4x its true noise
+/// (`--gnss-sd-factor 4,4`), and `adapt` with the GNSS factors identified.
+fn misstated_gnss(dir: &tempfile::TempDir, yaw: f64, adapt: AdaptConfig) -> NavArgs {
+    let adapt = AdaptConfig {
+        gnss_sd: true,
+        ..adapt
+    };
+    NavArgs {
+        gnss_sd_factor: [4.0, 4.0],
+        ..args(dir, yaw, 1.0, adapt)
+    }
+}
+
 #[test]
 fn the_centre_shadow_reproduces_the_running_filter() {
     let (dir, yaw, imu, fixes) = drive();
@@ -109,7 +122,7 @@ fn centre_against_running(
         NavLoop::<f64>::start(&a, &shifted, fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let t0 = lp.time(&shifted);
     let online = a.online().expect("the bank's settings");
-    start_bank(online, lp.nav_mut(), t0).unwrap_or_else(|e| panic!("{e:#}"));
+    start_bank(online, None, lp.nav_mut(), t0).unwrap_or_else(|e| panic!("{e:#}"));
     let mut epochs = Vec::new();
     lp.advance(
         &shifted,
@@ -179,18 +192,7 @@ fn from_ten_times_too_large_the_bank_lowers_every_intensity() {
 #[test]
 fn the_bank_finds_a_misstated_gnss_noise() {
     let (dir, yaw, imu, fixes) = drive();
-    let a = NavArgs {
-        gnss_sd_factor: [4.0, 4.0],
-        ..args(
-            &dir,
-            yaw,
-            1.0,
-            AdaptConfig {
-                gnss_sd: true,
-                ..bank(600.0, 600.0)
-            },
-        )
-    };
+    let a = misstated_gnss(&dir, yaw, bank(600.0, 600.0));
     let run = run_with::<f64>(&a, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let log = run.adapt.as_ref().expect("an adapt log");
     let names: Vec<&str> = log.coordinates.iter().map(|c| c.quantity).collect();
@@ -224,15 +226,97 @@ fn the_bank_finds_a_misstated_gnss_noise() {
     // variance about 6 (chi-square(3) for independent axes): the mean over n fixes within
     // 3.29 sd of 3. With the stated R it would be about 3/16.
     let first = log.searches.first().map_or(f64::INFINITY, |s| s.t);
+    assert_right_position_nis(&run, first);
+}
+
+/// The mean position NIS of the fixes fused after `from` [s] is a right R's (the bound above).
+fn assert_right_position_nis(run: &hal_sim::nav::NavRun, from: f64) {
     let after: Vec<f64> = run
         .epochs
         .iter()
-        .filter(|e| e.t > first && e.fused)
+        .filter(|e| e.t > from && e.fused)
         .map(|e| e.nis_axis[..3].iter().sum::<f64>())
         .collect();
     let n = after.len() as f64;
     let mean = after.iter().sum::<f64>() / n;
-    println!("{n} fixes after the first decision, mean position NIS {mean:.3}");
+    println!("{n} fixes after {from:.0} s, mean position NIS {mean:.3}");
     assert!(n >= 30.0, "{n} fixes");
     assert!((mean - 3.0).abs() <= 3.29 * (6.0 / n).sqrt(), "{mean}");
+}
+
+/// `--adapt-tied-first` (`hal_sim::nav::adapt::switch_if_settled`): the tied bank until its
+/// first decision that keeps its window, then a per-axis bank from its point. Same drive and
+/// misstated GNSS noise as above, decisions every 5 min.
+///
+/// Asserted:
+/// - **It switches**, and the record is one history in the per-axis coordinates: every
+///   IMU coordinate on one axis, every decision with a factor for each, the tied bank's with
+///   the three axes of a quantity equal, and decisions on both sides of the switch.
+/// - **The GNSS factors carry over.** The per-axis bank starts from the navigator's factors
+///   (the core's GNSS reference), so after its decisions the running filter still has the
+///   right `R`: the mean position NIS of the fixes after the per-axis bank's first decision
+///   within 3.29 sd of 3 (the bound of the test above). A bank that restarted its factors at
+///   the stated 4x would leave it near 3/16. The record's last factors are on the run's start
+///   and agree with the filter's end factors.
+#[test]
+fn tied_first_switches_to_per_axis_and_keeps_the_gnss_factors() {
+    let (dir, yaw, imu, fixes) = drive();
+    let tied_first = AdaptConfig {
+        per_axis: true,
+        tied_first: true,
+        ..bank(300.0, 300.0)
+    };
+    let a = misstated_gnss(&dir, yaw, tied_first);
+    let run = run_with::<f64>(&a, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let log = run.adapt.as_ref().expect("an adapt log");
+    for s in &log.searches {
+        println!(
+            "decision at {:.0} s (window from {:.0} s): factors {:.2?}",
+            s.t, s.window_start, s.log10_factors
+        );
+    }
+    let switched = log.tied_until.expect("the per-axis bank took over");
+    println!("per axis from {switched:.0} s");
+    let p = log.coordinates.len();
+    let imu_coords = &log.coordinates[..p - 2];
+    assert!(
+        imu_coords.iter().all(|c| c.axes.len() == 1),
+        "{imu_coords:?}"
+    );
+    assert!(log.searches.iter().all(|s| s.log10_factors.len() == p));
+    let (tied, per_axis): (Vec<_>, Vec<_>) = log.searches.iter().partition(|s| s.t <= switched);
+    assert!(
+        !tied.is_empty() && !per_axis.is_empty(),
+        "{:?}",
+        log.searches
+    );
+    for s in &tied {
+        for (i, c) in imu_coords.iter().enumerate() {
+            for (j, d) in imu_coords.iter().enumerate() {
+                let same =
+                    c.sensor == d.sensor && c.component == d.component && c.quantity == d.quantity;
+                if same {
+                    let (x, y) = (s.log10_factors[i], s.log10_factors[j]);
+                    assert!(
+                        (x - y).abs() < 1e-9,
+                        "{} {x} against {} {y}",
+                        c.label(),
+                        d.label()
+                    );
+                }
+            }
+        }
+    }
+    let last = log.searches.last().expect("a decision");
+    let end = log.gnss_sd_factor_end();
+    for (i, f) in end.iter().enumerate() {
+        let x = last.log10_factors[p - 2 + i];
+        assert!((f - 4.0 * 10f64.powf(x)).abs() < 1e-9, "{end:?}");
+        assert!(
+            (x - 0.25f64.log10()).abs() < 0.1,
+            "GNSS factor {i}: {x:+.3}"
+        );
+    }
+    let first = per_axis.first().map_or(f64::INFINITY, |s| s.t);
+    assert_right_position_nis(&run, first);
 }

@@ -112,7 +112,8 @@ impl NavArgs {
             .adapt
             .filter(|c| c.method == adapt::AdaptMethod::Bank)?;
         Some(imu_ident::nav::OnlineConfig {
-            per_axis: c.per_axis,
+            // `--adapt-tied-first`: tied first ([`adapt::switch_if_settled`]).
+            per_axis: c.per_axis && !c.tied_first,
             taus: c.taus != adapt::TauMode::Held,
             hold_flat_taus: c.taus == adapt::TauMode::Tested,
             gnss_sd: c.gnss_sd,
@@ -345,8 +346,16 @@ pub fn run_observed<T: Real>(
     bar.reset();
     let name = args.imu.display().to_string();
     let t_start = lp.time(imu);
+    // `--adapt-tied-first`: the per-axis bank that takes over once the tied one settles.
+    let per_axis_next = args
+        .online()
+        .filter(|_| args.adapt.is_some_and(|c| c.per_axis && c.tied_first))
+        .map(|o| imu_ident::nav::OnlineConfig {
+            per_axis: true,
+            ..o
+        });
     if let Some(online) = args.online() {
-        adapt::start_bank(online, lp.nav_mut(), t_start)?;
+        adapt::start_bank(online, per_axis_next, lp.nav_mut(), t_start)?;
     }
     let mut adapter = args
         .adapt
@@ -354,7 +363,21 @@ pub fn run_observed<T: Real>(
         .map(|c| adapt::Adapter::new(args, c, &lp, t_start));
     loop {
         let t_end = adapter.as_ref().map_or(f64::INFINITY, |a| a.next_time());
+        // With the switch pending, advances of a minute, the switch between them.
+        let pending = lp.nav().observer().per_axis_next.is_some();
+        let t_end = if pending {
+            t_end.min(lp.time(imu) + 60.0)
+        } else {
+            t_end
+        };
         lp.advance(imu, fixes, t_end, &mut epochs, &name, &|| bar.inc(1))?;
+        if pending {
+            let t = lp.time(imu);
+            adapt::switch_if_settled(lp.nav_mut(), t)?;
+            if adapter.is_none() && lp.i + 1 < imu.len() {
+                continue;
+            }
+        }
         match adapter.as_mut() {
             Some(a) if lp.i + 1 < imu.len() => a.search(&mut lp, imu, fixes, &name)?,
             _ => break,

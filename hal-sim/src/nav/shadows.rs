@@ -41,6 +41,29 @@ pub struct Shadows<T: Real> {
     pub ident: Option<Box<Ident<T>>>,
     /// Its decisions so far.
     pub log: Vec<Decision>,
+    /// With `--adapt-tied-first`: the per-axis bank's settings, while the tied bank runs
+    /// ([`crate::nav::adapt::tied_first`]).
+    pub per_axis_next: Option<imu_ident::nav::OnlineConfig>,
+    /// The tied bank's first decision inside its grid was taken: the loop starts the
+    /// per-axis bank.
+    pub settled: bool,
+    /// The tied bank, once the per-axis bank took over: its record.
+    pub tied: Option<TiedBank<T>>,
+}
+
+/// The tied bank's record after the per-axis bank took over (`--adapt-tied-first`).
+#[derive(Debug, Clone)]
+pub struct TiedBank<T: Real> {
+    /// Its coordinates (the IMU's).
+    pub coords: Vec<imu_ident::nav::online::coords::Coordinate>,
+    /// Its reference: the starting model, tied.
+    pub base: ImuErrorModel<T>,
+    /// Its decisions.
+    pub log: Vec<Decision>,
+    /// The navigator's GNSS factors when the per-axis bank took over.
+    pub gnss_sd_factor: [f64; 2],
+    /// When the per-axis bank took over [s].
+    pub t: f64,
 }
 
 /// Every hook goes to the bank when there is one (through the core's `Option<&mut O>`
@@ -83,6 +106,10 @@ impl<T: Real> NavObserver<T, NAV_N> for Shadows<T> {
         let id = self.ident.as_deref_mut()?;
         let (before, window_start, fixes) = (id.decisions(), id.window_start(), id.fixes());
         let m = id.decide(t);
+        // The tied bank settled (the decision kept its window): the per-axis bank is due.
+        if self.per_axis_next.is_some() && id.decisions() != before && id.window_start() < t {
+            self.settled = true;
+        }
         if id.decisions() != before {
             self.log.push(Decision {
                 t,

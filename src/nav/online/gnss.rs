@@ -55,9 +55,14 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
     }
 
     /// The factors (not log10) the running filter applies to the fixes' standard deviations,
-    /// stated or the model's default, position and velocity ([`NavObserver::gnss_sd_factor`]);
-    /// ones without [`OnlineConfig::gnss_sd`].
+    /// stated or the model's default, position and velocity ([`NavObserver::gnss_sd_factor`]):
+    /// the navigator's when the bank started, times the bank's; the navigator's without
+    /// [`OnlineConfig::gnss_sd`].
     pub fn running_gnss_sd(&self) -> [f64; GNSS_COORDS] {
-        self.run_gnss.map(|x| libm::pow(10.0, x))
+        let mut out = [1.0; GNSS_COORDS];
+        for ((o, r), x) in out.iter_mut().zip(self.gnss_ref).zip(self.run_gnss) {
+            *o = libm::pow(10.0, r + x);
+        }
+        out
     }
 }

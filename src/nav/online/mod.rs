@@ -128,9 +128,14 @@ pub struct OnlineIdent<T: Real, const N: usize, const M: usize> {
     x: [f64; MAX_PARAMS],
     /// The estimate, the running filter's point: the centre plus the last decision's step.
     est: [f64; MAX_PARAMS],
-    /// The running filter's GNSS factors (log10, position and velocity): what it was last
-    /// handed ([`running_gnss`](Self::running_gnss)).
+    /// The running filter's GNSS factors (log10, position and velocity) on
+    /// [`gnss_ref`](Self::gnss_ref): what it was last handed
+    /// ([`running_gnss`](Self::running_gnss)).
     run_gnss: [f64; GNSS_COORDS],
+    /// The navigator's GNSS factors when the bank started (log10; zeros unless an earlier
+    /// bank had set them): the GNSS coordinates' reference, so that a bank started in the
+    /// middle of a run continues from them.
+    gnss_ref: [f64; GNSS_COORDS],
     shadows: Vec<Shadow<T, N>, M>,
     /// Each shadow's summed log-likelihood of the GNSS fixes since the last move [nats].
     sums: [f64; M],
@@ -173,6 +178,7 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         x: [0.0; MAX_PARAMS],
         est: [0.0; MAX_PARAMS],
         run_gnss: [0.0; GNSS_COORDS],
+        gnss_ref: [0.0; GNSS_COORDS],
         shadows: Vec::new(),
         sums: [0.0; M],
         since: 0.0,
@@ -197,6 +203,21 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         Ok(s)
     }
 
+    /// [`new`](Self::new) about the IMU model `start` rather than the navigator's (a bank
+    /// that takes over from another starts at that one's estimate, not at its running model,
+    /// which [`OnlineConfig::conservative`] raised). The running filter keeps its model until
+    /// the first decision.
+    pub fn new_about<O: NavObserver<T, N>>(
+        cfg: OnlineConfig,
+        nav: &Navigator<T, N, O>,
+        t: f64,
+        start: &ImuErrorModel<T>,
+    ) -> Result<Self, ModelError> {
+        let mut s = Self::BLANK;
+        s.start_about(cfg, nav, t, start)?;
+        Ok(s)
+    }
+
     /// [`new`](Self::new) in place (the bank is tens of kB in `f32`: the firmware must not
     /// build it on its stack).
     pub fn start<O: NavObserver<T, N>>(
@@ -205,8 +226,17 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         nav: &Navigator<T, N, O>,
         t: f64,
     ) -> Result<(), ModelError> {
+        self.start_about(cfg, nav, t, &nav.model().imu)
+    }
+
+    fn start_about<O: NavObserver<T, N>>(
+        &mut self,
+        cfg: OnlineConfig,
+        nav: &Navigator<T, N, O>,
+        t: f64,
+        start: &ImuErrorModel<T>,
+    ) -> Result<(), ModelError> {
         let cfg = cfg.checked()?;
-        let start = &nav.model().imu;
         let coords = coords::coordinates(start, cfg.per_axis, cfg.taus)?;
         let pairs = newton::pairs(&coords);
         let gnss = if cfg.gnss_sd { GNSS_COORDS } else { 0 };
@@ -221,6 +251,14 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         self.x = [0.0; MAX_PARAMS];
         self.est = [0.0; MAX_PARAMS];
         self.run_gnss = [0.0; GNSS_COORDS];
+        self.gnss_ref = nav.gnss_sd_factor().map(|f| {
+            let f = f.as_f64();
+            if f > 0.0 && f.is_finite() {
+                libm::log10(f)
+            } else {
+                0.0
+            }
+        });
         self.sums = [0.0; M];
         self.since = t;
         self.d = cfg.offset;
@@ -290,6 +328,11 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
     /// begin.
     pub fn window_start(&self) -> f64 {
         self.since
+    }
+
+    /// The shadows' offset from the centre [decades].
+    pub fn offset(&self) -> f64 {
+        self.d
     }
 
     /// GNSS fixes scored since the last move.
@@ -436,6 +479,16 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         let mut f = [T::zero(); MAX_PARAMS];
         for (i, (fi, xi)) in f.iter_mut().zip(self.est.iter()).enumerate() {
             *fi = T::lit(*xi + self.raise(i));
+        }
+        coords::apply(&self.base, &self.coords, &f)
+    }
+
+    /// The model at the estimate ([`log10_factors`](Self::log10_factors)), without the
+    /// conservative raise of [`running_model`](Self::running_model).
+    pub fn estimate_model(&self) -> ImuErrorModel<T> {
+        let mut f = [T::zero(); MAX_PARAMS];
+        for (fi, xi) in f.iter_mut().zip(self.est.iter()) {
+            *fi = T::lit(*xi);
         }
         coords::apply(&self.base, &self.coords, &f)
     }

@@ -36,10 +36,12 @@
 mod bank;
 mod coords;
 mod record;
+mod tied_first;
 
 pub use bank::{bank_log, start_bank};
 use coords::Target;
 pub use coords::{apply, coordinates, gnss_factors, tie, Coordinate, GNSS_SD, GNSS_SD_DEFAULT};
+pub use tied_first::switch_if_settled;
 
 pub use super::information::cramer_rao_sd;
 pub use record::value;
@@ -66,6 +68,11 @@ pub struct AdaptConfig {
     pub window: f64,
     /// One factor per axis instead of per sensor.
     pub per_axis: bool,
+    /// With the bank and [`per_axis`](Self::per_axis): tied until the bank settles, then per
+    /// axis from there ([`tied_first`]; host only). Off by default: it helps a MEMS IMU whose
+    /// axes differ and costs a tactical one whose axes are alike (BENCHMARKS.md "Tied first,
+    /// then per axis").
+    pub tied_first: bool,
     /// What the searches do with the correlation times.
     pub taus: TauMode,
     /// Move intensities along flat directions to the upper end of their one-sigma interval
@@ -101,6 +108,7 @@ impl AdaptConfig {
         every: 1200.0,
         window: 7200.0,
         per_axis: false,
+        tied_first: false,
         taus: TauMode::Free,
         conservative: true,
         method: AdaptMethod::Replay,
@@ -208,6 +216,10 @@ pub struct AdaptLog {
     /// The factors on the GNSS standard deviations the run started with
     /// (`--gnss-sd-factor`): the GNSS coordinates' reference.
     pub gnss_sd_factor_start: [f64; 2],
+    /// With `--adapt-tied-first`: when the per-axis bank took over from the tied one [s]
+    /// (the searches before it are the tied bank's, in the per-axis coordinates).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tied_until: Option<f64>,
 }
 
 /// The online identification's state inside a run.
@@ -449,6 +461,7 @@ impl<T: Real> Adapter<T> {
             base: self.base,
             coordinates: self.coords,
             searches: self.log,
+            tied_until: None,
         }
     }
 }
