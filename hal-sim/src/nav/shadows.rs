@@ -42,7 +42,7 @@ pub struct Shadows<T: Real> {
     /// Its decisions so far.
     pub log: Vec<Decision>,
     /// With `--adapt-tied-first`: the per-axis bank's settings, while the tied bank runs
-    /// ([`crate::nav::adapt::tied_first`]).
+    /// ([`crate::nav::adapt::switch_if_settled`]).
     pub per_axis_next: Option<imu_ident::nav::OnlineConfig>,
     /// The tied bank's first decision inside its grid was taken: the loop starts the
     /// per-axis bank.
