@@ -476,19 +476,21 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
     /// by its Cramér-Rao sd, at most the current offset `d` (the same offset where the
     /// likelihood is not concave or not bounded). The bank keeps searching about its point.
     pub fn running_model(&self) -> ImuErrorModel<T> {
-        let mut f = [T::zero(); MAX_PARAMS];
-        for (i, (fi, xi)) in f.iter_mut().zip(self.est.iter()).enumerate() {
-            *fi = T::lit(*xi + self.raise(i));
-        }
-        coords::apply(&self.base, &self.coords, &f)
+        self.model_at(true)
     }
 
     /// The model at the estimate ([`log10_factors`](Self::log10_factors)), without the
     /// conservative raise of [`running_model`](Self::running_model).
     pub fn estimate_model(&self) -> ImuErrorModel<T> {
+        self.model_at(false)
+    }
+
+    /// The model at the estimate, each coordinate `raised` by [`raise`](Self::raise) or not.
+    fn model_at(&self, raised: bool) -> ImuErrorModel<T> {
         let mut f = [T::zero(); MAX_PARAMS];
-        for (fi, xi) in f.iter_mut().zip(self.est.iter()) {
-            *fi = T::lit(*xi);
+        for (i, (fi, xi)) in f.iter_mut().zip(self.est.iter()).enumerate() {
+            let up = if raised { self.raise(i) } else { 0.0 };
+            *fi = T::lit(*xi + up);
         }
         coords::apply(&self.base, &self.coords, &f)
     }
