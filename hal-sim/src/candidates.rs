@@ -110,6 +110,17 @@ impl Candidate {
         }
     }
 
+    /// The `(sigma, tau)` pairs of [`component`](Self::component)'s log-parameters that a
+    /// pattern search also moves along `sigma^2 / tau` = const ([`crate::nav::pattern`]): a
+    /// Gauss-Markov's. Not an exponential-cosine's: its low-frequency level also depends on
+    /// the period, so that line is not its ridge.
+    pub fn ridges(&self) -> &'static [(usize, usize)] {
+        match self.kind {
+            ComponentKind::GaussMarkov => &[(0, 1)],
+            _ => &[],
+        }
+    }
+
     /// Number of free parameters (the complexity penalty counts these).
     pub fn n_params(&self) -> usize {
         match self.kind {

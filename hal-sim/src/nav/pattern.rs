@@ -1,5 +1,6 @@
-//! The coordinate pattern search shared by `nav --identify` ([`super::identify`]) and the
-//! online identification ([`super::adapt`]): every coordinate is tried up and down by the
+//! The coordinate pattern search shared by `nav --identify` ([`super::identify`]), the
+//! online identification ([`super::adapt`]) and the diagnosis's candidate fits
+//! ([`super::diagnose`]): every coordinate is tried up and down by the
 //! current step, a move is kept as soon as it raises the objective, passes repeat while one
 //! did (at most `max_passes` per step), then the step shrinks. Given `ridges`, pairs of
 //! coordinates `(sigma, tau)` of one Gauss-Markov component, each pass also tries their

@@ -145,7 +145,15 @@ pub(super) fn fit(
 ) -> Result<(Vec<f64>, f64, usize)> {
     let model_at = |p: &[f64]| offered(cand, p).and_then(|c| with_component(&args.model, s, c));
     let starts = cand.starts_at(sensor_scale(&args.model, s));
-    maximise(args, imu, fixes, &model_at, starts, cand.time_params())
+    maximise(
+        args,
+        imu,
+        fixes,
+        &model_at,
+        starts,
+        cand.time_params(),
+        cand.ridges(),
+    )
 }
 
 /// The maximum likelihood over the models `model_at(p)` (`None`: not offered): the best of
@@ -158,6 +166,7 @@ pub(super) fn maximise(
     model_at: &dyn Fn(&[f64]) -> Option<ImuErrorModel<f64>>,
     starts: Vec<Vec<f64>>,
     times: std::ops::Range<usize>,
+    ridges: &[(usize, usize)],
 ) -> Result<(Vec<f64>, f64, usize)> {
     let mut a = args.clone();
     let mut n = 0usize;
@@ -181,17 +190,20 @@ pub(super) fn maximise(
     let Some((mut x, mut ll)) = best else {
         return Ok((Vec::new(), f64::NEG_INFINITY, n));
     };
-    search(&mut x, &mut ll, times, &mut eval)?;
+    search(&mut x, &mut ll, times, ridges, &mut eval)?;
     Ok((x, ll, n))
 }
 
 /// The pattern search of item 3 from `x` (whose log-likelihood is `ll`): natural-log steps
 /// [`STEPS`], every coordinate within three decades of its start except the `times` (a
-/// correlation time, a period), within [`TAU_RANGE`]. Updates `x` and `ll`.
+/// correlation time, a period), within [`TAU_RANGE`]; the `ridges`, a Gauss-Markov's
+/// `(sigma, tau)`, also moved along `sigma^2 / tau` = const ([`crate::nav::pattern`]).
+/// Updates `x` and `ll`.
 pub(super) fn search(
     x: &mut [f64],
     ll: &mut f64,
     times: std::ops::Range<usize>,
+    ridges: &[(usize, usize)],
     eval: &mut dyn FnMut(&[f64]) -> Result<f64>,
 ) -> Result<()> {
     let centre = x.to_vec();
@@ -203,7 +215,7 @@ pub(super) fn search(
             (c - HALF_WIDTH, c + HALF_WIDTH)
         })
     };
-    crate::nav::pattern::maximise(x, ll, &STEPS, 4, &bounds, &[], eval)
+    crate::nav::pattern::maximise(x, ll, &STEPS, 4, &bounds, ridges, eval)
 }
 
 #[cfg(test)]

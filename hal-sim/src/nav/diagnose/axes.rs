@@ -158,10 +158,13 @@ pub(super) fn fit_split(
     // A Gauss-Markov's tau (an exp-cosine's tau and period) follows the three magnitudes: the
     // tied layout's times, two places on.
     let times = cand.time_params();
+    // No ridge moves: the correlation time is shared, so `sigma^2 / tau` = const for one
+    // axis's magnitude is not that line for the other two.
     search(
         &mut x,
         &mut ll,
         times.start + 2..times.end + 2,
+        &[],
         &mut |p: &[f64]| {
             n += 1;
             match model_of(&args.model, cand, s, p, [true; 3]) {

@@ -24,7 +24,10 @@
 //!    ([`crate::candidates::Candidate::starts_at`], scaled to the sensor's magnitude in the
 //!    model) is evaluated, and a pattern search ([`super::pattern`]) runs from the best, in
 //!    natural-log steps 2, 1, 0.5, 0.25, within three decades of its start (correlation times
-//!    and periods within [10 s, 1e5 s]).
+//!    and periods within [10 s, 1e5 s]); a Gauss-Markov's `(sigma, tau)` also moves along
+//!    `sigma^2 / tau` = const ([`crate::candidates::Candidate::ridges`]: one axis at a time,
+//!    the search stopped short of the maximum on that ridge, by up to 2.7 nats on the
+//!    simulated logs of BENCHMARKS.md "Naming a missing effect on the strapdown navigator").
 //! 4. The test: with the model right, twice a candidate's gain `L1 - L0` is asymptotically at
 //!    most chi-square(k) (Wilks; `k` its free parameters; the component's magnitude on its
 //!    boundary at zero makes it a mixture with a point mass at zero, which only lowers the

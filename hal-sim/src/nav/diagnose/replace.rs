@@ -132,6 +132,13 @@ impl NavReplacement {
         own.clone().next().map_or(0..0, |i| i..own.end)
     }
 
+    /// The `(sigma, tau)` pair of `p` a pattern search also moves along `sigma^2 / tau` =
+    /// const when the new kind is a Gauss-Markov ([`Candidate::ridges`]); a factor on an old
+    /// value and an absolute log-quantity move alike in log space.
+    pub fn ridges(&self) -> &'static [(usize, usize)] {
+        self.target().ridges()
+    }
+
     /// The positions of the new kind's quantities the old kind lacks (a contiguous tail:
     /// sigma and tau lead every correlated kind).
     fn own(&self) -> std::ops::Range<usize> {
@@ -255,7 +262,15 @@ pub(super) fn fit(
     let model_at = |p: &[f64]| r.apply(&args.model, p);
     let mut starts = r.starts();
     starts.extend(added.and_then(|a| r.relative(a)));
-    maximise(args, imu, fixes, &model_at, starts, r.time_params())
+    maximise(
+        args,
+        imu,
+        fixes,
+        &model_at,
+        starts,
+        r.time_params(),
+        r.ridges(),
+    )
 }
 
 #[cfg(test)]
