@@ -507,6 +507,39 @@ impl Proposal {
 mod tests {
     use super::*;
 
+    /// A Gauss-Markov candidate's ridge pair is its `(ln sigma, ln tau)`: moving it by `(h, 2h)`
+    /// keeps `sigma^2 / tau`, the low-frequency level that short data bound. The other kinds
+    /// offer none.
+    #[test]
+    fn a_gauss_markov_ridge_keeps_sigma_squared_over_tau() {
+        let gm = Candidate {
+            sensor: ErrorSource::Gyro,
+            kind: ComponentKind::GaussMarkov,
+        };
+        let level = |p: &[f64]| match gm.component(p) {
+            Some(Component::GaussMarkov(g)) => g.sigma * g.sigma / g.tau,
+            other => panic!("{other:?}"),
+        };
+        let p = [(1e-5f64).ln(), (300f64).ln()];
+        let &[(s, t)] = gm.ridges() else {
+            panic!("{:?}", gm.ridges())
+        };
+        let mut q = p;
+        q[s] += 0.7;
+        q[t] += 1.4;
+        assert!((level(&q) / level(&p) - 1.0).abs() < 1e-12);
+        assert!((q[t] - p[t] - 1.4).abs() < 1e-12 && gm.time_params().contains(&t));
+        for kind in [
+            ComponentKind::White,
+            ComponentKind::ExpCosine,
+            ComponentKind::RandomWalk,
+            ComponentKind::RandomConstant,
+        ] {
+            let c = Candidate { kind, ..gm };
+            assert!(c.ridges().is_empty(), "{kind:?}");
+        }
+    }
+
     /// The swaps of `paper` (one Gauss-Markov per sensor) and of a model whose gyro is an
     /// exp-cosine: starts keep sigma and tau, an exp-cosine tries the additions' periods, and
     /// `apply` changes only the named component.
