@@ -42,7 +42,8 @@
 //! Per seed: a figure-eight drive (`Profile::figure_eight_course`, 100 Hz, GNSS 1 Hz with 60-s
 //! outages every 20 min from 10 min, withheld by the run); the true-model filter; then one
 //! `nav --adapt` run per start. A start `k` scales every standard deviation (white density,
-//! Gauss-Markov sigma; random-walk q by k^2) by `k`; `rand` draws a factor log-uniformly in
+//! Gauss-Markov sigma; random-walk q by k^2) by `k`; `k:l` also every correlation time by
+//! `l`, and `taul` the correlation times alone; `rand` draws a factor log-uniformly in
 //! [0.1, 10] independently for every standard deviation and correlation time on every axis
 //! (seeded by the seed and the start's place in the list; `randK` is the draw of place K, to
 //! pair runs with another list). Scored over t >= `score_from` [s] (3600):
@@ -76,6 +77,19 @@ fn random(m: &ImuErrorModel<f64>, rng: &mut impl Rng) -> ImuErrorModel<f64> {
                 if let Some(v) = c.get(q) {
                     c.set(q, if q == Quantity::Q { v * k * k } else { v * k });
                 }
+            }
+        }
+    }
+    out
+}
+
+/// `m` with every correlation time times `k`.
+fn scaled_taus(m: &ImuErrorModel<f64>, k: f64) -> ImuErrorModel<f64> {
+    let mut out = m.clone();
+    for axis in out.gyro.iter_mut().chain(out.accel.iter_mut()) {
+        for c in axis.iter_mut() {
+            if let Some(v) = c.get(Quantity::Tau) {
+                c.set(Quantity::Tau, v * k);
             }
         }
     }
@@ -296,8 +310,18 @@ fn main() {
                     random(&truth_model, &mut rng)
                 }
                 None => {
-                    let k = s.parse().unwrap_or_else(|e| panic!("start {s}: {e}"));
-                    hal_sim::nav::model::scaled_sd(&truth_model, k)
+                    // `K`: every standard deviation times K; `K:L` also every correlation time
+                    // times L; `tauL` the correlation times alone (`1:L`).
+                    let (k, l) = match s.strip_prefix("tau") {
+                        Some(l) => ("1", l),
+                        None => s.split_once(':').unwrap_or((s.as_str(), "1")),
+                    };
+                    let num =
+                        |v: &str| -> f64 { v.parse().unwrap_or_else(|e| panic!("start {s}: {e}")) };
+                    scaled_taus(
+                        &hal_sim::nav::model::scaled_sd(&truth_model, num(k)),
+                        num(l),
+                    )
                 }
             };
             let t = std::time::Instant::now();

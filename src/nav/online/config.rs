@@ -61,10 +61,12 @@ pub struct OnlineConfig {
     /// it (BENCHMARKS.md "Flat coordinates wait in the bank").
     pub flat_waits: bool,
     /// A coordinate the window bounds leaves the shadows' grid (a step over `d`, which
-    /// restarts the window) only when its vertex lies beyond the grid's edge by at least this
-    /// many of its Cramér-Rao sds (a one-sided Wald test that the maximum is outside the
-    /// grid, 2.3 % false alarms at 2); otherwise it stops at the edge, inside the grid, and
-    /// the window keeps growing. And an estimate settled inside the grid more than `d / 2`
+    /// restarts the window) only when its step, the vertex limited to `2 d`, lies beyond the
+    /// grid's edge by at least this many of its Cramér-Rao sds (a one-sided Wald test that the
+    /// maximum is outside the grid, 2.3 % false alarms at 2; a vertex past `2 d` counts as
+    /// `2 d`, so the coordinate leaves only where `d` is at least this many sds: the vertex
+    /// itself was tried, BENCHMARKS.md "Correlation times wrong at the start"); otherwise it
+    /// stops at the edge, inside the grid, and the window keeps growing. And an estimate settled inside the grid more than `d / 2`
     /// off its centre, with `exit_z` sds under `d / 2`, is measured again about itself with
     /// half the offset (`newton::settled_off_centre`). 0: every vertex beyond the edge
     /// leaves, and an estimate inside the grid stays in it. 2 by default: without it the

@@ -31,7 +31,11 @@
 //! reference is at 1.05x (BENCHMARKS.md "A flat coordinate moves on evidence").
 //!
 //! With [`OnlineConfig::exit_z`] (2 by default) a bounded coordinate leaves the grid only when
-//! its vertex is beyond the edge by `exit_z` Cramér-Rao sds; otherwise it stops at the edge.
+//! its step, the vertex limited to `2 d`, is beyond the edge by `exit_z` Cramér-Rao sds;
+//! otherwise it stops at the edge. A vertex past `2 d` counts as `2 d`: a coordinate leaves
+//! only where `d >= exit_z sd`. Testing the vertex itself (and, separately, a vertex 4 sds
+//! past the edge) freed the correlation times held short from a start at 0.1x, and passed
+//! no more runs (BENCHMARKS.md "Correlation times wrong at the start").
 //! Without it the vertex's noise on a 10-min window (0.1-0.2 decade) was larger than the
 //! settled offset, so nearly every decision left the grid and restarted the window, which
 //! then never grew to lower that noise ([`settled_off_centre`] is its counterpart inside
@@ -285,9 +289,9 @@ pub(super) fn step(
             }
         }
     }
-    // A bounded coordinate leaves the grid only when its vertex is beyond the edge by
-    // `exit_z` Cramér-Rao sds (the pair's marginal sds where its curvature matrix is positive
-    // definite); otherwise it stops at the edge.
+    // A bounded coordinate leaves the grid only when its step (the vertex limited to `2 d`)
+    // is beyond the edge by `exit_z` Cramér-Rao sds (the pair's marginal sds where its
+    // curvature matrix is positive definite); otherwise it stops at the edge.
     if cfg.exit_z > 0.0 {
         let mut stopped = [false; MAX_PARAMS];
         for (((o, b), s), st) in out
