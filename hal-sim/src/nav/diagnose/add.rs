@@ -145,15 +145,21 @@ pub(super) fn fit(
 ) -> Result<(Vec<f64>, f64, usize)> {
     let model_at = |p: &[f64]| offered(cand, p).and_then(|c| with_component(&args.model, s, c));
     let starts = cand.starts_at(sensor_scale(&args.model, s));
-    maximise(
-        args,
-        imu,
-        fixes,
-        &model_at,
-        starts,
-        cand.time_params(),
-        cand.ridges(),
-    )
+    let layout = Layout {
+        times: cand.time_params(),
+        ridges: cand.ridges(),
+    };
+    maximise(args, imu, fixes, &model_at, starts, layout)
+}
+
+/// Which log-parameters of a fit are times (searched within [`TAU_RANGE`], not about their
+/// start) and which `(sigma, tau)` pairs also move along `sigma^2 / tau` = const.
+#[derive(Debug, Clone)]
+pub(super) struct Layout {
+    /// The times.
+    pub times: std::ops::Range<usize>,
+    /// The Gauss-Markov pairs ([`Candidate::ridges`]).
+    pub ridges: &'static [(usize, usize)],
 }
 
 /// The maximum likelihood over the models `model_at(p)` (`None`: not offered): the best of
@@ -165,8 +171,7 @@ pub(super) fn maximise(
     fixes: &[GnssFix],
     model_at: &dyn Fn(&[f64]) -> Option<ImuErrorModel<f64>>,
     starts: Vec<Vec<f64>>,
-    times: std::ops::Range<usize>,
-    ridges: &[(usize, usize)],
+    layout: Layout,
 ) -> Result<(Vec<f64>, f64, usize)> {
     let mut a = args.clone();
     let mut n = 0usize;
@@ -190,7 +195,7 @@ pub(super) fn maximise(
     let Some((mut x, mut ll)) = best else {
         return Ok((Vec::new(), f64::NEG_INFINITY, n));
     };
-    search(&mut x, &mut ll, times, ridges, &mut eval)?;
+    search(&mut x, &mut ll, layout.times, layout.ridges, &mut eval)?;
     Ok((x, ll, n))
 }
 

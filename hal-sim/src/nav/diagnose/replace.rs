@@ -25,7 +25,7 @@
 //! period at infinity) is outside the Gauss-Markov -> exponential-cosine family and on a right
 //! model its gain is often negative (-8 nats on the first fresh seeds).
 
-use super::add::{maximise, offered};
+use super::add::{maximise, offered, Layout};
 use crate::candidates::{log_param, Candidate, Replacement};
 use crate::nav::NavArgs;
 use crate::nav_io::{GnssFix, ImuSample};
@@ -262,15 +262,11 @@ pub(super) fn fit(
     let model_at = |p: &[f64]| r.apply(&args.model, p);
     let mut starts = r.starts();
     starts.extend(added.and_then(|a| r.relative(a)));
-    maximise(
-        args,
-        imu,
-        fixes,
-        &model_at,
-        starts,
-        r.time_params(),
-        r.ridges(),
-    )
+    let layout = Layout {
+        times: r.time_params(),
+        ridges: r.ridges(),
+    };
+    maximise(args, imu, fixes, &model_at, starts, layout)
 }
 
 #[cfg(test)]
