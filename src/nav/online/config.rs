@@ -66,10 +66,11 @@ pub struct OnlineConfig {
     /// maximum is outside the grid, 2.3 % false alarms at 2; a vertex past `2 d` counts as
     /// `2 d`, so the coordinate leaves only where `d` is at least this many sds: the vertex
     /// itself was tried, BENCHMARKS.md "Correlation times wrong at the start"); otherwise it
-    /// stops at the edge, inside the grid, and the window keeps growing. And an estimate settled inside the grid more than `d / 2`
-    /// off its centre, with `exit_z` sds under `d / 2`, is measured again about itself with
-    /// half the offset (`newton::settled_off_centre`). 0: every vertex beyond the edge
-    /// leaves, and an estimate inside the grid stays in it. 2 by default: without it the
+    /// stops at the edge, inside the grid, and the window keeps growing. And an estimate
+    /// settled inside the grid more than `d / 2` off its centre, with `exit_z` sds under
+    /// `d / 2`, is measured again about itself with half the offset
+    /// (`newton::settled_off_centre`). 0: every vertex beyond the edge leaves, and an
+    /// estimate inside the grid stays in it. 2 by default: without it the
     /// vertex's noise on a 10-min window (0.1-0.2 decade) was larger than the settled offset
     /// (1/16-1/8 decade), so nearly every decision left the grid and no window grew past one
     /// interval; with it 76 of 96 development runs passed against 66 (BENCHMARKS.md "Leaving

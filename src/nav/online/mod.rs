@@ -51,11 +51,10 @@
 //!   [`OnlineConfig::min_offset`]) when the largest step stayed under `1.5 d`.
 //! - **Leaving on evidence** ([`OnlineConfig::exit_z`], on by default): a bounded coordinate
 //!   whose step (its vertex, limited to `2 d`) is beyond the edge by fewer than `exit_z`
-//!   Cramér-Rao sds stops at the edge,
-//!   inside the grid (and when it is one quantity of a pair, the other moves to its
-//!   maximum given that one, `newton.rs`); and an estimate settled inside the grid more than
-//!   `d / 2` off its centre is measured again about itself with half the offset, as if it
-//!   had left.
+//!   Cramér-Rao sds stops at the edge, inside the grid (and when it is one quantity of a
+//!   pair, the other moves to its maximum given that one, `newton.rs`); and an estimate
+//!   settled inside the grid more than `d / 2` off its centre is measured again about
+//!   itself with half the offset, as if it had left.
 //!
 //! Keeping the grid passed 14 of 24 development runs against 9 for moving the shadows at
 //! every decision, and with the defaults (decisions every 10 min, the conservative running

@@ -49,11 +49,12 @@
 //! true-model filter; 1.04x with the conditional step).
 //!
 //! With [`OnlineConfig::hold_flat_taus`] a correlation time the data do not bound is held
-//! (issue 13: a flat direction is flagged, not left to wander): in a pair whose tau has a marginal Cramér-Rao sd (from the inverse of
-//! the 2x2 curvature matrix) above [`IDENTIFIABLE_SD`], or whose curvature matrix is not
-//! positive definite, the tau stays and the sigma takes its own parabola's step. Along the
-//! ridge `sigma^2 / tau` = const that short windows leave, tau otherwise drifted to the bound
-//! (seed 9701, tactical: +1.96 decades, attitude 1.59x the true-model filter).
+//! (issue 13: a flat direction is flagged, not left to wander): in a pair whose tau has a
+//! marginal Cramér-Rao sd (from the inverse of the 2x2 curvature matrix) above
+//! [`IDENTIFIABLE_SD`], or whose curvature matrix is not positive definite, the tau stays
+//! and the sigma takes its own parabola's step. Along the ridge `sigma^2 / tau` = const that
+//! short windows leave, tau otherwise drifted to the bound (seed 9701, tactical: +1.96
+//! decades, attitude 1.59x the true-model filter).
 
 use super::coords::{Coordinate, MAX_COORDS, MAX_PARAMS};
 use super::{OnlineConfig, IDENTIFIABLE_SD};
