@@ -64,9 +64,11 @@ pub struct OnlineConfig {
     /// restarts the window) only when its step, the vertex limited to `2 d`, lies beyond the
     /// grid's edge by at least this many of its Cramér-Rao sds (a one-sided Wald test that the
     /// maximum is outside the grid, 2.3 % false alarms at 2; a vertex past `2 d` counts as
-    /// `2 d`, so the coordinate leaves only where `d` is at least this many sds: the vertex
-    /// itself was tried, BENCHMARKS.md "Correlation times wrong at the start"); otherwise it
-    /// stops at the edge, inside the grid, and the window keeps growing. And an estimate
+    /// `2 d`: the vertex itself was tried, BENCHMARKS.md "Correlation times wrong at the
+    /// start"); otherwise it stops at the edge, inside the grid, and the window keeps growing.
+    /// A coordinate stopped so while its vertex is this many sds past the edge is pressed,
+    /// and pressed at two decisions in a row its limited step leaves (BENCHMARKS.md "Pressed
+    /// on the edge at two decisions"). And an estimate
     /// settled inside the grid more than `d / 2` off its centre, with `exit_z` sds under
     /// `d / 2`, is measured again about itself with half the offset
     /// (`newton::settled_off_centre`). 0: every vertex beyond the edge leaves, and an

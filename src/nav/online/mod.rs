@@ -52,7 +52,9 @@
 //! - **Leaving on evidence** ([`OnlineConfig::exit_z`], on by default): a bounded coordinate
 //!   whose step (its vertex, limited to `2 d`) is beyond the edge by fewer than `exit_z`
 //!   Cramér-Rao sds stops at the edge, inside the grid (and when it is one quantity of a
-//!   pair, the other moves to its maximum given that one, `newton.rs`); and an estimate
+//!   pair, the other moves to its maximum given that one, `newton.rs`); one stopped at two
+//!   decisions in a row while its vertex was `exit_z` sds past the edge leaves by its limited
+//!   step (`newton.rs`: pressed on the edge); and an estimate
 //!   settled inside the grid more than `d / 2` off its centre is measured again about
 //!   itself with half the offset, as if it had left.
 //!
@@ -94,7 +96,7 @@ use crate::nav::ImuErrorModel;
 use crate::Real;
 use coords::{Coordinate, GNSS_COORDS, MAX_COORDS, MAX_PARAMS};
 use heapless::Vec;
-use newton::Quad;
+use newton::{Marks, Quad};
 use shadow::Shadow;
 
 pub use config::OnlineConfig;
@@ -143,7 +145,9 @@ pub struct OnlineIdent<T: Real, const N: usize, const M: usize> {
     since: f64,
     /// The offset of the shadows [decades].
     d: f64,
-    cr_sd: [f64; MAX_PARAMS],
+    /// Each coordinate's Cramér-Rao sd and whether it was pressed on the grid's edge, at the
+    /// last decision (`newton::step`).
+    marks: Marks,
     next: f64,
     fixes: u32,
     decisions: u32,
@@ -183,7 +187,7 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         sums: [0.0; M],
         since: 0.0,
         d: 0.0,
-        cr_sd: [0.0; MAX_PARAMS],
+        marks: Marks::NONE,
         next: 0.0,
         fixes: 0,
         decisions: 0,
@@ -262,7 +266,7 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         self.sums = [0.0; M];
         self.since = t;
         self.d = cfg.offset;
-        self.cr_sd = [f64::INFINITY; MAX_PARAMS];
+        self.marks = Marks::NONE;
         self.next = t + cfg.first;
         self.fixes = 0;
         self.decisions = 0;
@@ -308,13 +312,16 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
     /// The Cramér-Rao standard deviation of each coordinate [decades] at the last decision
     /// (infinite before the first, or where the data do not bound it).
     pub fn cr_sd(&self) -> &[f64] {
-        self.cr_sd.get(..self.p()).unwrap_or(&[])
+        self.marks.cr_sd.get(..self.p()).unwrap_or(&[])
     }
 
     /// Coordinate `i` is identifiable from the data so far (its Cramér-Rao sd is at most
     /// [`IDENTIFIABLE_SD`]).
     pub fn identifiable(&self, i: usize) -> bool {
-        self.cr_sd.get(i).is_some_and(|sd| *sd <= IDENTIFIABLE_SD)
+        self.marks
+            .cr_sd
+            .get(i)
+            .is_some_and(|sd| *sd <= IDENTIFIABLE_SD)
     }
 
     /// Each shadow's summed log-likelihood of the GNSS fixes since the last move [nats]:
@@ -406,7 +413,7 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
             &self.pairs,
             &q,
             &self.x,
-            &mut self.cr_sd,
+            &mut self.marks,
         );
         let big = step
             .iter()
@@ -416,7 +423,8 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
         for (e, s) in est.iter_mut().zip(step.iter()).take(p) {
             *e += s;
         }
-        let settled = newton::settled_off_centre(&self.cfg, self.d, p, &est, &self.x, &self.cr_sd);
+        let settled =
+            newton::settled_off_centre(&self.cfg, self.d, p, &est, &self.x, &self.marks.cr_sd);
         if big <= self.d && !settled {
             // The estimate is inside the shadows' grid: the running filter takes it, and the
             // shadows stay where they are, so the sums keep accumulating (the window grows and
@@ -465,7 +473,7 @@ impl<T: Real, const N: usize, const M: usize> OnlineIdent<T, N, M> {
             .coords
             .get(i)
             .map_or(i < self.p(), |c| c.quantity.is_intensity());
-        match self.cr_sd.get(i) {
+        match self.marks.cr_sd.get(i) {
             Some(sd) if self.cfg.conservative && intensity => sd.min(self.d),
             _ => 0.0,
         }

@@ -32,10 +32,16 @@
 //!
 //! With [`OnlineConfig::exit_z`] (2 by default) a bounded coordinate leaves the grid only when
 //! its step, the vertex limited to `2 d`, is beyond the edge by `exit_z` Cramér-Rao sds;
-//! otherwise it stops at the edge. A vertex past `2 d` counts as `2 d`: a coordinate leaves
-//! only where `d >= exit_z sd`. Testing the vertex itself (and, separately, a vertex 4 sds
-//! past the edge) freed the correlation times held short from a start at 0.1x, and passed
-//! no more runs (BENCHMARKS.md "Correlation times wrong at the start").
+//! otherwise it stops at the edge. A vertex past `2 d` counts as `2 d`: on that test alone a
+//! coordinate leaves only where `d >= exit_z sd`. Testing the vertex itself (and, separately,
+//! a vertex 4 sds past the edge) freed the correlation times held short from a start at 0.1x,
+//! and passed no more runs (BENCHMARKS.md "Correlation times wrong at the start"): a single
+//! 10-min window's vertex left on noise. So the vertex counts only when it persists: a
+//! coordinate stopped at the edge while its vertex is `exit_z` sds past it is *pressed*, and
+//! pressed at two decisions in a row (the caller keeps the record) its limited step leaves.
+//! With the offset halved by the settled sigmas a correlation time otherwise crept `d` per
+//! decision toward a vertex a decade away (BENCHMARKS.md "Pressed on the edge at two
+//! decisions").
 //! Without it the vertex's noise on a 10-min window (0.1-0.2 decade) was larger than the
 //! settled offset, so nearly every decision left the grid and restarted the window, which
 //! then never grew to lower that noise ([`settled_off_centre`] is its counterpart inside
@@ -81,6 +87,22 @@ pub(super) fn pairs(coords: &[Coordinate]) -> Vec<(usize, usize), MAX_COORDS> {
         }
     }
     out
+}
+
+/// What a decision marks on each coordinate besides its step: its Cramér-Rao sd, and whether
+/// it is pressed on the grid's edge (`step`; the record of the previous decision goes in).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Marks {
+    pub cr_sd: [f64; MAX_PARAMS],
+    pub pressed: [bool; MAX_PARAMS],
+}
+
+impl Marks {
+    /// Before the first decision: no interval, nothing pressed.
+    pub const NONE: Self = Self {
+        cr_sd: [f64::INFINITY; MAX_PARAMS],
+        pressed: [false; MAX_PARAMS],
+    };
 }
 
 /// A quadratic model of a summed log-likelihood about the current point: gradient `g`
@@ -145,13 +167,19 @@ pub(super) fn step(
     pairs: &[(usize, usize)],
     q: &Quad,
     x: &[f64; MAX_PARAMS],
-    cr_sd: &mut [f64; MAX_PARAMS],
+    marks: &mut Marks,
 ) -> [f64; MAX_PARAMS] {
+    // Whether each coordinate was pressed at the previous decision (the caller's record).
+    let before = marks.pressed;
+    let Marks { cr_sd, pressed } = marks;
+    *pressed = [false; MAX_PARAMS];
     let (p, d) = (p.min(MAX_PARAMS), q.d);
     let is_tau = |i: usize| coords.get(i).is_some_and(|c| c.quantity == Quantity::Tau);
     *cr_sd = [f64::INFINITY; MAX_PARAMS];
     let at = |a: &[f64], i: usize| a.get(i).copied().unwrap_or(0.0);
     let mut out = [0.0; MAX_PARAMS];
+    // Each step before its `2 d` limit: the vertex.
+    let mut vertex = [0.0; MAX_PARAMS];
     let mut gains = [0.0; MAX_PARAMS];
     // The coordinates the window bounds: a concave parabola, or a variance factor's model
     // ([`OnlineConfig::flat_waits`]).
@@ -189,6 +217,9 @@ pub(super) fn step(
         } else {
             -2.0 * d
         };
+        if let Some(v) = vertex.get_mut(i) {
+            *v = s;
+        }
         let s = within(s, -2.0 * d, 2.0 * d);
         // A concave coordinate: the parabola's promise at its step. A flat one: what its
         // shadow up the slope measured over the centre (`shadow_gains`, module docs),
@@ -265,6 +296,11 @@ pub(super) fn step(
             }
         } else if pd {
             let (mut si, mut sj) = ((cjj * gi - cij * gj) / det, (cii * gj - cij * gi) / det);
+            for (m, sm) in [(i, si), (j, sj)] {
+                if let Some(v) = vertex.get_mut(m) {
+                    *v = sm;
+                }
+            }
             let big = libm::fabs(si).max(libm::fabs(sj));
             if big > 2.0 * d {
                 si *= 2.0 * d / big;
@@ -295,13 +331,25 @@ pub(super) fn step(
     // curvature matrix is positive definite); otherwise it stops at the edge.
     if cfg.exit_z > 0.0 {
         let mut stopped = [false; MAX_PARAMS];
-        for (((o, b), s), st) in out
+        for (i, (((o, b), s), st)) in out
             .iter_mut()
             .zip(bounded.iter())
             .zip(exit_sd.iter())
             .zip(stopped.iter_mut())
+            .enumerate()
         {
-            (*o, *st) = exit_test(cfg, d, *o, *b, *s);
+            let limited = *o;
+            (*o, *st) = exit_test(cfg, d, limited, *b, *s);
+            // Pressed: stopped at the edge while the vertex itself is `exit_z` sds past it.
+            let v = vertex.get(i).copied().unwrap_or(0.0);
+            let press = *st && v * limited > 0.0 && libm::fabs(v) - d >= cfg.exit_z * *s;
+            if let Some(p) = pressed.get_mut(i) {
+                *p = press;
+            }
+            // Pressed at two decisions in a row: the limited step leaves.
+            if press && before.get(i).copied().unwrap_or(false) {
+                (*o, *st) = (limited, false);
+            }
         }
         // A pair's Newton step is optimal only jointly: with one of its quantities stopped
         // at the edge, the other takes the quadratic model's maximum given that one, not its

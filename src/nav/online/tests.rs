@@ -1,7 +1,7 @@
 //! Unit tests of the decision rule ([`super::newton`]) on exact quadratic log-likelihoods.
 
 use super::coords::{coordinates, MAX_PARAMS};
-use super::newton::{pairs, settled_off_centre, step, Quad};
+use super::newton::{pairs, settled_off_centre, step, Marks, Quad};
 use super::OnlineConfig;
 use crate::model::{Component, GaussMarkov, WhiteNoise};
 use crate::nav::ImuErrorModel;
@@ -45,7 +45,7 @@ fn a_coupled_pair_moves_to_the_vertex_of_an_exact_quadratic() {
     let h = [[400.0, 360.0], [360.0, 400.0]];
     let top = [0.3, -0.2];
     let s = sums(h, top, 0.5);
-    let mut sd = [0.0; MAX_PARAMS];
+    let mut m = Marks::NONE;
     let q = Quad::from_sums(0.5, 2, &pr, &s);
     let out = step(
         &OnlineConfig::DEFAULT,
@@ -54,8 +54,9 @@ fn a_coupled_pair_moves_to_the_vertex_of_an_exact_quadratic() {
         &pr,
         &q,
         &[0.0; MAX_PARAMS],
-        &mut sd,
+        &mut m,
     );
+    let sd = m.cr_sd;
     for i in 0..2 {
         assert!((out[i] - top[i]).abs() < 1e-9, "{out:?} against {top:?}");
     }
@@ -66,7 +67,8 @@ fn a_coupled_pair_moves_to_the_vertex_of_an_exact_quadratic() {
         hold_flat_taus: true,
         ..OnlineConfig::DEFAULT
     };
-    let _ = step(&hold, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut sd);
+    let _ = step(&hold, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut m);
+    let sd = m.cr_sd;
     assert!(
         (sd[0] - (400.0f64 / 30_400.0).sqrt()).abs() < 1e-12,
         "{sd:?}"
@@ -83,7 +85,7 @@ fn with_the_option_a_tau_the_data_do_not_bound_is_held() {
     let h = [[400.0, 398.0], [398.0, 400.0]];
     let top = [0.3, 0.3];
     let q = Quad::from_sums(0.5, 2, &pr, &sums(h, top, 0.5));
-    let mut sd = [0.0; MAX_PARAMS];
+    let mut m = Marks::NONE;
     // Without the exit test (`exit_z`): the sigma's own step, 0.6, is beyond the edge by
     // less than 2 of its marginal sds (0.5), so with the test it would stop at the edge.
     let hold = OnlineConfig {
@@ -91,7 +93,8 @@ fn with_the_option_a_tau_the_data_do_not_bound_is_held() {
         exit_z: 0.0,
         ..OnlineConfig::DEFAULT
     };
-    let out = step(&hold, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut sd);
+    let out = step(&hold, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut m);
+    let sd = m.cr_sd;
     let g0 = h[0][0] * top[0] + h[0][1] * top[1];
     assert!((out[0] - g0 / h[0][0]).abs() < 1e-9, "{out:?}");
     assert_eq!(out[1], 0.0, "the tau moved: {out:?}");
@@ -101,7 +104,7 @@ fn with_the_option_a_tau_the_data_do_not_bound_is_held() {
         exit_z: 0.0,
         ..OnlineConfig::DEFAULT
     };
-    let out = step(&cfg, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut sd);
+    let out = step(&cfg, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut m);
     assert!((out[0] - top[0]).abs() < 1e-9, "{out:?}");
     assert!((out[1] - top[1]).abs() < 1e-9, "{out:?}");
 }
@@ -114,18 +117,18 @@ fn a_flat_likelihood_holds_and_a_bound_clamps() {
     let cfg = OnlineConfig::DEFAULT;
     // A maximum 0.4 decade away along a likelihood this flat gains under 1 nat: held.
     let flat = sums([[2.0, 0.0], [0.0, 2.0]], [0.4, 0.0], 0.5);
-    let mut sd = [0.0; MAX_PARAMS];
+    let mut m = Marks::NONE;
     let q = Quad::from_sums(0.5, 2, &pr, &flat);
-    let out = step(&cfg, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut sd);
+    let out = step(&cfg, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut m);
     assert_eq!(&out[..2], &[0.0, 0.0]);
     // A steep one far away: the step is at most 2d, and stops at the bound.
     let steep = sums([[100.0, 0.0], [0.0, 100.0]], [5.0, 0.0], 0.5);
     let q = Quad::from_sums(0.5, 2, &pr, &steep);
     let mut x = [0.0; MAX_PARAMS];
-    let out = step(&cfg, 2, &c, &pr, &q, &x, &mut sd);
+    let out = step(&cfg, 2, &c, &pr, &q, &x, &mut m);
     assert!((out[0] - 1.0).abs() < 1e-12, "{out:?}");
     x[0] = 1.6;
-    let out = step(&cfg, 2, &c, &pr, &q, &x, &mut sd);
+    let out = step(&cfg, 2, &c, &pr, &q, &x, &mut m);
     assert!((out[0] - 0.4).abs() < 1e-12, "{out:?}");
 }
 
@@ -418,8 +421,9 @@ fn a_flat_coordinate_waits_while_a_bounded_one_leaves_the_grid() {
     };
     let run = |cfg: &OnlineConfig, top: f64| {
         let q = Quad::from_sums(d, 2, &[], &sums(top));
-        let mut sd = [0.0; MAX_PARAMS];
-        let out = step(cfg, 2, &c, &[], &q, &[0.0; MAX_PARAMS], &mut sd);
+        let mut m = Marks::NONE;
+        let out = step(cfg, 2, &c, &[], &q, &[0.0; MAX_PARAMS], &mut m);
+        let sd = m.cr_sd;
         // The flat coordinate is flagged either way: not concave, no Cramér-Rao interval.
         assert!(sd[1].is_infinite() && (sd[0] - 0.1).abs() < 1e-12, "{sd:?}");
         [out[0], out[1]]
@@ -459,7 +463,7 @@ fn a_flat_coordinate_moves_only_on_what_its_shadow_measured() {
     let run = |a: f64| {
         let flat = |y: f64| a * y + y * y;
         let q = Quad::from_sums(d, 2, &[], &[0.0, 0.0, flat(d), flat(-d), 0.0]);
-        let mut sd = [0.0; MAX_PARAMS];
+        let mut m = Marks::NONE;
         let out = step(
             &OnlineConfig::DEFAULT,
             2,
@@ -467,8 +471,9 @@ fn a_flat_coordinate_moves_only_on_what_its_shadow_measured() {
             &[],
             &q,
             &[0.0; MAX_PARAMS],
-            &mut sd,
+            &mut m,
         );
+        let sd = m.cr_sd;
         assert!(sd[1].is_infinite(), "{sd:?}");
         [out[0], out[1]]
     };
@@ -496,8 +501,9 @@ fn a_bounded_coordinate_leaves_the_grid_only_when_its_vertex_is_significantly_be
         let flat = |y: f64| 40.0 * y + 2.0 * y * y;
         let sums = [bounded(d), bounded(-d), flat(d), flat(-d), 0.0];
         let q = Quad::from_sums(d, 2, &[], &sums);
-        let mut sd = [0.0; MAX_PARAMS];
-        let out = step(cfg, 2, &c, &[], &q, &[0.0; MAX_PARAMS], &mut sd);
+        let mut m = Marks::NONE;
+        let out = step(cfg, 2, &c, &[], &q, &[0.0; MAX_PARAMS], &mut m);
+        let sd = m.cr_sd;
         assert!((sd[0] - 0.1).abs() < 1e-12, "{sd:?}");
         [out[0], out[1]]
     };
@@ -520,6 +526,55 @@ fn a_bounded_coordinate_leaves_the_grid_only_when_its_vertex_is_significantly_be
         let [s0, s1] = run(&none, top);
         assert!((s0 - top).abs() < 1e-9 && s1 == 0.0, "{top}: {s0} {s1}");
     }
+}
+
+/// `OnlineConfig::exit_z`, a vertex far past the edge: coordinate 0's exact parabola has a
+/// curvature of 11.1 nats/decade^2 (Cramér-Rao sd 0.3 decade) and `d = 0.5`. With its vertex at
+/// 2.0, the step limited to `2 d` is 0.5 past the edge, under 2 sd: it stops at the edge, but
+/// the vertex is 1.5 past it, 5 sd, so the coordinate is pressed; pressed at the next decision
+/// again, the limited step leaves the grid. A vertex at 0.9 (0.4 past the edge, under 2 sd) is
+/// not pressed and stays at the edge.
+#[test]
+fn a_coordinate_pressed_on_the_edge_at_two_decisions_leaves_the_grid() {
+    let c = coordinates(&two_white(), false, true).unwrap_or_else(|e| panic!("{e:?}"));
+    let d = 0.5;
+    let curv = 1.0 / 0.09;
+    let run = |top: f64, pressed: &mut [bool; MAX_PARAMS]| {
+        let bounded = |y: f64| -0.5 * curv * ((y - top) * (y - top) - top * top);
+        let flat = |y: f64| 40.0 * y + 2.0 * y * y;
+        let sums = [bounded(d), bounded(-d), flat(d), flat(-d), 0.0];
+        let q = Quad::from_sums(d, 2, &[], &sums);
+        let mut m = Marks {
+            pressed: *pressed,
+            ..Marks::NONE
+        };
+        let cfg = OnlineConfig::DEFAULT;
+        let out = step(&cfg, 2, &c, &[], &q, &[0.0; MAX_PARAMS], &mut m);
+        *pressed = m.pressed;
+        let sd = m.cr_sd;
+        assert!((sd[0] - 0.3).abs() < 1e-12, "{sd:?}");
+        [out[0], out[1]]
+    };
+    let mut pressed = [false; MAX_PARAMS];
+    // First decision: at the edge, pressed; the flat coordinate steps (nothing leaves).
+    let [s0, s1] = run(2.0, &mut pressed);
+    assert!(s0 == d && (s1 - 2.0 * d).abs() < 1e-12, "{s0} {s1}");
+    assert!(pressed[0] && !pressed[1]);
+    // Second: it leaves by `2 d`, and the flat coordinate waits.
+    let [s0, s1] = run(2.0, &mut pressed);
+    assert!((s0 - 2.0 * d).abs() < 1e-12 && s1 == 0.0, "{s0} {s1}");
+    // Not pressed: the edge at every decision.
+    let mut pressed = [false; MAX_PARAMS];
+    for _ in 0..3 {
+        let [s0, _] = run(0.9, &mut pressed);
+        assert!(s0 == d && !pressed[0], "{s0} {pressed:?}");
+    }
+    // Pressed once, then not: the record clears.
+    let mut pressed = [false; MAX_PARAMS];
+    let _ = run(2.0, &mut pressed);
+    let _ = run(0.9, &mut pressed);
+    let [s0, _] = run(2.0, &mut pressed);
+    assert!(s0 == d && pressed[0], "{s0}");
 }
 
 /// `OnlineConfig::exit_z`: an estimate inside the grid is measured again about itself (half
@@ -568,8 +623,8 @@ fn a_pair_with_one_quantity_at_the_edge_moves_the_other_to_its_maximum_given_tha
     // The step from the exact quadratic with its vertex at `top`.
     let decide = |cfg: &OnlineConfig, top: [f64; 2]| {
         let q = Quad::from_sums(d, 2, &pr, &sums(h, top, d));
-        let mut sd = [0.0; MAX_PARAMS];
-        let out = step(cfg, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut sd);
+        let mut m = Marks::NONE;
+        let out = step(cfg, 2, &c, &pr, &q, &[0.0; MAX_PARAMS], &mut m);
         [out[0], out[1]]
     };
     let near = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9;
@@ -590,8 +645,8 @@ fn a_pair_with_one_quantity_at_the_edge_moves_the_other_to_its_maximum_given_tha
     let q = Quad::from_sums(d, 2, &pr, &sums(hn, [0.05, 0.7], d));
     let mut x = [0.0; MAX_PARAMS];
     x[0] = cfg.bound;
-    let mut sd = [0.0; MAX_PARAMS];
-    let out = step(&cfg, 2, &c, &pr, &q, &x, &mut sd);
+    let mut m = Marks::NONE;
+    let out = step(&cfg, 2, &c, &pr, &q, &x, &mut m);
     assert!(near([out[0], out[1]], [-0.13, d]), "{out:?}");
     // Without the exit test both reach the vertex.
     let none = OnlineConfig { exit_z: 0.0, ..cfg };
