@@ -157,9 +157,12 @@ impl Quad {
 /// `2 d` up the slope when it is not and its shadow on that side measured [`FLAT_EVIDENCE`]
 /// nats over the centre; only when that promises [`OnlineConfig::min_gain`] nats;
 /// within [`OnlineConfig::bound`] of the start; the pairs by their 2x2 Newton step (module
-/// docs), with [`OnlineConfig::hold_flat_taus`] a flat pair's tau held. Writes each
-/// coordinate's Cramér-Rao sd into `cr_sd`: `1 / sqrt(c)` (with the option, the marginal sd
-/// for a pair with a positive definite curvature matrix), infinite where not concave.
+/// docs), with [`OnlineConfig::hold_flat_taus`] a flat pair's tau held; with the exit test,
+/// a coordinate pressed on the edge at this decision and the last (`marks.pressed` holds the
+/// last's) by its limited step. Writes each coordinate's Cramér-Rao sd into `marks.cr_sd`:
+/// `1 / sqrt(c)` (with the option, the marginal sd for a pair with a positive definite
+/// curvature matrix), infinite where not concave; and whether it is pressed now into
+/// `marks.pressed`.
 pub(super) fn step(
     cfg: &OnlineConfig,
     p: usize,
