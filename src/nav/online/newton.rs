@@ -181,7 +181,9 @@ pub(super) fn step(
     *cr_sd = [f64::INFINITY; MAX_PARAMS];
     let at = |a: &[f64], i: usize| a.get(i).copied().unwrap_or(0.0);
     let mut out = [0.0; MAX_PARAMS];
-    // Each step before its `2 d` limit: the vertex.
+    // Each step before its `2 d` limit: the vertex. A GNSS factor's (the variance model's
+    // maximum) is left at 0, so it is never pressed: its sd (0.01 decade) is far under the
+    // smallest offset, and its limited step passes the exit test wherever the vertex would.
     let mut vertex = [0.0; MAX_PARAMS];
     let mut gains = [0.0; MAX_PARAMS];
     // The coordinates the window bounds: a concave parabola, or a variance factor's model
