@@ -1,6 +1,6 @@
 //! Unit tests of the decision rule ([`super::newton`]) on exact quadratic log-likelihoods.
 
-use super::coords::{coordinates, MAX_PARAMS};
+use super::coords::{coordinates, Coordinate, MAX_PARAMS};
 use super::newton::{pairs, settled_off_centre, step, Marks, Quad};
 use super::OnlineConfig;
 use crate::model::{Component, GaussMarkov, WhiteNoise};
@@ -464,18 +464,10 @@ fn a_flat_coordinate_moves_only_on_what_its_shadow_measured() {
         let flat = |y: f64| a * y + y * y;
         let q = Quad::from_sums(d, 2, &[], &[0.0, 0.0, flat(d), flat(-d), 0.0]);
         let mut m = Marks::NONE;
-        let out = step(
-            &OnlineConfig::DEFAULT,
-            2,
-            &c,
-            &[],
-            &q,
-            &[0.0; MAX_PARAMS],
-            &mut m,
-        );
+        let out = default_step(&c, &q, &mut m);
         let sd = m.cr_sd;
         assert!(sd[1].is_infinite(), "{sd:?}");
-        [out[0], out[1]]
+        out
     };
     assert_eq!(run(2.0), [0.0, 0.0]);
     assert_eq!(run(-2.0), [0.0, 0.0]);
@@ -484,6 +476,45 @@ fn a_flat_coordinate_moves_only_on_what_its_shadow_measured() {
     // Down the slope alike: the shadow at `-d` measured `-a d + d^2` = 2.25 nats.
     let [s0, s1] = run(-4.0);
     assert!(s0 == 0.0 && (s1 + 2.0 * d).abs() < 1e-12, "{s0} {s1}");
+}
+
+/// After a bounded coordinate left the grid, a flat coordinate needs `AFTER_A_LEAVE` (3.84
+/// nats) at the next decision: coordinate 0 is an exact parabola of curvature 100
+/// nats/decade^2 with its vertex at `top`, coordinate 1 the flat `a y + y^2` of the test
+/// above. At the first decision coordinate 0 leaves (`top` = 0.8, 6 sds past the edge), which
+/// the marks record, and the flat one waits (`flat_waits`). At the next, with coordinate 0
+/// settled (`top` = 0), the flat one measured 2.25 nats (`a = 4`): under the test, it stays;
+/// with 4.25 (`a = 8`) it steps. That decision, at which nothing left, clears the record,
+/// and at the one after 2.25 nats suffice again.
+#[test]
+fn a_flat_coordinate_needs_more_evidence_on_the_window_after_a_leave() {
+    let c = coordinates(&two_white(), false, true).unwrap_or_else(|e| panic!("{e:?}"));
+    let d = 0.5;
+    let run = |top: f64, a: f64, m: &mut Marks| {
+        let bounded = |y: f64| -50.0 * (y - top) * (y - top) + 50.0 * top * top;
+        let flat = |y: f64| a * y + y * y;
+        let sums = [bounded(d), bounded(-d), flat(d), flat(-d), 0.0];
+        default_step(&c, &Quad::from_sums(d, 2, &[], &sums), m)
+    };
+    let near = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9;
+    for (a, steps) in [(4.0, false), (8.0, true)] {
+        let mut m = Marks::NONE;
+        let out = run(0.8, a, &mut m);
+        assert!(near(out, [0.8, 0.0]) && m.left, "{out:?}");
+        let out = run(0.0, a, &mut m);
+        let s1 = if steps { 2.0 * d } else { 0.0 };
+        assert!(near(out, [0.0, s1]) && !m.left, "{a}: {out:?}");
+        // Nothing left at that decision: the ordinary test (1.92 nats) at the next.
+        let out = run(0.0, a, &mut m);
+        assert!(near(out, [0.0, 2.0 * d]) && !m.left, "{a}: {out:?}");
+    }
+}
+
+/// `step` with the default configuration on two coordinates at the centre, no pairs: the two
+/// steps.
+fn default_step(c: &[Coordinate], q: &Quad, m: &mut Marks) -> [f64; 2] {
+    let out = step(&OnlineConfig::DEFAULT, 2, c, &[], q, &[0.0; MAX_PARAMS], m);
+    [out[0], out[1]]
 }
 
 /// `OnlineConfig::exit_z`: coordinate 0 has an exact parabola of curvature 100 nats/decade^2
