@@ -79,8 +79,8 @@ pub(super) const FLAT_EVIDENCE: f64 = 1.92;
 
 /// The evidence [nats] a flat coordinate's shadow must have measured at the first decision
 /// after a bounded coordinate left the grid (module docs): twice [`FLAT_EVIDENCE`], half the
-/// chi-square point at 0.56 % (7.68). That window holds one interval, over which every shadow
-/// follows its retuned covariance; on MEMS 64902 from sds 10x with taus 0.1x a flat
+/// chi-square point at 0.56 % (7.68). That window holds one interval and starts where every
+/// shadow was retuned about the moved centre; on MEMS 64902 from sds 10x with taus 0.1x a flat
 /// accelerometer white noise stepped a decade up on such a window, under this evidence, and
 /// the run ended at 2.74x the true-model filter's horizontal error (1.15x with this test;
 /// BENCHMARKS.md "A flat coordinate after a leave").

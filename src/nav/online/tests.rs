@@ -481,7 +481,7 @@ fn a_flat_coordinate_moves_only_on_what_its_shadow_measured() {
 /// After a bounded coordinate left the grid, a flat coordinate needs `AFTER_A_LEAVE` (3.84
 /// nats) at the next decision: coordinate 0 is an exact parabola of curvature 100
 /// nats/decade^2 with its vertex at `top`, coordinate 1 the flat `a y + y^2` of the test
-/// above. At the first decision coordinate 0 leaves (`top` = 0.8, 6 sds past the edge), which
+/// above. At the first decision coordinate 0 leaves (`top` = 0.8, 3 sds past the edge), which
 /// the marks record, and the flat one waits (`flat_waits`). At the next, with coordinate 0
 /// settled (`top` = 0), the flat one measured 2.25 nats (`a = 4`): under the test, it stays;
 /// with 4.25 (`a = 8`) it steps. That decision, at which nothing left, clears the record,
