@@ -579,12 +579,11 @@ fn a_coordinate_pressed_on_the_edge_at_two_decisions_leaves_the_grid() {
             pressed: *pressed,
             ..Marks::NONE
         };
-        let cfg = OnlineConfig::DEFAULT;
-        let out = step(&cfg, 2, &c, &[], &q, &[0.0; MAX_PARAMS], &mut m);
+        let out = default_step(&c, &q, &mut m);
         *pressed = m.pressed;
         let sd = m.cr_sd;
         assert!((sd[0] - 0.3).abs() < 1e-12, "{sd:?}");
-        [out[0], out[1]]
+        out
     };
     let mut pressed = [false; MAX_PARAMS];
     // First decision: at the edge, pressed; the flat coordinate steps (nothing leaves).
