@@ -24,51 +24,48 @@
 //!
 //! Members run the crate's one Kalman kernel ([`Kalman`]), which loops over the `n` active
 //! states only (4 for the paper model, out of `NX = 8`).
+//!
+//! The bank is generic over the error model ([`IdentifiableModel`]: `N` states, `Z`
+//! observation axes); its defaults are the one-channel [`InsModel`] (`N = NX`, `Z = 1`). A
+//! vector observation passes the vector chi-square gate on the centre filter
+//! ([`joint`](crate::filter::joint)) and is then fused by every member as `Z` sequential scalar
+//! updates, each adding its own term to the likelihood derivatives
+//! ([`information`](super::information)).
 
 // Small fixed-size matrix code reads best with explicit indices (they mirror the equations).
 #![allow(clippy::needless_range_loop)]
 
-use crate::adapt::params::{apply, Specs, MAXP};
+use crate::adapt::identifiable::IdentifiableModel;
+pub use crate::adapt::information::{accumulate, Information, MemberInnovation, MEMBERS};
+use crate::adapt::params::{Specs, MAXP};
 use crate::adapt::AdaptError;
-use crate::filter::{Innovation, Kalman, UpdateStatus};
-use crate::linalg::{from_mat, from_vec, is_positive_definite, zeros, Arr};
-use crate::model::{InsModel, Scaling, StateMat, StateVec, NX};
+use crate::filter::{joint, Innovation, Kalman, UpdateStatus};
+use crate::linalg::{is_positive_definite, to_vec, zeros, Arr};
+use crate::model::{InsModel, Scaling, NX};
 use crate::Real;
-
-/// Number of bank members: the centre and two per parameter.
-pub const MEMBERS: usize = 2 * MAXP + 1;
+use nalgebra::{SMatrix, SVector};
 
 /// One filter of the bank: the crate's [`Kalman`] kernel in scaled states with its own
 /// `(Phi, Qd)`.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Member<T: Real> {
+pub struct Member<T: Real, const N: usize = NX> {
     /// The filter (estimate and covariance; only the leading `n` states are used).
-    pub kf: Kalman<T, NX>,
-    phi: Arr<T, NX>,
-    qd: Arr<T, NX>,
+    pub kf: Kalman<T, N>,
+    phi: Arr<T, N>,
+    qd: Arr<T, N>,
 }
 
-/// The innovation of one member at one step.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct MemberInnovation<T> {
-    /// `nu = z - H x` (before the update).
-    pub nu: T,
-    /// `S = H P H^T + R`.
-    pub s: T,
-}
-
-impl<T: Real> Member<T> {
+impl<T: Real, const N: usize> Member<T, N> {
     /// All zeros (a compile-time value: see [`Bank::BLANK`]).
     pub const BLANK: Self = Self {
         kf: Kalman::BLANK,
-        phi: [[T::ZERO; NX]; NX],
-        qd: [[T::ZERO; NX]; NX],
+        phi: [[T::ZERO; N]; N],
+        qd: [[T::ZERO; N]; N],
     };
 
     /// Zero state, covariance `p0` over `n` states, identity transition, no process noise
     /// (in place).
-    pub(crate) fn reset(&mut self, p0: &Arr<T, NX>, n: usize) {
+    pub(crate) fn reset(&mut self, p0: &Arr<T, N>, n: usize) {
         self.kf.reset(p0, n);
         for (i, row) in self.phi.iter_mut().enumerate() {
             for (j, v) in row.iter_mut().enumerate() {
@@ -86,71 +83,40 @@ impl<T: Real> Member<T> {
     }
 
     /// Scalar update with `z`, row `h`, noise variance `r` and an optional gate on the NIS.
-    pub(crate) fn update(&mut self, z: T, h: &[T; NX], r: T, gate: Option<T>) -> Innovation<T> {
+    pub(crate) fn update(&mut self, z: T, h: &[T; N], r: T, gate: Option<T>) -> Innovation<T> {
         self.kf.update(z, h, r, gate)
     }
 
     /// Sets the transition and process noise.
-    pub(crate) fn set_system(&mut self, phi: &Arr<T, NX>, qd: &Arr<T, NX>) {
+    pub(crate) fn set_system(&mut self, phi: &Arr<T, N>, qd: &Arr<T, N>) {
         self.phi = *phi;
         self.qd = *qd;
     }
 
     /// The state estimate as an nalgebra vector.
-    pub fn state(&self) -> StateVec<T> {
+    pub fn state(&self) -> SVector<T, N> {
         self.kf.state()
     }
 
     /// The covariance as an nalgebra matrix.
-    pub fn covariance(&self) -> StateMat<T> {
+    pub fn covariance(&self) -> SMatrix<T, N, N> {
         self.kf.covariance()
     }
-
-    /// Log-likelihood of one innovation, `-1/2 (ln S + nu^2 / S)`.
-    pub fn loglik(i: &MemberInnovation<T>) -> T {
-        -T::lit(0.5) * (i.s.ln() + i.nu * i.nu / i.s)
-    }
 }
 
-/// Score and Fisher information accumulated over a number of steps.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Information<T> {
-    /// `g_i = sum_k d l_k / d theta_i`.
-    pub score: [T; MAXP],
-    /// `I_ij = sum_k (dS_i dS_j / 2S^2 + dnu_i dnu_j / S)`.
-    pub fisher: [[T; MAXP]; MAXP],
-    /// Number of steps summed.
-    pub steps: u32,
-}
-
-impl<T: Real> Information<T> {
-    /// Nothing accumulated.
-    pub const BLANK: Self = Self {
-        score: [T::ZERO; MAXP],
-        fisher: [[T::ZERO; MAXP]; MAXP],
-        steps: 0,
-    };
-}
-
-impl<T: Real> Default for Information<T> {
-    fn default() -> Self {
-        Self::BLANK
-    }
-}
-
-/// The `2p + 1` filters and their finite-difference likelihood derivatives.
+/// The `2p + 1` filters and their finite-difference likelihood derivatives, for an error model
+/// `M` with `N` states and `Z` observation axes (defaults: the one-channel [`InsModel`]).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Bank<T: Real> {
-    members: [Member<T>; MEMBERS],
-    p0: Arr<T, NX>,
-    h: [T; NX],
-    r: T,
+pub struct Bank<T: Real, M = InsModel<T>, const N: usize = NX, const Z: usize = 1> {
+    members: [Member<T, N>; MEMBERS],
+    p0: Arr<T, N>,
+    h: [[T; N]; Z],
+    r: [T; Z],
     n: usize,
     np: usize,
     step: T,
-    scale: Scaling<T>,
-    base: InsModel<T>,
+    scale: [T; N],
+    base: M,
     specs: Specs,
     /// Parameters every member has been discretised for.
     applied: [T; MAXP],
@@ -161,34 +127,36 @@ pub struct Bank<T: Real> {
     pub repairs: u32,
 }
 
-/// What the bank did with one observation.
+/// What the bank did with one observation of `Z` axes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct BankStep<T> {
-    /// The centre filter's innovation (`None`: missing observation or bad `S`).
-    pub centre: Option<MemberInnovation<T>>,
-    /// Whether the step's derivatives were added to the information.
+pub struct BankStep<T, const Z: usize = 1> {
+    /// The centre filter's sequential innovation on each axis (`None`: missing axis, bad `S`,
+    /// or the observation was gated).
+    pub centre: [Option<MemberInnovation<T>>; Z],
+    /// Whether the step's derivatives were added to the information (every finite axis was
+    /// used by every member).
     pub accumulated: bool,
     /// A staggered re-discretisation failed: the bank rolls back to the last parameters every
     /// member had (see [`Bank::theta`]).
     pub failed: bool,
-    /// The observation failed the outlier gate on the centre's NIS and no member used it; the
-    /// centre's (rejected) innovation.
-    pub gated: Option<MemberInnovation<T>>,
+    /// The observation failed the outlier gate on the centre and no member used it: the
+    /// centre's (rejected) innovation on each finite axis (`None` on every axis when it passed).
+    pub gated: [Option<MemberInnovation<T>>; Z],
 }
 
-impl<T: Real> Bank<T> {
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize> Bank<T, M, N, Z> {
     /// An empty bank (a compile-time value, all zeros): call [`init`](Self::init) before use.
     pub const BLANK: Self = Self {
         members: [Member::BLANK; MEMBERS],
-        p0: [[T::ZERO; NX]; NX],
-        h: [T::ZERO; NX],
-        r: T::ZERO,
+        p0: [[T::ZERO; N]; N],
+        h: [[T::ZERO; N]; Z],
+        r: [T::ZERO; Z],
         n: 0,
         np: 0,
         step: T::ZERO,
-        scale: Scaling::from_array_storage(nalgebra::ArrayStorage([[T::ZERO; NX]; 1])),
-        base: InsModel::BLANK,
+        scale: [T::ZERO; N],
+        base: M::BLANK,
         specs: Specs::new(),
         applied: [T::ZERO; MAXP],
         target: [T::ZERO; MAXP],
@@ -199,7 +167,7 @@ impl<T: Real> Bank<T> {
     /// A bank for `model` with `np` parameters perturbed by `+-step` (log scale). The state
     /// scaling is chosen once from `model` and kept, so that `x, P` stay meaningful when the
     /// parameters move.
-    pub fn new(model: &InsModel<T>, specs: &Specs, step: T) -> Result<Self, AdaptError> {
+    pub fn new(model: &M, specs: &Specs, step: T) -> Result<Self, AdaptError> {
         let mut b = Self::BLANK;
         b.init(model, specs, step)?;
         Ok(b)
@@ -208,16 +176,15 @@ impl<T: Real> Bank<T> {
     /// [`new`](Self::new) in place: the firmware builds its filters inside a `static`, since
     /// by-value construction would put several copies of the bank on the stack. On error
     /// nothing is changed.
-    pub fn init(&mut self, model: &InsModel<T>, specs: &Specs, step: T) -> Result<(), AdaptError> {
+    pub fn init(&mut self, model: &M, specs: &Specs, step: T) -> Result<(), AdaptError> {
         let scale = model.scaling().map_err(AdaptError::Model)?;
-        let sys = model.continuous(&scale).map_err(AdaptError::Model)?;
-        let p0 = from_mat(&sys.P0);
+        let sys = model.system(&scale).map_err(AdaptError::Model)?;
         for m in self.members.iter_mut() {
-            m.reset(&p0, sys.n);
+            m.reset(&sys.P0, sys.n);
         }
-        self.h = from_vec(&sys.H);
-        self.p0 = p0;
-        self.r = model.sigma_v * model.sigma_v;
+        self.h = sys.H;
+        self.p0 = sys.P0;
+        self.r = sys.R;
         self.n = sys.n;
         self.np = specs.len().min(MAXP);
         self.step = step;
@@ -241,8 +208,8 @@ impl<T: Real> Bank<T> {
         self.next < 2 * self.np + 1
     }
 
-    /// The state scaling (physical = scale x scaled).
-    pub fn scale(&self) -> &Scaling<T> {
+    /// The state scaling (physical = scale x scaled), as the kernel's array.
+    pub fn scale_array(&self) -> &[T; N] {
         &self.scale
     }
 
@@ -252,22 +219,22 @@ impl<T: Real> Bank<T> {
     }
 
     /// The centre filter.
-    pub fn centre(&self) -> &Member<T> {
+    pub fn centre(&self) -> &Member<T, N> {
         &self.members[0]
     }
 
     /// The initial covariance.
-    pub fn p0(&self) -> &Arr<T, NX> {
+    pub fn p0(&self) -> &Arr<T, N> {
         &self.p0
     }
 
-    /// The observation row and noise variance.
-    pub fn observation(&self) -> (&[T; NX], T) {
-        (&self.h, self.r)
+    /// The observation rows and their noise variances.
+    pub fn rows(&self) -> (&[[T; N]; Z], &[T; Z]) {
+        (&self.h, &self.r)
     }
 
     /// Copies `x, P` into every member (after a jump to another parameter point).
-    pub fn reset_states(&mut self, x: &[T; NX], p: &Arr<T, NX>) {
+    pub fn reset_states(&mut self, x: &[T; N], p: &Arr<T, N>) {
         for m in self.members.iter_mut() {
             m.kf.x = *x;
             m.kf.P = *p;
@@ -280,7 +247,7 @@ impl<T: Real> Bank<T> {
         &self,
         m: usize,
         theta: &[T; MAXP],
-    ) -> Result<(Arr<T, NX>, Arr<T, NX>), AdaptError> {
+    ) -> Result<(Arr<T, N>, Arr<T, N>), AdaptError> {
         let mut th = *theta;
         if m > 0 {
             let i = (m - 1) / 2;
@@ -289,10 +256,12 @@ impl<T: Real> Bank<T> {
                 *t += sign;
             }
         }
-        let model = apply(&self.base, &self.specs, &th).ok_or(AdaptError::BadParameter)?;
-        model
-            .discretise_block(&self.scale)
-            .map_err(AdaptError::Model)
+        let model = self
+            .base
+            .with_parameters(&self.specs, &th)
+            .ok_or(AdaptError::BadParameter)?;
+        // The one discretisation, over the active block, in the scaling the bank started with.
+        model.discrete(&self.scale).map_err(AdaptError::Model)
     }
 
     /// Re-discretises every member for the centre `theta` at once, keeping each member's `x`
@@ -384,56 +353,102 @@ impl<T: Real> Bank<T> {
         }
     }
 
-    /// Runs every member one step with observation `z` (non-finite: missing, predict only) and
-    /// adds the step's score and Fisher information to `info` when all members updated.
+    /// Runs every member one step with the observation `z` of `Z` axes (non-finite axes are
+    /// missing; none finite: predict only) and adds the step's score and Fisher information to
+    /// `info`, one term per axis, for each axis that every member used.
     ///
-    /// With `gate = Some(g)`, an observation whose NIS on the centre filter exceeds `g` (or is
-    /// NaN) is withheld from every member, so that the members stay comparable and the
-    /// likelihood derivatives are not polluted by the outlier.
-    pub fn step(&mut self, z: T, info: &mut Information<T>, gate: Option<T>) -> BankStep<T> {
+    /// With a gate `Some(g)`, an observation whose NIS on the centre filter exceeds `g(m)` for
+    /// its `m` finite axes (or is NaN) is withheld from every member, so that the members stay
+    /// comparable and the likelihood derivatives are not polluted by the outlier. One axis is
+    /// tested by the kernel's scalar NIS, several by the vector chi-square gate
+    /// ([`joint`](crate::filter::joint)).
+    pub fn step_axes(
+        &mut self,
+        z: &[T; Z],
+        info: &mut Information<T>,
+        gate: Option<&dyn Fn(usize) -> T>,
+    ) -> BankStep<T, Z> {
         let used = 2 * self.np + 1;
         let failed = !self.advance(used);
-        let mut inn = [MemberInnovation::<T>::default(); MEMBERS];
-        let mut centre = None;
-        let mut gated = None;
-        let mut z = z;
-        let mut all = z.is_finite() && !self.moving();
-        for (m, (mem, out)) in self.members.iter_mut().zip(inn.iter_mut()).enumerate() {
+        let mut inn = [[MemberInnovation::<T>::default(); MEMBERS]; Z];
+        let mut out = BankStep {
+            centre: [None; Z],
+            accumulated: false,
+            failed,
+            gated: [None; Z],
+        };
+        let mut z = *z;
+        let moving = self.moving();
+        // Axis `k` adds to the information when it is finite and every member used it.
+        let finite = z.map(|v| v.is_finite());
+        let mut use_axis = finite.map(|f| f && !moving);
+        for (m, mem) in self.members.iter_mut().enumerate() {
             if m >= used {
                 break;
             }
             mem.predict();
             // The gate is decided on the centre (member 0) before any other member sees `z`.
-            let g = if m == 0 { gate } else { None };
-            let i = mem.update(z, &self.h, self.r, g);
-            let mi = MemberInnovation {
-                nu: i.innovation,
-                s: i.variance,
-            };
-            match i.status {
-                UpdateStatus::Updated => {
-                    *out = mi;
-                    if m == 0 {
-                        centre = Some(mi);
+            let mut scalar_gate = None;
+            if let (0, Some(g)) = (m, gate) {
+                if Z == 1 {
+                    scalar_gate = Some(g(1));
+                } else {
+                    let j = joint(&mem.kf, &z, &self.h, &self.r);
+                    if !j.within(Some(g)) {
+                        let rejected = (j.innovation.iter()).zip(j.variance.iter());
+                        for ((zk, o), (nu, s)) in
+                            z.iter_mut().zip(out.gated.iter_mut()).zip(rejected)
+                        {
+                            if zk.is_finite() {
+                                *o = Some(MemberInnovation { nu: *nu, s: *s });
+                            }
+                            *zk = T::lit(f64::NAN);
+                        }
+                        use_axis = [false; Z];
                     }
                 }
-                UpdateStatus::Gated => {
-                    gated = Some(mi);
-                    z = T::lit(f64::NAN);
-                    all = false;
+            }
+            let axes = z.iter_mut().zip(self.h.iter().zip(self.r.iter()));
+            for (k, (zk, (h, r))) in axes.enumerate() {
+                let i = mem.update(*zk, h, *r, scalar_gate);
+                let mi = MemberInnovation {
+                    nu: i.innovation,
+                    s: i.variance,
+                };
+                let (Some(slot), Some(ok)) = (
+                    inn.get_mut(k).and_then(|a| a.get_mut(m)),
+                    use_axis.get_mut(k),
+                ) else {
+                    continue;
+                };
+                match i.status {
+                    UpdateStatus::Updated => {
+                        *slot = mi;
+                        if let (0, Some(c)) = (m, out.centre.get_mut(k)) {
+                            *c = Some(mi);
+                        }
+                    }
+                    UpdateStatus::Gated => {
+                        if let Some(o) = out.gated.get_mut(k) {
+                            *o = Some(mi);
+                        }
+                        *zk = T::lit(f64::NAN);
+                        *ok = false;
+                    }
+                    UpdateStatus::BadInnovationVariance => *ok = false,
+                    UpdateStatus::Missing => {}
                 }
-                UpdateStatus::BadInnovationVariance => all = false,
-                UpdateStatus::Missing => {}
             }
         }
         self.repair(used);
-        let accumulated = all && accumulate(&inn, self.np, self.step, info);
-        BankStep {
-            centre,
-            accumulated,
-            failed,
-            gated,
+        let mut all = finite.iter().any(|f| *f) && !moving;
+        for ((axis, ok), f) in inn.iter().zip(use_axis.iter()).zip(finite.iter()) {
+            if *f {
+                all &= *ok && accumulate(axis, self.np, self.step, info);
+            }
         }
+        out.accumulated = all;
+        out
     }
 
     /// Replaces an unhealthy member's `x, P` by the centre's (or every member's by the initial
@@ -446,7 +461,7 @@ impl<T: Real> Bank<T> {
         let c = &self.members[0].kf;
         if !c.diagonal_healthy() || !is_positive_definite(&c.P, n) {
             for m in self.members.iter_mut() {
-                m.kf.x = [T::zero(); NX];
+                m.kf.x = [T::zero(); N];
                 m.kf.P = self.p0;
             }
             self.repairs = self.repairs.saturating_add(1);
@@ -463,45 +478,23 @@ impl<T: Real> Bank<T> {
     }
 }
 
-/// Central differences of `l`, `nu`, `S` of the members `[centre, theta + h e_0, theta - h e_0,
-/// ...]` (`np` parameters, step `h`) into `info` (module documentation); false (nothing added) if
-/// any term is not finite. Used by the bank and by the global stage's polish.
-pub fn accumulate<T: Real>(
-    inn: &[MemberInnovation<T>; MEMBERS],
-    np: usize,
-    h: T,
-    info: &mut Information<T>,
-) -> bool {
-    let half = T::lit(0.5);
-    let inv2h = half / h;
-    let c = inn[0];
-    let mut dl = [T::zero(); MAXP];
-    let mut dnu = [T::zero(); MAXP];
-    let mut ds = [T::zero(); MAXP];
-    // `np <= MAXP` always; the `min` lets the optimiser drop the bounds checks (and their
-    // panics) below.
-    let np = np.min(MAXP);
-    for i in 0..np {
-        let (pl, mi) = (inn[2 * i + 1], inn[2 * i + 2]);
-        // l+ - l- = -1/2 (ln(S+/S-) + nu+^2/S+ - nu-^2/S-): one logarithm per parameter.
-        let d = -half * ((pl.s / mi.s).ln() + pl.nu * pl.nu / pl.s - mi.nu * mi.nu / mi.s);
-        dl[i] = d * inv2h;
-        dnu[i] = (pl.nu - mi.nu) * inv2h;
-        ds[i] = (pl.s - mi.s) * inv2h;
+impl<T: Real> Bank<T> {
+    /// [`step_axes`](Self::step_axes) for the one-channel model's scalar observation, gated at
+    /// `gate` on its NIS.
+    pub fn step(&mut self, z: T, info: &mut Information<T>, gate: Option<T>) -> BankStep<T> {
+        let g = gate.map(|g| move |_: usize| g);
+        self.step_axes(&[z], info, g.as_ref().map(|f| f as &dyn Fn(usize) -> T))
     }
-    if !(dl.iter().chain(dnu.iter()).chain(ds.iter())).all(|v| v.is_finite()) {
-        return false;
+
+    /// The state scaling (physical = scale x scaled).
+    pub fn scale(&self) -> Scaling<T> {
+        to_vec(&self.scale)
     }
-    let inv_s = T::one() / c.s;
-    let w = half * inv_s * inv_s;
-    for i in 0..np {
-        info.score[i] += dl[i];
-        for j in 0..np {
-            info.fisher[i][j] += w * ds[i] * ds[j] + inv_s * dnu[i] * dnu[j];
-        }
+
+    /// The observation row and noise variance.
+    pub fn observation(&self) -> (&[T; NX], T) {
+        (&self.h[0], self.r[0])
     }
-    info.steps = info.steps.saturating_add(1);
-    true
 }
 
 #[cfg(test)]

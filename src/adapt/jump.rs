@@ -4,7 +4,7 @@
 //! Gauss-Newton update (the parent module) because a jump replaces the windowed information
 //! instead of refining it. This module is a child of [`super`], so it reads the filter's fields.
 
-use super::bank::Information;
+use super::information::Information;
 use super::params::{has_coordinate, MAXP};
 use super::window::CONSERVATIVE_CAP;
 use super::{probes, AdaptError, AdaptiveFilter, Found};

@@ -34,6 +34,8 @@ pub mod bank;
 pub mod change;
 mod config;
 pub mod guard;
+pub mod identifiable;
+pub mod information;
 mod jump;
 pub mod params;
 pub mod probes;
@@ -45,9 +47,10 @@ use crate::filter::Estimates;
 use crate::linalg::{chol_solve, cholesky, inverse_diagonal};
 use crate::model::{ErrorSource, InsModel, ModelError, StateRow, NX};
 use crate::Real;
-use bank::{Bank, Information, MemberInnovation};
+use bank::{Bank, MemberInnovation};
 pub use config::AdaptConfig;
 use guard::{limit_step, Bounds, Mat};
+use information::Information;
 use params::{apply, specs, theta_of, Specs, MAXP};
 use probes::Probes;
 pub use report::{StepReport, StepStatus};
@@ -224,14 +227,16 @@ impl<T: Real> AdaptiveFilter<T> {
     pub fn step_gated(&mut self, z: T, gate: Option<T>) -> StepReport<T> {
         let out = self.bank.step(z, &mut self.block, gate);
         let nan = T::lit(f64::NAN);
-        let (innovation, variance, status) = match (out.centre, out.gated) {
+        let [centre] = out.centre;
+        let [gated] = out.gated;
+        let (innovation, variance, status) = match (centre, gated) {
             (Some(MemberInnovation { nu, s }), _) => (nu, s, StepStatus::Updated),
             (None, Some(MemberInnovation { nu, s })) => (nu, s, StepStatus::Gated),
             (None, None) if z.is_finite() => (nan, nan, StepStatus::BadInnovationVariance),
             (None, None) => (nan, nan, StepStatus::Missing),
         };
         // The probes see what the bank saw: a gated observation is missing for them too.
-        let z = if out.gated.is_some() { nan } else { z };
+        let z = if gated.is_some() { nan } else { z };
         let (mut moved, mut rejected, mut jumped, mut switched) = (false, false, false, false);
         if out.failed {
             // A staggered move could not be discretised: the bank rolls back; follow it.
@@ -243,11 +248,11 @@ impl<T: Real> AdaptiveFilter<T> {
             let (h, r) = self.bank.observation();
             let res = self.probes.step(
                 z,
-                (c, out.centre),
+                (c, centre),
                 (h, r, self.bank.active()),
                 &self.base,
                 &self.specs,
-                self.bank.scale(),
+                &self.bank.scale(),
                 self.cfg.warmup,
             );
             rejected |= res.is_err();
@@ -523,7 +528,7 @@ impl<T: Real> AdaptiveFilter<T> {
     /// The centre filter's estimates in SI units.
     pub fn estimates(&self) -> Estimates<T> {
         let c = self.bank.centre();
-        Estimates::from_kalman(&c.kf, self.bank.scale(), &self.accel_row, &self.gyro_row)
+        Estimates::from_kalman(&c.kf, &self.bank.scale(), &self.accel_row, &self.gyro_row)
     }
 }
 
@@ -542,3 +547,5 @@ fn output_rows<T: Real>(model: &InsModel<T>) -> Result<(StateRow<T>, StateRow<T>
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod vector_bank_tests;

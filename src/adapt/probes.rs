@@ -205,7 +205,7 @@ impl<T: Real> Probes<T> {
         let c = centre.1;
         let all = counting && c.is_some();
         if let (true, Some(ci)) = (all, c) {
-            self.ll_centre += Member::loglik(&ci);
+            self.ll_centre += ci.loglik();
         }
         for (m, ll) in self
             .members

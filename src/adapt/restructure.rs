@@ -11,7 +11,7 @@
 // Small fixed-size matrix code reads best with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
-use crate::adapt::bank::Information;
+use crate::adapt::information::Information;
 use crate::adapt::params::{apply, MAXP};
 use crate::adapt::{AdaptError, Switch};
 use crate::linalg::Arr;
@@ -116,7 +116,7 @@ impl<T: Real> super::AdaptiveFilter<T> {
         let model = apply(&alt.base, &alt.specs, &sw.theta).ok_or(AdaptError::BadParameter)?;
         let map = state_map(&self.base, &model).map_err(AdaptError::Model)?;
         let (accel_row, gyro_row) = super::output_rows(&model)?;
-        let old_scale = *self.bank.scale();
+        let old_scale = self.bank.scale();
         let (x, p) = (self.bank.centre().kf.x, self.bank.centre().kf.P);
         // In place (a second bank would not fit on the firmware's stack); `init` changes nothing
         // on error, and a failed `set_theta` is rolled back to the bank `init` built (from
@@ -133,7 +133,7 @@ impl<T: Real> super::AdaptiveFilter<T> {
             &x,
             &p,
             &old_scale,
-            self.bank.scale(),
+            &self.bank.scale(),
             self.bank.p0(),
             self.bank.active(),
         );

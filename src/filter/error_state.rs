@@ -169,32 +169,55 @@ impl<T: Real, M: ErrorModel<T, N, Z>, const N: usize, const Z: usize> ErrorState
     }
 }
 
-/// Fuses the vector observation `z = H x + v`, `v ~ N(0, diag(R))` (non-finite axes missing)
-/// into `kf` after the vector gate `gate(m)` on the NIS of its `m` finite axes (`None`: no
-/// gate), as sequential scalar Joseph updates (module docs). The one fusion routine of the
-/// crate: [`ErrorStateFilter::update`] and the strapdown navigator both call it.
+/// The innovations of a vector observation's finite axes before any update, and their NIS.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Joint<T, const Z: usize> {
+    /// Per-axis innovation `nu_i = z_i - H_i x` (NaN when missing).
+    pub innovation: [T; Z],
+    /// Per-axis innovation variance `S_ii = H_i P H_i^T + R_i`.
+    pub variance: [T; Z],
+    /// `nu^T S^-1 nu` over the finite axes, `S` their joint covariance (NaN if none or if `S`
+    /// is not positive definite).
+    pub nis: T,
+    /// Number of finite axes (the degrees of freedom of `nis`).
+    pub dof: usize,
+    /// The finite axes' numbers, in order (the first `dof` entries).
+    pub axes: [usize; Z],
+}
+
+impl<T: Real, const Z: usize> Joint<T, Z> {
+    /// Whether the gate `gate(dof)` accepts the observation (no gate, or no finite axis: yes; a
+    /// NaN NIS, from an `S` that is not positive definite, fails it).
+    pub fn within(&self, gate: Option<&dyn Fn(usize) -> T>) -> bool {
+        match gate {
+            Some(g) if self.dof > 0 => self.nis <= g(self.dof),
+            _ => true,
+        }
+    }
+}
+
+/// The innovations of `z = H x + v`, `v ~ N(0, diag(R))` (non-finite axes missing), on `kf`
+/// before any update, and their vector NIS (module docs): what the vector gate tests. Used by
+/// [`fuse`] and by the identification bank's gate on its centre filter.
 #[allow(non_snake_case)]
-pub fn fuse<T: Real, const N: usize, const Z: usize>(
-    kf: &mut Kalman<T, N>,
+pub fn joint<T: Real, const N: usize, const Z: usize>(
+    kf: &Kalman<T, N>,
     z: &[T; Z],
     H: &[[T; N]; Z],
     R: &[T; Z],
-    gate: Option<&dyn Fn(usize) -> T>,
-) -> Fused<T, Z> {
+) -> Joint<T, Z> {
     let nan = T::lit(f64::NAN);
-    let mut out = Fused {
-        axes: [AxisStatus::Missing; Z],
+    let mut out = Joint {
         innovation: [nan; Z],
         variance: [nan; Z],
         nis: nan,
         dof: 0,
-        gated: false,
-        loglik: T::zero(),
+        axes: [0; Z],
     };
     // Innovations and their joint covariance over the finite axes, before any update.
     let mut nu = [T::zero(); Z];
     let mut s = [[T::zero(); Z]; Z];
-    let mut idx = [0usize; Z];
+    let idx = &mut out.axes;
     let mut m = 0;
     for (i, zi) in z.iter().enumerate() {
         let (v, var) = kf.innovation(*zi, &H[i], R[i]);
@@ -255,19 +278,40 @@ pub fn fuse<T: Real, const N: usize, const Z: usize>(
             }
             out.nis = nis;
         }
-        if let Some(g) = gate {
-            // A NaN NIS (S not positive definite) fails the gate too.
-            let within = out.nis <= g(m);
-            if !within {
-                out.gated = true;
-                for &i in idx.iter().take(m) {
-                    if let Some(a) = out.axes.get_mut(i) {
-                        *a = AxisStatus::Gated;
-                    }
-                }
-                return out;
+    }
+    out
+}
+
+/// Fuses the vector observation `z = H x + v`, `v ~ N(0, diag(R))` (non-finite axes missing)
+/// into `kf` after the vector gate `gate(m)` on the NIS of its `m` finite axes (`None`: no
+/// gate), as sequential scalar Joseph updates (module docs). The one fusion routine of the
+/// crate: [`ErrorStateFilter::update`] and the strapdown navigator both call it.
+#[allow(non_snake_case)]
+pub fn fuse<T: Real, const N: usize, const Z: usize>(
+    kf: &mut Kalman<T, N>,
+    z: &[T; Z],
+    H: &[[T; N]; Z],
+    R: &[T; Z],
+    gate: Option<&dyn Fn(usize) -> T>,
+) -> Fused<T, Z> {
+    let j = joint(kf, z, H, R);
+    let mut out = Fused {
+        axes: [AxisStatus::Missing; Z],
+        innovation: j.innovation,
+        variance: j.variance,
+        nis: j.nis,
+        dof: j.dof,
+        gated: false,
+        loglik: T::zero(),
+    };
+    if !j.within(gate) {
+        out.gated = true;
+        for &i in j.axes.iter().take(j.dof) {
+            if let Some(a) = out.axes.get_mut(i) {
+                *a = AxisStatus::Gated;
             }
         }
+        return out;
     }
     for (i, zi) in z.iter().enumerate() {
         if !zi.is_finite() {

@@ -17,6 +17,7 @@
 //! kernel.
 
 use crate::linalg::Arr;
+use crate::model::discretise::discretise_block;
 use crate::model::{ComponentKind, ModelError};
 use crate::Real;
 
@@ -63,9 +64,58 @@ pub trait ErrorModel<T: Real, const N: usize, const Z: usize> {
     fn scaling(&self) -> Result<[T; N], ModelError>;
     /// The continuous system in the states scaled by `scale`.
     fn system(&self, scale: &[T; N]) -> Result<ContinuousSystem<T, N, Z>, ModelError>;
+    /// `(Phi, Qd)` over the active block in the states scaled by `scale`: the crate's one
+    /// discretisation ([`discretise_block`]) of [`system`](Self::system) at [`dt`](Self::dt).
+    /// A model may override it to skip building the parts of the system it does not need (the
+    /// identification bank calls it once per member and parameter move).
+    fn discrete(&self, scale: &[T; N]) -> Result<(Arr<T, N>, Arr<T, N>), ModelError> {
+        let sys = self.system(scale)?;
+        discretise_block(&sys.A, &sys.Qc, self.dt(), sys.n)
+    }
     /// Calls `f` with each named state block, in state order.
     fn blocks(&self, f: &mut dyn FnMut(StateBlock));
     /// True when `other` has the same state layout (same blocks), so that a filter's `x, P`
     /// stay meaningful when it switches from `self` to `other`.
     fn same_layout(&self, other: &Self) -> bool;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{InsModel, NX};
+
+    /// The system with `discrete` left to the trait's default.
+    struct ByDefault(InsModel<f32>);
+
+    impl ErrorModel<f32, NX, 1> for ByDefault {
+        fn dt(&self) -> f32 {
+            self.0.dt
+        }
+        fn scaling(&self) -> Result<[f32; NX], ModelError> {
+            ErrorModel::scaling(&self.0)
+        }
+        fn system(&self, scale: &[f32; NX]) -> Result<ContinuousSystem<f32, NX, 1>, ModelError> {
+            self.0.system(scale)
+        }
+        fn blocks(&self, f: &mut dyn FnMut(StateBlock)) {
+            self.0.blocks(f)
+        }
+        fn same_layout(&self, other: &Self) -> bool {
+            self.0.same_layout(&other.0)
+        }
+    }
+
+    /// `InsModel` overrides `discrete` only to skip building `P0` and `H`: its `(Phi, Qd)` are
+    /// the default's bit for bit (the one discretisation), in a scaling other than its own.
+    #[test]
+    fn the_one_channel_shortcut_is_the_default_discretisation() {
+        let model = InsModel::<f32>::paper();
+        let mut scale = ErrorModel::scaling(&model).unwrap();
+        scale[0] *= 4.0;
+        scale[3] *= 0.125;
+        let ours = model.discrete(&scale).unwrap();
+        let default = ByDefault(model).discrete(&scale).unwrap();
+        assert_eq!(ours, default);
+        assert!(ours.0[0][0] != 0.0 && ours.1[0][0] > 0.0);
+    }
 }

@@ -463,6 +463,12 @@ impl<T: Real> crate::model::ErrorModel<T, NX, 1> for InsModel<T> {
         })
     }
 
+    /// The inherent [`InsModel::discretise_block`] (the same function on the same matrices,
+    /// without building `P0` and `H`): a jump re-discretises every bank member in one tick.
+    fn discrete(&self, scale: &[T; NX]) -> Result<(Arr<T, NX>, Arr<T, NX>), ModelError> {
+        self.discretise_block(&crate::linalg::to_vec(scale))
+    }
+
     fn blocks(&self, f: &mut dyn FnMut(crate::model::StateBlock)) {
         let nav = |name, start| crate::model::StateBlock {
             name,

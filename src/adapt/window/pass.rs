@@ -5,7 +5,8 @@
 // Small fixed-size code reads best with explicit indices (they mirror the equations).
 #![allow(clippy::needless_range_loop)]
 
-use crate::adapt::bank::{accumulate, Information, Member, MemberInnovation, MEMBERS};
+use crate::adapt::bank::{Member, MemberInnovation, MEMBERS};
+use crate::adapt::information::{accumulate, Information};
 
 /// Filters of a pass at most (`2 MAXP + 1`).
 pub const MEMBERS_MAX: usize = MEMBERS;
