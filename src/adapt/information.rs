@@ -62,7 +62,8 @@ impl<T: Real> Default for Information<T> {
 
 /// Central differences of `l`, `nu`, `S` of the members `[centre, theta + h e_0, theta - h e_0,
 /// ...]` (`np` parameters, step `h`) into `info` (module documentation); false (nothing added) if
-/// any term is not finite. Used by the bank and by the global stage's polish.
+/// any term, or any sum it would make, is not finite. Used by the bank and by the global stage's
+/// polish.
 pub fn accumulate<T: Real>(
     inn: &[MemberInnovation<T>; MEMBERS],
     np: usize,
@@ -91,6 +92,15 @@ pub fn accumulate<T: Real>(
     }
     let inv_s = T::one() / c.s;
     let w = half * inv_s * inv_s;
+    // The sums must stay finite too (an absurd parameter point, a huge observation): checked on
+    // the score and the diagonal. The information and each step's term are positive
+    // semi-definite, so `|I_ij| <= max(I_ii, I_jj)` and a finite diagonal bounds the rest.
+    for i in 0..np {
+        let d = info.fisher[i][i] + (w * ds[i] * ds[i] + inv_s * dnu[i] * dnu[i]);
+        if !((info.score[i] + dl[i]).is_finite() && d.is_finite()) {
+            return false;
+        }
+    }
     for i in 0..np {
         info.score[i] += dl[i];
         for j in 0..np {
@@ -99,4 +109,32 @@ pub fn accumulate<T: Real>(
     }
     info.steps = info.steps.saturating_add(1);
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Terms that are finite but whose products overflow (an innovation of 4e18 in `f32`: its
+    /// square, in the log-likelihood, is finite, but the squared difference over `2h` is 4e38)
+    /// add nothing, so that one absurd step cannot leave an infinite
+    /// information behind for every later Gauss-Newton solve; ordinary terms still add.
+    #[test]
+    fn an_overflowing_term_adds_nothing() {
+        let mut inn = [MemberInnovation::<f32> { nu: 0.1, s: 1.0 }; MEMBERS];
+        inn[1].nu = 0.2;
+        let mut info = Information::default();
+        assert!(accumulate(&inn, 2, 0.1, &mut info));
+        let before = info;
+        assert!(before.fisher[0][0] > 0.0 && before.score[0] != 0.0);
+        inn[1].nu = 4e18;
+        assert!(!accumulate(&inn, 2, 0.1, &mut info));
+        assert_eq!(info, before);
+        // A finite term that would take a finite sum past f32::MAX adds nothing either.
+        inn[1].nu = 2e18;
+        info.fisher[0][0] = 3.0e38;
+        let near = info;
+        assert!(!accumulate(&inn, 2, 0.1, &mut info));
+        assert_eq!(info, near);
+    }
 }
