@@ -490,11 +490,6 @@ impl<T: Real> Bank<T> {
     pub fn scale(&self) -> Scaling<T> {
         to_vec(&self.scale)
     }
-
-    /// The observation row and noise variance.
-    pub fn observation(&self) -> (&[T; NX], T) {
-        (&self.h[0], self.r[0])
-    }
 }
 
 #[cfg(test)]

@@ -244,15 +244,13 @@ impl<T: Real> AdaptiveFilter<T> {
             rejected = true;
         }
         if !self.probes.is_empty() {
-            let c = self.bank.centre();
-            let (h, r) = self.bank.observation();
             let res = self.probes.step(
-                z,
-                (c, centre),
-                (h, r, self.bank.active()),
+                &[z],
+                (self.bank.centre(), &[centre]),
+                self.bank.rows(),
                 &self.base,
                 &self.specs,
-                &self.bank.scale(),
+                self.bank.scale_array(),
                 self.cfg.warmup,
             );
             rejected |= res.is_err();

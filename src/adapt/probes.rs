@@ -22,21 +22,23 @@
 
 use crate::adapt::bank::{Member, MemberInnovation};
 use crate::adapt::guard::Bounds;
-use crate::adapt::params::{apply, Specs, MAXP};
+use crate::adapt::identifiable::IdentifiableModel;
+use crate::adapt::params::{Specs, MAXP};
 use crate::adapt::AdaptError;
 use crate::filter::UpdateStatus;
 use crate::linalg::Arr;
 use crate::model::Quantity;
-use crate::model::{InsModel, Scaling, NX};
+use crate::model::NX;
 use crate::Real;
 
 /// Largest number of probes: two rings (multipliers `M` and `M^2`) of `3^2 - 1` each.
 pub const PROBES: usize = 16;
 
-/// The probe filters and their likelihood sums.
+/// The probe filters and their likelihood sums, for an error model with `N` states (default:
+/// the one-channel model's).
 #[derive(Debug, Clone)]
-pub struct Probes<T: Real> {
-    members: [Member<T>; PROBES],
+pub struct Probes<T: Real, const N: usize = NX> {
+    members: [Member<T, N>; PROBES],
     theta: [[T; MAXP]; PROBES],
     ll: [T; PROBES],
     ll_centre: T,
@@ -52,18 +54,18 @@ pub struct Probes<T: Real> {
 
 /// A probe that beat the centre.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Winner<T: Real> {
+pub struct Winner<T: Real, const N: usize = NX> {
     /// Its parameters.
     pub theta: [T; MAXP],
     /// Its state estimate (scaled states).
-    pub x: [T; NX],
+    pub x: [T; N],
     /// Its covariance (row-major).
-    pub p: Arr<T, NX>,
+    pub p: Arr<T, N>,
     /// Its log-likelihood advantage over the centre in the epoch [nats].
     pub gain: T,
 }
 
-impl<T: Real> Probes<T> {
+impl<T: Real, const N: usize> Probes<T, N> {
     /// No probes (a compile-time value): call [`init`](Self::init) before use.
     pub const BLANK: Self = Self {
         members: [Member::BLANK; PROBES],
@@ -80,14 +82,14 @@ impl<T: Real> Probes<T> {
     };
 
     /// Probes for `specs` with multiplier `m` (> 1) on the correlation times.
-    pub fn new(specs: &Specs, m: T, p0: &Arr<T, NX>) -> Self {
+    pub fn new(specs: &Specs, m: T, p0: &Arr<T, N>) -> Self {
         let mut p = Self::BLANK;
         p.init(specs, m, p0);
         p
     }
 
     /// [`new`](Self::new) in place (no copy of the probe filters on the stack).
-    pub fn init(&mut self, specs: &Specs, m: T, p0: &Arr<T, NX>) {
+    pub fn init(&mut self, specs: &Specs, m: T, p0: &Arr<T, N>) {
         let mut pairs = [(0usize, 0usize); 2];
         let mut npairs = 0;
         for (i, s) in specs.iter().enumerate() {
@@ -175,37 +177,50 @@ impl<T: Real> Probes<T> {
         self.ll_centre = T::zero();
     }
 
-    /// One step of every ready probe, one pending discretisation, and the likelihood sums after
-    /// `warmup` steps of the epoch. `centre_inn` is the centre's innovation of this step.
+    /// One step of every ready probe with the observation `z` of `Z` axes (rows `h`, noise
+    /// variances `r`; non-finite axes missing), one pending discretisation of `base` at a
+    /// probe's parameters in the states scaled by `scale`, and the likelihood sums after
+    /// `warmup` steps of the epoch. `centre` is the centre filter and its sequential innovation
+    /// on each axis this step.
     #[allow(clippy::too_many_arguments)]
-    pub fn step(
+    pub fn step<M: IdentifiableModel<T, N, Z>, const Z: usize>(
         &mut self,
-        z: T,
-        centre: (&Member<T>, Option<MemberInnovation<T>>),
-        obs: (&[T; NX], T, usize),
-        base: &InsModel<T>,
+        z: &[T; Z],
+        centre: (&Member<T, N>, &[Option<MemberInnovation<T>>; Z]),
+        rows: (&[[T; N]; Z], &[T; Z]),
+        base: &M,
         specs: &Specs,
-        scale: &Scaling<T>,
+        scale: &[T; N],
         warmup: u32,
     ) -> Result<(), AdaptError> {
-        let (h, r, _) = obs;
+        let (h, r) = rows;
         if self.ready < self.count {
             let j = self.ready;
             self.ready += 1;
             let th = self.theta.get(j).ok_or(AdaptError::BadParameter)?;
-            let model = apply(base, specs, th).ok_or(AdaptError::BadParameter)?;
-            let (phi, qd) = model.discretise_block(scale).map_err(AdaptError::Model)?;
+            let model = base
+                .with_parameters(specs, th)
+                .ok_or(AdaptError::BadParameter)?;
+            let (phi, qd) = model.discrete(scale).map_err(AdaptError::Model)?;
             if let Some(m) = self.members.get_mut(j) {
                 m.set_system(&phi, &qd);
                 m.kf = centre.0.kf.clone();
             }
         }
         self.age = self.age.saturating_add(1);
-        let counting = self.age > warmup && self.ready >= self.count && z.is_finite();
-        let c = centre.1;
-        let all = counting && c.is_some();
-        if let (true, Some(ci)) = (all, c) {
-            self.ll_centre += ci.loglik();
+        let finite = z.iter().any(|v| v.is_finite());
+        let counting = self.age > warmup && self.ready >= self.count && finite;
+        // Sums only over steps on which the centre used every finite axis (one axis: the step
+        // had an observation and the centre updated with it).
+        let used = z
+            .iter()
+            .zip(centre.1.iter())
+            .all(|(v, c)| !v.is_finite() || c.is_some());
+        let all = counting && used;
+        if all {
+            for ci in centre.1.iter().flatten() {
+                self.ll_centre += ci.loglik();
+            }
         }
         for (m, ll) in self
             .members
@@ -214,8 +229,11 @@ impl<T: Real> Probes<T> {
             .take(self.ready)
         {
             m.predict();
-            if z.is_finite() {
-                let i = m.update(z, h, r, None);
+            for (zk, (hk, rk)) in z.iter().zip(h.iter().zip(r.iter())) {
+                if !zk.is_finite() {
+                    continue;
+                }
+                let i = m.update(*zk, hk, *rk, None);
                 match i.status {
                     UpdateStatus::Updated if all => *ll += i.loglik(),
                     UpdateStatus::Updated | UpdateStatus::Missing => {}
@@ -235,7 +253,7 @@ impl<T: Real> Probes<T> {
 
     /// The best probe and its log-likelihood advantage over the centre in the epoch (may be
     /// negative); `None` before any probe has run.
-    pub fn best(&self) -> Option<Winner<T>> {
+    pub fn best(&self) -> Option<Winner<T, N>> {
         let mut best: Option<(usize, T)> = None;
         for (j, &l) in self.ll.iter().enumerate().take(self.ready.min(self.count)) {
             if best.map_or(true, |(_, b)| l > b) {

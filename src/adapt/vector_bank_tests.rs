@@ -317,3 +317,44 @@ fn a_two_axis_bank_survives_any_input() {
     // The rollback path was exercised (a test of it that never ran would prove nothing).
     assert!(failed_moves.get() > 0);
 }
+
+/// The probes of the one-channel loop run on the two-axis model too: started with the
+/// correlation time 4x too long, the best probe (a grid of `tau x 2^{+-1, +-2}` with sigma moved
+/// the other way by half as many octaves) has a shorter correlation time than the centre, and
+/// beats it by more than a likelihood-ratio test of 2 parameters at 5 % would need: twice the
+/// gain above 5.99, the 95 % point of chi-square(2).
+#[test]
+fn the_probes_run_on_a_two_axis_model() {
+    use crate::adapt::guard::Bounds;
+    use crate::adapt::probes::Probes;
+    let z = observations(11, 6_000);
+    let start = TwoSensorMarkov {
+        tau: 4.0 * TRUTH.tau,
+        ..TRUTH
+    };
+    let sp = specs();
+    let mut theta = [0.0; MAXP];
+    theta[0] = start.sigma.ln();
+    theta[1] = start.tau.ln();
+    let mut bank = Bank::<f64, TwoSensorMarkov, 1, 2>::new(&start, &sp, 0.05).unwrap();
+    bank.set_theta(&theta).unwrap();
+    let mut probes = Probes::<f64, 1>::new(&sp, 2.0, bank.p0());
+    assert_eq!(probes.len(), 4);
+    let mut lo = [-50.0; MAXP];
+    let mut hi = [50.0; MAXP];
+    lo[1] = 0.0;
+    hi[1] = 20.0;
+    probes.anchor(&theta, &Bounds { lo, hi }, 2);
+    let mut info = Information::default();
+    for zk in &z {
+        let out = bank.step_axes(zk, &mut info, None);
+        let (scale, rows) = (*bank.scale_array(), bank.rows());
+        let centre = (bank.centre(), &out.centre);
+        probes
+            .step(zk, centre, rows, &start, &sp, &scale, 60)
+            .unwrap();
+    }
+    let best = probes.best().unwrap();
+    assert!(best.theta[1] < theta[1], "{:?}", best.theta);
+    assert!(2.0 * best.gain > 5.99, "gain {}", best.gain);
+}
