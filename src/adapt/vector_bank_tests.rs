@@ -102,6 +102,32 @@ fn specs() -> Specs {
     s
 }
 
+type TwoAxisBank = Bank<f64, TwoSensorMarkov, 1, 2>;
+
+/// `theta` of `m` for [`specs`].
+fn theta_of(m: &TwoSensorMarkov) -> [f64; MAXP] {
+    let mut theta = [0.0; MAXP];
+    theta[0] = m.sigma.ln();
+    theta[1] = m.tau.ln();
+    theta
+}
+
+/// A bank for `m`, perturbed by `+-h`, at `m`'s own parameters.
+fn bank_at(m: &TwoSensorMarkov, h: f64) -> TwoAxisBank {
+    let mut bank = TwoAxisBank::new(m, &specs(), h).unwrap();
+    bank.set_theta(&theta_of(m)).unwrap();
+    bank
+}
+
+/// The gate: the 99.9 % quantile of chi-square with `m` degrees of freedom (1 or 2).
+fn gate(m: usize) -> f64 {
+    if m == 1 {
+        10.83
+    } else {
+        13.82
+    }
+}
+
 /// `steps` observations of the truth: the exact AR(1) of the Gauss-Markov state at `dt = 1`.
 fn observations(seed: u64, steps: usize) -> Vec<[f64; 2]> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -122,7 +148,7 @@ fn observations(seed: u64, steps: usize) -> Vec<[f64; 2]> {
 
 /// Score and Fisher information of the whole record at `theta` (one bank pass).
 fn information(model: &TwoSensorMarkov, theta: &[f64; MAXP], z: &[[f64; 2]]) -> Information<f64> {
-    let mut bank = Bank::<f64, TwoSensorMarkov, 1, 2>::new(model, &specs(), 0.01).unwrap();
+    let mut bank = TwoAxisBank::new(model, &specs(), 0.01).unwrap();
     bank.set_theta(theta).unwrap();
     let mut info = Information::default();
     for zk in z {
@@ -158,9 +184,7 @@ fn newton(info: &Information<f64>) -> ([f64; 2], [[f64; 2]; 2]) {
 fn a_two_axis_bank_finds_the_maximum_likelihood_from_either_side() {
     let z = observations(20_261_130, 20_000);
     let truth = [TRUTH.sigma.ln(), TRUTH.tau.ln()];
-    let mut at_truth = [0.0; MAXP];
-    at_truth[..2].copy_from_slice(&truth);
-    let info = information(&TRUTH, &at_truth, &z);
+    let info = information(&TRUTH, &theta_of(&TRUTH), &z);
     let (step, _) = newton(&info);
     let chi2 = step[0] * info.score[0] + step[1] * info.score[1];
     assert!(chi2 < 13.8, "score at the truth: g^T I^-1 g = {chi2}");
@@ -173,9 +197,7 @@ fn a_two_axis_bank_finds_the_maximum_likelihood_from_either_side() {
             tau: TRUTH.tau * factors[1],
             ..TRUTH
         };
-        let mut theta = [0.0; MAXP];
-        theta[0] = start.sigma.ln();
-        theta[1] = start.tau.ln();
+        let mut theta = theta_of(&start);
         let mut last = (f64::INFINITY, [[0.0; 2]; 2]);
         for _ in 0..12 {
             let info = information(&start, &theta, &z);
@@ -223,14 +245,8 @@ fn a_two_axis_bank_finds_the_maximum_likelihood_from_either_side() {
 #[test]
 fn a_two_axis_bank_gates_the_whole_observation_and_uses_a_partial_one() {
     let z = observations(7, 200);
-    let mut bank = Bank::<f64, TwoSensorMarkov, 1, 2>::new(&TRUTH, &specs(), 0.05).unwrap();
-    let mut theta = [0.0; MAXP];
-    theta[0] = TRUTH.sigma.ln();
-    theta[1] = TRUTH.tau.ln();
-    bank.set_theta(&theta).unwrap();
+    let mut bank = bank_at(&TRUTH, 0.05);
     let mut info = Information::default();
-    // 99.9 % quantiles of chi-square with 1 and 2 degrees of freedom.
-    let gate = |m: usize| if m == 1 { 10.83 } else { 13.82 };
     for zk in &z {
         let out = bank.step_axes(zk, &mut info, Some(&gate));
         assert!(out.gated.iter().all(Option::is_none));
@@ -286,13 +302,9 @@ fn a_two_axis_bank_survives_any_input() {
     });
     runner
         .run(&case, |(rows, moves, gated)| {
-            let mut bank = Bank::<f64, TwoSensorMarkov, 1, 2>::new(&TRUTH, &specs(), 0.05).unwrap();
-            let mut theta = [0.0; MAXP];
-            theta[0] = TRUTH.sigma.ln();
-            theta[1] = TRUTH.tau.ln();
-            bank.set_theta(&theta).unwrap();
+            let mut bank = bank_at(&TRUTH, 0.05);
+            let theta = theta_of(&TRUTH);
             let mut info = Information::default();
-            let gate = |m: usize| if m == 1 { 10.83 } else { 13.82 };
             let mut failed = 0;
             for (k, (a, b)) in rows.iter().enumerate() {
                 for &(_, s, t) in moves.iter().filter(|m| m.0 == k) {
@@ -333,11 +345,8 @@ fn the_probes_run_on_a_two_axis_model() {
         ..TRUTH
     };
     let sp = specs();
-    let mut theta = [0.0; MAXP];
-    theta[0] = start.sigma.ln();
-    theta[1] = start.tau.ln();
-    let mut bank = Bank::<f64, TwoSensorMarkov, 1, 2>::new(&start, &sp, 0.05).unwrap();
-    bank.set_theta(&theta).unwrap();
+    let theta = theta_of(&start);
+    let mut bank = bank_at(&start, 0.05);
     let mut probes = Probes::<f64, 1>::new(&sp, 2.0, bank.p0());
     assert_eq!(probes.len(), 4);
     let mut lo = [-50.0; MAXP];
