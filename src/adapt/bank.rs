@@ -387,7 +387,10 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize> Ban
                 break;
             }
             mem.predict();
-            // The gate is decided on the centre (member 0) before any other member sees `z`.
+            // The gate is decided on the centre (member 0) before any other member sees `z`. One
+            // axis keeps the kernel's scalar test `nu^2 / S <= g(1)`: the same decision without
+            // a Cholesky per tick, and bit for bit the one-channel loop's (the vector NIS of one
+            // axis, `(nu / sqrt(S))^2`, can differ from it in the last bit).
             let mut scalar_gate = None;
             if let (0, Some(g)) = (m, gate) {
                 if Z == 1 {
