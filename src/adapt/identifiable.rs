@@ -21,7 +21,7 @@
 //! assert!((now - 2.0 * was).abs() < 1e-9);
 //! ```
 
-use crate::adapt::params::{apply, Specs, MAXP};
+use crate::adapt::params::{apply, specs, theta_of, Specs, MAXP};
 use crate::model::{ErrorModel, InsModel, NX};
 use crate::Real;
 
@@ -37,6 +37,14 @@ pub trait IdentifiableModel<T: Real, const N: usize, const Z: usize>:
     /// A copy with the parameters `specs` at `exp(theta)`; `None` if a spec does not address
     /// this model or a value is not positive and finite.
     fn with_parameters(&self, specs: &Specs, theta: &[T; MAXP]) -> Option<Self>;
+
+    /// Every parameter this model lets the bank identify, in `theta` order (at most
+    /// [`MAXP`]).
+    fn identified(&self) -> Specs;
+
+    /// The natural logarithms of the parameters `specs` names, in order (`0` for a spec that
+    /// does not address this model; the entries after `specs.len()` are `0`).
+    fn parameters(&self, specs: &Specs) -> [T; MAXP];
 }
 
 impl<T: Real> IdentifiableModel<T, NX, 1> for InsModel<T> {
@@ -44,5 +52,13 @@ impl<T: Real> IdentifiableModel<T, NX, 1> for InsModel<T> {
 
     fn with_parameters(&self, specs: &Specs, theta: &[T; MAXP]) -> Option<Self> {
         apply(self, specs, theta)
+    }
+
+    fn identified(&self) -> Specs {
+        specs(self)
+    }
+
+    fn parameters(&self, specs: &Specs) -> [T; MAXP] {
+        theta_of(self, specs)
     }
 }

@@ -4,7 +4,6 @@
 //! Gauss-Newton update (the parent module) because a jump replaces the windowed information
 //! instead of refining it. This module is a child of [`super`], so it reads the filter's fields.
 
-use super::information::Information;
 use super::params::{has_coordinate, MAXP};
 use super::window::CONSERVATIVE_CAP;
 use super::{probes, AdaptError, AdaptiveFilter, Found};
@@ -24,7 +23,7 @@ impl<T: Real> AdaptiveFilter<T> {
     /// Cramér-Rao standard deviations (at most `CONSERVATIVE_CAP`), flat coordinates left; the
     /// answer itself when that is 0 or the window's information is not positive definite.
     fn raised(&self, found: &Found<T>, p: usize) -> [T; MAXP] {
-        let k = self.cfg.global.conservative;
+        let k = self.id.cfg.global.conservative;
         // Checked first: the deviations cost a Cholesky factorisation. Off also for a NaN or
         // infinite setting.
         if !k.is_finite() || k <= T::zero() {
@@ -38,7 +37,7 @@ impl<T: Real> AdaptiveFilter<T> {
         for (i, ((v, s), spec)) in t
             .iter_mut()
             .zip(sd.iter())
-            .zip(self.specs.iter())
+            .zip(self.id.specs.iter())
             .enumerate()
         {
             let intensity = !matches!(spec.kind, Quantity::Tau | Quantity::Beta);
@@ -46,7 +45,7 @@ impl<T: Real> AdaptiveFilter<T> {
                 *v += (k * *s).min(T::lit(CONSERVATIVE_CAP));
             }
         }
-        self.bounds.clamp(&t, p)
+        self.id.bounds.clamp(&t, p)
     }
 
     /// End of a probe epoch: jump to a winning probe (fresh information, the old one describes
@@ -54,17 +53,17 @@ impl<T: Real> AdaptiveFilter<T> {
     pub(super) fn epoch_end(&mut self) -> Result<bool, AdaptError> {
         self.epochs = self.epochs.saturating_add(1);
         let mut jumped = false;
-        if self.cfg.adapt {
+        if self.id.cfg.adapt {
             let best = self.probes.best();
             self.last_gain = best.as_ref().map_or(T::zero(), |w| w.gain);
             let margin = if self.searching {
-                self.cfg.first_margin
+                self.id.cfg.first_margin
             } else {
-                self.cfg.margin
+                self.id.cfg.margin
             };
             // A probe whose covariance lost positive definiteness (its health test looks at the
             // diagonal only) is broken and cannot win: the centre would copy its `P`.
-            let n = self.bank.active();
+            let n = self.id.bank.active();
             let valid = |w: &probes::Winner<T>| {
                 w.gain.is_finite() && w.gain > margin && is_positive_definite(&w.p, n)
             };
@@ -73,23 +72,21 @@ impl<T: Real> AdaptiveFilter<T> {
                 // jump (members keeping their old model for up to 2p steps on the probe's x, P)
                 // worsened the worst seeds (10x start: max tilt ratio 1.33 vs 1.18). A jump is
                 // rare (0-2 per run) and costs 2p + 1 re-discretisations on that step.
-                self.bank.set_theta(&w.theta)?;
-                self.bank.reset_states(&w.x, &w.p);
-                self.theta = w.theta;
-                self.acc = Information::default();
-                self.acc_sq = [[T::zero(); MAXP]; MAXP];
-                self.block = Information::default();
+                self.id.bank.set_theta(&w.theta)?;
+                self.id.bank.reset_states(&w.x, &w.p);
+                self.id.theta = w.theta;
+                self.id.forget_window(true);
                 self.jumps = self.jumps.saturating_add(1);
                 jumped = true;
             }
             // The search phase (small margin, no Gauss-Newton moves) lasts until an epoch ends
             // without a jump: the centre is then the best point of its grid neighbourhood.
-            if !jumped || !self.cfg.search_until_settled {
+            if !jumped || !self.id.cfg.search_until_settled {
                 self.searching = false;
             }
         }
         self.probes
-            .anchor(&self.theta, &self.bounds, self.specs.len());
+            .anchor(&self.id.theta, &self.id.bounds, self.id.specs.len());
         Ok(jumped)
     }
 
@@ -98,17 +95,17 @@ impl<T: Real> AdaptiveFilter<T> {
     /// windowed information is discarded (it was gathered at another point).
     pub(super) fn global_end(&mut self, found: &Found<T>) -> bool {
         self.last_global = *found;
-        if !self.cfg.adapt {
+        if !self.id.cfg.adapt {
             return false;
         }
         // The first finished search ends the search phase (the recursion, when not held,
         // then climbs from the basin the window chose).
         self.searching = false;
-        let p = self.specs.len().min(MAXP);
+        let p = self.id.specs.len().min(MAXP);
         // Issue 13, item 2: what the window does not bound is flagged, not left to wander.
         let was_flat = self.flat;
         self.flat = found.flat(p);
-        let pen = self.cfg.global.structure;
+        let pen = self.id.cfg.global.structure;
         if let Some(sw) = found.switch.get().filter(|s| s.wins(pen)) {
             if self.switch_structure(sw, found.blocks).is_ok() {
                 self.jumps = self.jumps.saturating_add(1);
@@ -128,15 +125,15 @@ impl<T: Real> AdaptiveFilter<T> {
         // so the move would be the wandering issue 13's item 2 forbids. Not after a change in
         // service, like the revisit of a flat answer (§7.8): the models since are fitted to
         // windows of a few hours.
-        let keep_flat = self.cfg.global.keep_identified
+        let keep_flat = self.id.cfg.global.keep_identified
             && self.flat != 0
             && was_flat == 0
             && self.global.changes() == 0;
-        let margin = if (self.cfg.global.keep_start && self.at_start) || keep_flat {
+        let margin = if (self.id.cfg.global.keep_start && self.at_start) || keep_flat {
             let q = HOLD_QUANTILE.get(p.wrapping_sub(1)).copied().unwrap_or(0.0);
-            self.cfg.global.margin.max(T::lit(q))
+            self.id.cfg.global.margin.max(T::lit(q))
         } else {
-            self.cfg.global.margin
+            self.id.cfg.global.margin
         };
         if !(found.gain.is_finite() && found.gain > margin) {
             if keep_flat {
@@ -152,42 +149,43 @@ impl<T: Real> AdaptiveFilter<T> {
         // data speak against the held values, whatever the marginal deviations say.
         let k = self.flat.count_ones() as usize;
         let quantile = HOLD_QUANTILE.get(k.wrapping_sub(1)).copied().unwrap_or(0.0);
-        let target =
-            if self.cfg.global.hold_flat && self.flat != 0 && found.hold_cost <= T::lit(quantile) {
-                let kept = found.gain - found.hold_cost;
-                if kept.partial_cmp(&self.cfg.global.margin) != Some(core::cmp::Ordering::Greater) {
-                    // The held point is no better than where the filter is.
-                    return false;
-                }
-                self.bounds.clamp(&found.held, p)
-            } else {
-                self.raised(found, p)
-            };
+        let target = if self.id.cfg.global.hold_flat
+            && self.flat != 0
+            && found.hold_cost <= T::lit(quantile)
+        {
+            let kept = found.gain - found.hold_cost;
+            if kept.partial_cmp(&self.id.cfg.global.margin) != Some(core::cmp::Ordering::Greater) {
+                // The held point is no better than where the filter is.
+                return false;
+            }
+            self.id.bounds.clamp(&found.held, p)
+        } else {
+            self.raised(found, p)
+        };
         // Staggered (one member re-discretised per tick, the centre first), unlike a probe's
         // jump: the recursion is held, so only the information waits for the members, and the
         // tick that ends a search does not add the 2p + 1 re-discretisations of a jump at once
         // (about 230k instructions on the Cortex-M4, §5 of docs/ADAPTATION.md) to its share
         // of the search.
-        self.bank.request_theta(&target);
+        self.id.bank.request_theta(&target);
         // A move within a factor two keeps the windowed information (it still describes the
         // likelihood near the new point, as after a Gauss-Newton move); a longer one is a jump to
         // another basin, where it does not.
         let far = self
+            .id
             .theta
             .iter()
             .zip(target.iter())
             .take(p)
             .any(|(a, b)| (*a - *b).abs() > T::lit(core::f64::consts::LN_2));
-        self.theta = target;
+        self.id.theta = target;
         if far {
-            self.acc = Information::default();
-            self.acc_sq = [[T::zero(); MAXP]; MAXP];
-            self.block = Information::default();
+            self.id.forget_window(true);
         }
         self.jumps = self.jumps.saturating_add(1);
         if !self.probes.is_empty() {
             self.probes
-                .anchor(&self.theta, &self.bounds, self.specs.len());
+                .anchor(&self.id.theta, &self.id.bounds, self.id.specs.len());
         }
         true
     }

@@ -9,7 +9,7 @@
 //! [`ComponentKind::identified`](crate::model::ComponentKind::identified)), accelerometer first,
 //! then gyro, in component order, until [`MAXP`] parameters are taken.
 
-use crate::model::{Component, ErrorSource, InsModel, Quantity};
+use crate::model::{Component, ErrorSource, InsModel, Quantity, IDENTIFIABLE_SD};
 use crate::Real;
 use heapless::Vec;
 
@@ -145,6 +145,27 @@ pub const fn coordinate_bit(i: usize) -> u8 {
     } else {
         0
     }
+}
+
+/// The coordinates (bit `i`: `theta[i]`) of the first `p` whose Cramér-Rao standard deviation
+/// `sd` (`ln` units) is above [`IDENTIFIABLE_SD`] decades, or all of them when there is none
+/// (the information is not positive definite): "not identifiable from these data yet" (issue 13,
+/// item 2).
+pub fn flat_coordinates<T: Real>(sd: Option<&[T; MAXP]>, p: usize) -> u8 {
+    let p = p.min(MAXP);
+    let Some(sd) = sd else {
+        return (0..p).fold(0u8, |m, i| m | coordinate_bit(i));
+    };
+    let limit = T::lit(IDENTIFIABLE_SD * core::f64::consts::LN_10);
+    let mut mask = 0u8;
+    for (i, s) in sd.iter().enumerate().take(p) {
+        // False for a NaN deviation: flat too.
+        let identified = *s <= limit;
+        if !identified {
+            mask |= coordinate_bit(i);
+        }
+    }
+    mask
 }
 
 /// Whether `mask` holds coordinate `i` ([`coordinate_bit`]).

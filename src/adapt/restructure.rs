@@ -12,7 +12,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::adapt::information::Information;
-use crate::adapt::params::{apply, MAXP};
+use crate::adapt::params::apply;
 use crate::adapt::{AdaptError, Switch};
 use crate::linalg::Arr;
 use crate::model::{idx, InsModel, ModelError, Scaling, NX};
@@ -103,29 +103,32 @@ impl<T: Real> super::AdaptiveFilter<T> {
         let block_s = self.global.block_seconds();
         let window_s = T::lit(f64::from(blocks)) * block_s;
         let alt = super::window::structure::alternative(
-            &self.base,
-            &self.specs,
-            &self.theta,
-            &self.theta,
-            &self.bounds,
+            &self.id.base,
+            &self.id.specs,
+            &self.id.theta,
+            &self.id.theta,
+            &self.id.bounds,
             sw.site,
             block_s,
             window_s,
         )
         .ok_or(AdaptError::BadParameter)?;
         let model = apply(&alt.base, &alt.specs, &sw.theta).ok_or(AdaptError::BadParameter)?;
-        let map = state_map(&self.base, &model).map_err(AdaptError::Model)?;
+        let map = state_map(&self.id.base, &model).map_err(AdaptError::Model)?;
         let (accel_row, gyro_row) = super::output_rows(&model)?;
-        let old_scale = self.bank.scale();
-        let (x, p) = (self.bank.centre().kf.x, self.bank.centre().kf.P);
+        let old_scale = self.id.bank.scale();
+        let (x, p) = (self.id.bank.centre().kf.x, self.id.bank.centre().kf.P);
         // In place (a second bank would not fit on the firmware's stack); `init` changes nothing
         // on error, and a failed `set_theta` is rolled back to the bank `init` built (from
         // `base`, whose scaling it keeps) at the old point and state.
-        self.bank.init(&model, &alt.specs, self.cfg.h)?;
-        if let Err(e) = self.bank.set_theta(&sw.theta) {
-            let _ = self.bank.init(&self.base, &self.specs, self.cfg.h);
-            let _ = self.bank.set_theta(&self.theta);
-            self.bank.reset_states(&x, &p);
+        self.id.bank.init(&model, &alt.specs, self.id.cfg.h)?;
+        if let Err(e) = self.id.bank.set_theta(&sw.theta) {
+            let _ = self
+                .id
+                .bank
+                .init(&self.id.base, &self.id.specs, self.id.cfg.h);
+            let _ = self.id.bank.set_theta(&self.id.theta);
+            self.id.bank.reset_states(&x, &p);
             return Err(e);
         }
         let (xn, pn) = carry(
@@ -133,28 +136,27 @@ impl<T: Real> super::AdaptiveFilter<T> {
             &x,
             &p,
             &old_scale,
-            &self.bank.scale(),
-            self.bank.p0(),
-            self.bank.active(),
+            &self.id.bank.scale(),
+            self.id.bank.p0(),
+            self.id.bank.active(),
         );
-        self.bank.reset_states(&xn, &pn);
-        self.global.restructure(&self.specs, &alt.specs, &sw.theta);
+        self.id.bank.reset_states(&xn, &pn);
+        self.global
+            .restructure(&self.id.specs, &alt.specs, &sw.theta);
         // The bank's scaling comes from this model: it is the new base.
-        self.base = model;
-        self.specs = alt.specs;
-        self.theta = sw.theta;
-        self.bounds = alt.bounds;
+        self.id.base = model;
+        self.id.specs = alt.specs;
+        self.id.theta = sw.theta;
+        self.id.bounds = alt.bounds;
         self.accel_row = accel_row;
         self.gyro_row = gyro_row;
-        self.acc = Information::default();
-        self.acc_sq = [[T::zero(); MAXP]; MAXP];
-        self.block = Information::default();
-        self.total = Information::default();
-        if self.cfg.probe_factor > T::one() {
+        self.id.forget_window(true);
+        self.id.total = Information::default();
+        if self.id.cfg.probe_factor > T::one() {
             self.probes
-                .init(&self.specs, self.cfg.probe_factor, self.bank.p0());
+                .init(&self.id.specs, self.id.cfg.probe_factor, self.id.bank.p0());
             self.probes
-                .anchor(&self.theta, &self.bounds, self.specs.len());
+                .anchor(&self.id.theta, &self.id.bounds, self.id.specs.len());
         }
         Ok(())
     }

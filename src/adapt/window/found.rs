@@ -5,9 +5,8 @@
 
 use super::structure::Site;
 use crate::adapt::guard::Mat;
-use crate::adapt::params::{coordinate_bit, has_coordinate, MAXP};
+use crate::adapt::params::{flat_coordinates, has_coordinate, MAXP};
 use crate::linalg::{chol_solve, cholesky, inverse_diagonal};
-use crate::model::IDENTIFIABLE_SD;
 use crate::Real;
 
 /// The result of a finished search.
@@ -66,24 +65,9 @@ impl<T: Real> Found<T> {
     }
 
     /// The coordinates (bit `i`: `theta[i]`) of the first `p` that the window does not
-    /// identify: a Cramér-Rao standard deviation above [`IDENTIFIABLE_SD`] decades, or all of
-    /// them when the information is not positive definite (issue 13, item 2).
+    /// identify ([`flat_coordinates`] of its Cramér-Rao standard deviations; issue 13, item 2).
     pub fn flat(&self, p: usize) -> u8 {
-        let p = p.min(MAXP);
-        let all = (0..p).fold(0u8, |m, i| m | coordinate_bit(i));
-        let Some(sd) = self.sd(p) else {
-            return all;
-        };
-        let limit = T::lit(IDENTIFIABLE_SD * core::f64::consts::LN_10);
-        let mut mask = 0u8;
-        for (i, s) in sd.iter().enumerate().take(p) {
-            // False for a NaN deviation: flat too.
-            let identified = *s <= limit;
-            if !identified {
-                mask |= coordinate_bit(i);
-            }
-        }
-        mask
+        flat_coordinates(self.sd(p).as_ref(), p)
     }
 
     /// `theta` with the coordinates in `mask` (bit `i`: `theta[i]`) held at `current`'s values
@@ -192,6 +176,7 @@ impl<T: Real> Switch<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::IDENTIFIABLE_SD;
 
     /// A window's information for two coordinates with sds `s0`, `s1` (`ln`) and correlation
     /// `rho` (the inverse of their covariance).
