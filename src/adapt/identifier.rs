@@ -4,16 +4,18 @@
 //! block by central differences, the exponential window sums them, and a damped, rate-limited,
 //! bounded step moves `theta` (the logarithms of the parameters).
 //!
-//! This is the recursion alone, for a model of `N` states and `Z` observation axes.
-//! [`AdaptiveFilter`](super::AdaptiveFilter) runs one on the one-channel INS model and adds
-//! what is specific to that model: the probe grid, the global window search and the structure
-//! switch.
+//! With `probe_factor > 1` it also runs the probe grid ([`probes`](super::probes)): every
+//! `epoch` steps the centre jumps to a probe that beats it by the margin, and during the search
+//! phase (until an epoch ends without a jump) the Gauss-Newton moves are held. All of it is for
+//! a model of `N` states and `Z` observation axes. [`AdaptiveFilter`](super::AdaptiveFilter)
+//! runs one on the one-channel INS model and adds what is specific to that model: the global
+//! window search and the structure switch.
 //!
 //! ```
 //! use imu_ident::adapt::identifier::Identifier;
 //! use imu_ident::adapt::AdaptConfig;
 //! use imu_ident::model::InsModel;
-//! let cfg = AdaptConfig { block: 60, ..AdaptConfig::default() };
+//! let cfg = AdaptConfig { block: 60, probe_factor: 0.0, ..AdaptConfig::default() };
 //! let mut f: Identifier<f64> = Identifier::new(InsModel::paper(), cfg).unwrap();
 //! assert_eq!(f.specs().len(), 4); // sigma and tau of each sensor's Gauss-Markov drift
 //! for _ in 0..60 {
@@ -32,8 +34,9 @@ use super::guard::{limit_step, Bounds, Mat};
 use super::identifiable::IdentifiableModel;
 use super::information::Information;
 use super::params::{flat_coordinates, Specs, MAXP};
+use super::probes::{Probes, Winner};
 use super::{AdaptConfig, AdaptError};
-use crate::linalg::{chol_solve, cholesky, inverse_diagonal};
+use crate::linalg::{chol_solve, cholesky, inverse_diagonal, is_positive_definite};
 use crate::model::{InsModel, NX};
 use crate::Real;
 
@@ -44,8 +47,10 @@ pub struct IdentifierStep<T, const Z: usize> {
     pub bank: BankStep<T, Z>,
     /// `theta` moved at the end of this step's block.
     pub moved: bool,
-    /// A move failed (the bank rolled back, or the Gauss-Newton system was not positive
-    /// definite).
+    /// The centre jumped to a winning probe at the end of this step's epoch.
+    pub jumped: bool,
+    /// A move failed (the bank rolled back, a probe could not be discretised, or the
+    /// Gauss-Newton system was not positive definite).
     pub rejected: bool,
 }
 
@@ -75,6 +80,15 @@ where
     pub(super) steps: u32,
     updates: u32,
     clamped: bool,
+    /// The probe grid around the centre (empty with `probe_factor <= 1`).
+    pub(super) probes: Probes<T, N>,
+    /// Jumps to another basin so far (a probe, or the parent's global stage).
+    pub(super) jumps: u32,
+    epochs: u32,
+    last_gain: T,
+    /// The search phase: no Gauss-Newton moves (with `hold_first_epoch`), the smaller
+    /// `first_margin`; it ends with the first epoch without a jump.
+    pub(super) searching: bool,
 }
 
 impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
@@ -96,6 +110,11 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
         steps: 0,
         updates: 0,
         clamped: false,
+        probes: Probes::BLANK,
+        jumps: 0,
+        epochs: 0,
+        last_gain: T::ZERO,
+        searching: false,
     };
 
     /// Starts from `model` (its parameters are the initial guess).
@@ -105,15 +124,18 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
         Ok(f)
     }
 
-    /// [`new`](Self::new) in place (the firmware's filters live in a `static`). Only the
-    /// recursion's settings of `cfg` are checked and used (`block`, `h`, `window`, `damping`,
-    /// `hysteresis`, `max_step`, `tau_max`, `spread`, `move_discount`, `adapt`). On error the
-    /// filter must not be stepped (initialise it again).
+    /// [`new`](Self::new) in place (the firmware's filters live in a `static`). The settings of
+    /// `cfg` that are not the recursion's or the probes' (the global stage's) are ignored. On
+    /// error the filter must not be stepped (initialise it again).
     pub fn init(&mut self, model: M, cfg: AdaptConfig<T>) -> Result<(), AdaptError> {
         let ok = |v: T| v.is_finite() && v > T::zero();
         // `v >= 0` is false for NaN, so a NaN setting is rejected too.
         let nonneg = |v: T| v >= T::zero();
         if cfg.block == 0
+            || cfg.epoch <= cfg.warmup
+            || !nonneg(cfg.margin)
+            || !nonneg(cfg.first_margin)
+            || !(cfg.probe_factor.is_finite())
             || !ok(cfg.h)
             || !ok(cfg.window)
             || !nonneg(cfg.damping)
@@ -137,6 +159,12 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
         self.bank.init(&model, &specs, cfg.h)?;
         self.bank.set_theta(&theta)?;
         self.forget = (-T::lit(f64::from(cfg.block)) * dt / cfg.window).exp();
+        if cfg.probe_factor > T::one() {
+            self.probes.init(&specs, cfg.probe_factor, self.bank.p0());
+        } else {
+            self.probes.init(&Specs::new(), T::lit(2.0), self.bank.p0());
+        }
+        self.probes.anchor(&theta, &bounds, specs.len());
         self.base = model;
         self.specs = specs;
         self.theta = theta;
@@ -149,19 +177,49 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
         self.steps = 0;
         self.updates = 0;
         self.clamped = false;
+        self.jumps = 0;
+        self.epochs = 0;
+        self.last_gain = T::zero();
+        self.searching = true;
         Ok(())
     }
 
     /// One filter cycle of every bank member with the observation `z` (a non-finite axis is
-    /// missing), gated per axis by `gate` (see [`Bank::step_axes`]); the step count advances.
-    /// When a staggered move could not be discretised, `theta` follows the bank's roll-back.
-    pub fn observe(&mut self, z: &[T; Z], gate: Option<&dyn Fn(usize) -> T>) -> BankStep<T, Z> {
+    /// missing), gated per axis by `gate` (see [`Bank::step_axes`]), and of every probe; the
+    /// step count advances. When a staggered move could not be discretised, `theta` follows the
+    /// bank's roll-back (`failed`). Returns the bank's step and whether a probe failed.
+    pub fn observe(
+        &mut self,
+        z: &[T; Z],
+        gate: Option<&dyn Fn(usize) -> T>,
+    ) -> (BankStep<T, Z>, bool) {
         let out = self.bank.step_axes(z, &mut self.block, gate);
         if out.failed {
             self.theta = *self.bank.theta();
         }
+        let mut probe_failed = false;
+        if !self.probes.is_empty() {
+            // The probes see what the bank saw: a gated observation is missing for them too.
+            let gated = out.gated.iter().any(Option::is_some);
+            let z = if gated { [T::lit(f64::NAN); Z] } else { *z };
+            let res = self.probes.step(
+                &z,
+                (self.bank.centre(), &out.centre),
+                self.bank.rows(),
+                &self.base,
+                &self.specs,
+                self.bank.scale_array(),
+                self.cfg.warmup,
+            );
+            probe_failed = res.is_err();
+        }
         self.steps = self.steps.wrapping_add(1);
-        out
+        (out, probe_failed)
+    }
+
+    /// Whether the step just observed ends a probe epoch (never without probes).
+    pub fn epoch_due(&self) -> bool {
+        !self.probes.is_empty() && self.steps.checked_rem(self.cfg.epoch) == Some(0)
     }
 
     /// Whether the step just observed ends a block (`checked_rem`: no division-by-zero panic
@@ -170,25 +228,78 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
         self.steps.checked_rem(self.cfg.block) == Some(0)
     }
 
-    /// [`observe`](Self::observe), then, when a block ends, the Gauss-Newton update.
+    /// [`observe`](Self::observe); when an epoch ends, the probes' verdict
+    /// ([`epoch_end`](Self::epoch_end)); when a block ends, the Gauss-Newton update, held on
+    /// the step of a jump and (with `hold_first_epoch`) during the search phase.
     pub fn step_axes(
         &mut self,
         z: &[T; Z],
         gate: Option<&dyn Fn(usize) -> T>,
     ) -> IdentifierStep<T, Z> {
-        let bank = self.observe(z, gate);
+        let (bank, probe_failed) = self.observe(z, gate);
         let mut out = IdentifierStep {
             bank,
             moved: false,
-            rejected: bank.failed,
+            jumped: false,
+            rejected: bank.failed || probe_failed,
         };
+        if self.epoch_due() {
+            match self.epoch_end() {
+                Ok(j) => out.jumped = j,
+                Err(_) => out.rejected = true,
+            }
+        }
         if self.block_due() {
-            match self.update(true) {
+            let holding = self.cfg.hold_first_epoch && self.searching && !self.probes.is_empty();
+            match self.update(!holding && !out.jumped) {
                 Ok(m) => out.moved = m,
                 Err(_) => out.rejected = true,
             }
         }
+        out.moved |= out.jumped;
         out
+    }
+
+    /// End of a probe epoch: jump to a winning probe (fresh information, the old one describes
+    /// another basin), then re-anchor the grid at the centre. Returns whether it jumped.
+    pub fn epoch_end(&mut self) -> Result<bool, AdaptError> {
+        self.epochs = self.epochs.saturating_add(1);
+        let mut jumped = false;
+        if self.cfg.adapt {
+            let best = self.probes.best();
+            self.last_gain = best.as_ref().map_or(T::zero(), |w| w.gain);
+            let margin = if self.searching {
+                self.cfg.first_margin
+            } else {
+                self.cfg.margin
+            };
+            // A probe whose covariance lost positive definiteness (its health test looks at the
+            // diagonal only) is broken and cannot win: the centre would copy its `P`.
+            let n = self.bank.active();
+            let valid = |w: &Winner<T, N>| {
+                w.gain.is_finite() && w.gain > margin && is_positive_definite(&w.p, n)
+            };
+            if let Some(w) = best.filter(valid) {
+                // At once, not staggered like the Gauss-Newton moves: measured, staggering the
+                // jump (members keeping their old model for up to 2p steps on the probe's x, P)
+                // worsened the worst seeds (10x start: max tilt ratio 1.33 vs 1.18). A jump is
+                // rare (0-2 per run) and costs 2p + 1 re-discretisations on that step.
+                self.bank.set_theta(&w.theta)?;
+                self.bank.reset_states(&w.x, &w.p);
+                self.theta = w.theta;
+                self.forget_window(true);
+                self.jumps = self.jumps.saturating_add(1);
+                jumped = true;
+            }
+            // The search phase (small margin, no Gauss-Newton moves) lasts until an epoch ends
+            // without a jump: the centre is then the best point of its grid neighbourhood.
+            if !jumped || !self.cfg.search_until_settled {
+                self.searching = false;
+            }
+        }
+        self.probes
+            .anchor(&self.theta, &self.bounds, self.specs.len());
+        Ok(jumped)
     }
 
     /// The block update (the [`adapt`](super) module's equations): folds the block into the
@@ -383,6 +494,23 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
     /// Parameter updates applied so far.
     pub fn updates(&self) -> u32 {
         self.updates
+    }
+
+    /// Jumps to another basin so far.
+    pub fn jumps(&self) -> u32 {
+        self.jumps
+    }
+
+    /// The best probe's log-likelihood advantage over the centre in the last epoch, in nats
+    /// (telemetry: a jump needs more than `margin`).
+    pub fn last_gain(&self) -> T {
+        self.last_gain
+    }
+
+    /// Whether the search phase still runs (no probe epoch has yet ended without a jump, and
+    /// the parent's global stage has not finished a search).
+    pub fn searching(&self) -> bool {
+        self.searching
     }
 
     /// The centre filter (scaled states; see [`Bank::scale_array`]).

@@ -1,13 +1,12 @@
-//! The filter's jumps to another basin of the likelihood: the end of a probe epoch (a winning
-//! probe's `theta, x, P`, [`probes`](super::probes)) and the end of a global search (its best
-//! point or a structure switch, [`window`](super::window)). Apart from the step loop and the
-//! Gauss-Newton update (the parent module) because a jump replaces the windowed information
-//! instead of refining it. This module is a child of [`super`], so it reads the filter's fields.
+//! The filter's jump at the end of a global search (its best point or a structure switch,
+//! [`window`](super::window)); the probes' jumps are the [`Identifier`](super::Identifier)'s
+//! (`epoch_end`). Apart from the step loop (the parent module) because a jump replaces the
+//! windowed information instead of refining it. This module is a child of [`super`], so it
+//! reads the filter's fields.
 
 use super::params::{has_coordinate, MAXP};
 use super::window::CONSERVATIVE_CAP;
-use super::{probes, AdaptError, AdaptiveFilter, Found};
-use crate::linalg::is_positive_definite;
+use super::{AdaptiveFilter, Found};
 use crate::model::Quantity;
 use crate::Real;
 
@@ -48,48 +47,6 @@ impl<T: Real> AdaptiveFilter<T> {
         self.id.bounds.clamp(&t, p)
     }
 
-    /// End of a probe epoch: jump to a winning probe (fresh information, the old one describes
-    /// another basin), then re-anchor the grid at the centre. Returns whether it jumped.
-    pub(super) fn epoch_end(&mut self) -> Result<bool, AdaptError> {
-        self.epochs = self.epochs.saturating_add(1);
-        let mut jumped = false;
-        if self.id.cfg.adapt {
-            let best = self.probes.best();
-            self.last_gain = best.as_ref().map_or(T::zero(), |w| w.gain);
-            let margin = if self.searching {
-                self.id.cfg.first_margin
-            } else {
-                self.id.cfg.margin
-            };
-            // A probe whose covariance lost positive definiteness (its health test looks at the
-            // diagonal only) is broken and cannot win: the centre would copy its `P`.
-            let n = self.id.bank.active();
-            let valid = |w: &probes::Winner<T>| {
-                w.gain.is_finite() && w.gain > margin && is_positive_definite(&w.p, n)
-            };
-            if let Some(w) = best.filter(valid) {
-                // At once, not staggered like the Gauss-Newton moves: measured, staggering the
-                // jump (members keeping their old model for up to 2p steps on the probe's x, P)
-                // worsened the worst seeds (10x start: max tilt ratio 1.33 vs 1.18). A jump is
-                // rare (0-2 per run) and costs 2p + 1 re-discretisations on that step.
-                self.id.bank.set_theta(&w.theta)?;
-                self.id.bank.reset_states(&w.x, &w.p);
-                self.id.theta = w.theta;
-                self.id.forget_window(true);
-                self.jumps = self.jumps.saturating_add(1);
-                jumped = true;
-            }
-            // The search phase (small margin, no Gauss-Newton moves) lasts until an epoch ends
-            // without a jump: the centre is then the best point of its grid neighbourhood.
-            if !jumped || !self.id.cfg.search_until_settled {
-                self.searching = false;
-            }
-        }
-        self.probes
-            .anchor(&self.id.theta, &self.id.bounds, self.id.specs.len());
-        Ok(jumped)
-    }
-
     /// End of a global search: jump to its best point when it beats the anchor by the margin.
     /// Unlike a probe, the point has no 1-Hz filter state: the centre keeps its `x, P`, and the
     /// windowed information is discarded (it was gathered at another point).
@@ -100,7 +57,7 @@ impl<T: Real> AdaptiveFilter<T> {
         }
         // The first finished search ends the search phase (the recursion, when not held,
         // then climbs from the basin the window chose).
-        self.searching = false;
+        self.id.searching = false;
         let p = self.id.specs.len().min(MAXP);
         // Issue 13, item 2: what the window does not bound is flagged, not left to wander.
         let was_flat = self.flat;
@@ -108,7 +65,7 @@ impl<T: Real> AdaptiveFilter<T> {
         let pen = self.id.cfg.global.structure;
         if let Some(sw) = found.switch.get().filter(|s| s.wins(pen)) {
             if self.switch_structure(sw, found.blocks).is_ok() {
-                self.jumps = self.jumps.saturating_add(1);
+                self.id.jumps = self.id.jumps.saturating_add(1);
                 self.switches = self.switches.saturating_add(1);
                 self.at_start = false;
                 // The window's information describes the old structure's parameters.
@@ -182,9 +139,10 @@ impl<T: Real> AdaptiveFilter<T> {
         if far {
             self.id.forget_window(true);
         }
-        self.jumps = self.jumps.saturating_add(1);
-        if !self.probes.is_empty() {
-            self.probes
+        self.id.jumps = self.id.jumps.saturating_add(1);
+        if !self.id.probes.is_empty() {
+            self.id
+                .probes
                 .anchor(&self.id.theta, &self.id.bounds, self.id.specs.len());
         }
         true

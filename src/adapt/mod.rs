@@ -20,14 +20,16 @@
 //! The last line keeps the local quadratic model `l(theta') ~ l + g^T d - d^T I d / 2` of the
 //! windowed log-likelihood consistent after the move, so information is neither lost nor counted
 //! twice: a step withheld by the hysteresis or the rate limit stays in `g_acc` for later.
-//! This recursion is [`Identifier`], generic over the error model like
-//! the bank; [`AdaptiveFilter`] runs one on the one-channel model.
 //!
 //! The likelihood is multi-modal (accelerometer and gyro errors are told apart only by their
 //! spectral shapes), so a local recursion alone can settle in the wrong basin. [`probes`] runs a
 //! coarse grid of filters around the centre and compares log-likelihoods every epoch: during a
 //! search phase (until an epoch ends without a jump) the centre jumps to any better probe and the
 //! Gauss-Newton moves are held; afterwards a probe must win by a larger margin.
+//!
+//! The recursion and the probe epochs are [`Identifier`], generic over the error model like the
+//! bank. [`AdaptiveFilter`] runs one on the one-channel model and adds the global stage
+//! ([`window`]) and the structure switch ([`restructure`]).
 
 // Small fixed-size matrix code reads best with explicit indices (they mirror the equations).
 #![allow(clippy::needless_range_loop)]
@@ -54,7 +56,6 @@ pub use config::AdaptConfig;
 use identifier::Identifier;
 use information::Information;
 use params::{Specs, MAXP};
-use probes::Probes;
 pub use report::{StepReport, StepStatus};
 pub use window::WindowSearch;
 pub use window::{Found, Switch, WindowConfig};
@@ -78,16 +79,11 @@ pub enum AdaptError {
 /// the structure switch that choose its basin.
 #[derive(Debug, Clone)]
 pub struct AdaptiveFilter<T: Real> {
-    /// The bank, `theta`, the windowed information and the Gauss-Newton recursion.
+    /// The bank, `theta`, the windowed information, the Gauss-Newton recursion and the probes.
     id: Identifier<T>,
-    probes: Probes<T>,
     global: WindowSearch<T>,
     accel_row: StateRow<T>,
     gyro_row: StateRow<T>,
-    jumps: u32,
-    epochs: u32,
-    last_gain: T,
-    searching: bool,
     last_global: Found<T>,
     switches: u32,
     /// The coordinates the last search's window did not identify (bit `i`: `theta[i]`).
@@ -102,14 +98,9 @@ impl<T: Real> AdaptiveFilter<T> {
     /// A `static` initialised with it costs no flash (it goes to `.bss`) and no stack.
     pub const BLANK: Self = Self {
         id: Identifier::BLANK,
-        probes: Probes::BLANK,
         global: WindowSearch::BLANK,
         accel_row: StateRow::from_array_storage(nalgebra::ArrayStorage([[T::ZERO; 1]; NX])),
         gyro_row: StateRow::from_array_storage(nalgebra::ArrayStorage([[T::ZERO; 1]; NX])),
-        jumps: 0,
-        epochs: 0,
-        last_gain: T::ZERO,
-        searching: false,
         last_global: Found::BLANK,
         switches: 0,
         flat: 0,
@@ -127,33 +118,13 @@ impl<T: Real> AdaptiveFilter<T> {
     /// they are, never built on the stack and moved. On error the filter must not be stepped
     /// (initialise it again).
     pub fn init(&mut self, model: InsModel<T>, cfg: AdaptConfig<T>) -> Result<(), AdaptError> {
-        // `v >= 0` is false for NaN, so a NaN setting is rejected too (the recursion's own
-        // settings are checked by `Identifier::init`).
-        let nonneg = |v: T| v >= T::zero();
-        if cfg.epoch <= cfg.warmup
-            || !nonneg(cfg.margin)
-            || !nonneg(cfg.first_margin)
-            || !(cfg.probe_factor.is_finite())
-        {
-            return Err(AdaptError::BadConfig);
-        }
-        let (accel_row, gyro_row) = output_rows(&model)?;
+        // The settings are checked by `Identifier::init` (the recursion's and the probes') and
+        // `WindowSearch::init` (the global stage's).
         self.id.init(model, cfg)?;
-        let (specs, theta) = (&self.id.specs, &self.id.theta);
-        if cfg.probe_factor > T::one() {
-            self.probes.init(specs, cfg.probe_factor, self.id.bank.p0());
-        } else {
-            self.probes
-                .init(&Specs::new(), T::lit(2.0), self.id.bank.p0());
-        }
-        self.probes.anchor(theta, &self.id.bounds, specs.len());
-        self.global.init(cfg.global, theta);
+        let (accel_row, gyro_row) = output_rows(&self.id.base)?;
+        self.global.init(cfg.global, &self.id.theta);
         self.accel_row = accel_row;
         self.gyro_row = gyro_row;
-        self.jumps = 0;
-        self.epochs = 0;
-        self.last_gain = T::zero();
-        self.searching = true;
         self.last_global = Found::BLANK;
         self.switches = 0;
         self.flat = 0;
@@ -172,7 +143,7 @@ impl<T: Real> AdaptiveFilter<T> {
     /// [`StepStatus::Gated`] with its innovation.
     pub fn step_gated(&mut self, z: T, gate: Option<T>) -> StepReport<T> {
         let g = gate.map(|g| move |_: usize| g);
-        let out = self
+        let (out, probe_failed) = self
             .id
             .observe(&[z], g.as_ref().map(|f| f as &dyn Fn(usize) -> T));
         let nan = T::lit(f64::NAN);
@@ -184,25 +155,13 @@ impl<T: Real> AdaptiveFilter<T> {
             (None, None) if z.is_finite() => (nan, nan, StepStatus::BadInnovationVariance),
             (None, None) => (nan, nan, StepStatus::Missing),
         };
-        // The probes see what the bank saw: a gated observation is missing for them too.
+        // The global stage sees what the bank saw: a gated observation is missing for it too.
         let z = if gated.is_some() { nan } else { z };
-        // A staggered move that could not be discretised: the identifier followed the bank's
-        // roll-back.
-        let (mut moved, mut rejected, mut jumped, mut switched) = (false, out.failed, false, false);
-        let id = &self.id;
-        if !self.probes.is_empty() {
-            let res = self.probes.step(
-                &[z],
-                (id.bank.centre(), &[centre]),
-                id.bank.rows(),
-                &id.base,
-                &id.specs,
-                id.bank.scale_array(),
-                id.cfg.warmup,
-            );
-            rejected |= res.is_err();
-        }
-        let changed = self.global.push(z, &id.base, &id.specs);
+        // A staggered move that could not be discretised (the identifier followed the bank's
+        // roll-back), or a probe that could not be.
+        let mut rejected = out.failed || probe_failed;
+        let (mut moved, mut jumped, mut switched) = (false, false, false);
+        let changed = self.global.push(z, &self.id.base, &self.id.specs);
         if changed {
             // The windowed information describes the sensor before the change.
             self.id.forget_window(false);
@@ -220,9 +179,8 @@ impl<T: Real> AdaptiveFilter<T> {
             // The model the filter now runs is watched for a change in service.
             self.global.watch(&self.id.theta);
         }
-        let cfg = &self.id.cfg;
-        if !self.probes.is_empty() && self.id.steps.checked_rem(cfg.epoch) == Some(0) {
-            match self.epoch_end() {
+        if self.id.epoch_due() {
+            match self.id.epoch_end() {
                 Ok(j) => jumped = j,
                 Err(_) => rejected = true,
             }
@@ -232,8 +190,8 @@ impl<T: Real> AdaptiveFilter<T> {
             // nor before the first epoch has chosen the basin.
             let cfg = &self.id.cfg;
             let holding = cfg.hold_first_epoch
-                && self.searching
-                && (!self.probes.is_empty() || cfg.global.enabled());
+                && self.id.searching
+                && (!self.id.probes.is_empty() || cfg.global.enabled());
             let held = cfg.global.enabled() && cfg.global.hold_recursion;
             let allow = !holding && !jumped && !held;
             match self.id.update(allow) {
@@ -346,15 +304,15 @@ impl<T: Real> AdaptiveFilter<T> {
         self.id.updates()
     }
 
-    /// Jumps to a probe so far.
+    /// Jumps to another basin so far (a probe or a global search).
     pub fn jumps(&self) -> u32 {
-        self.jumps
+        self.id.jumps()
     }
 
     /// The best probe's log-likelihood advantage over the centre in the last epoch [nats]
-    /// (telemetry: a jump needs more than `margin`).
+    /// ([`Identifier::last_gain`]).
     pub fn last_gain(&self) -> T {
-        self.last_gain
+        self.id.last_gain()
     }
 
     /// The centre filter (scaled states; see [`Bank::scale`](bank::Bank::scale)).
@@ -397,6 +355,8 @@ fn output_rows<T: Real>(model: &InsModel<T>) -> Result<(StateRow<T>, StateRow<T>
     Ok((accel, gyro))
 }
 
+#[cfg(test)]
+mod identifier_tests;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]

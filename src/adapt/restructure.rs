@@ -153,9 +153,11 @@ impl<T: Real> super::AdaptiveFilter<T> {
         self.id.forget_window(true);
         self.id.total = Information::default();
         if self.id.cfg.probe_factor > T::one() {
-            self.probes
+            self.id
+                .probes
                 .init(&self.id.specs, self.id.cfg.probe_factor, self.id.bank.p0());
-            self.probes
+            self.id
+                .probes
                 .anchor(&self.id.theta, &self.id.bounds, self.id.specs.len());
         }
         Ok(())

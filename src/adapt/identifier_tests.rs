@@ -1,0 +1,328 @@
+//! The online identification ([`Identifier`]) with four noise parameters whose components reach
+//! the same observations and are told apart only by their spectra: the one-channel INS's
+//! accelerometer-or-gyro problem in miniature. Two Gauss-Markov states, a fast one and a slow
+//! one, are seen summed by two sensors with independent white noise (`N = 2`, `Z = 2`, `p = 4`).
+
+use crate::adapt::identifiable::IdentifiableModel;
+use crate::adapt::identifier::Identifier;
+use crate::adapt::params::{ParamSpec, Specs, MAXP};
+use crate::adapt::AdaptConfig;
+use crate::model::{
+    ComponentKind, ContinuousSystem, ErrorModel, ErrorSource, ModelError, Quantity, StateBlock,
+};
+extern crate std;
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use std::vec::Vec;
+
+/// `x_i' = -x_i / tau_i + w_i` (stationary sd `sigma_i`), observed as `z_j = x_0 + x_1 + v_j`.
+#[derive(Debug, Clone, PartialEq)]
+struct TwoSpeeds {
+    sigma: [f64; 2],
+    tau: [f64; 2],
+    r: [f64; 2],
+}
+
+/// Which state a spec addresses: the "accelerometer" is the fast one, the "gyro" the slow one.
+fn state(s: &ParamSpec) -> usize {
+    usize::from(s.sensor == ErrorSource::Gyro)
+}
+
+impl ErrorModel<f64, 2, 2> for TwoSpeeds {
+    fn dt(&self) -> f64 {
+        1.0
+    }
+
+    fn scaling(&self) -> Result<[f64; 2], ModelError> {
+        Ok(self.sigma)
+    }
+
+    fn system(&self, s: &[f64; 2]) -> Result<ContinuousSystem<f64, 2, 2>, ModelError> {
+        let mut sys = ContinuousSystem {
+            A: [[0.0; 2]; 2],
+            Qc: [[0.0; 2]; 2],
+            P0: [[0.0; 2]; 2],
+            H: [[s[0], s[1]]; 2],
+            R: self.r,
+            n: 2,
+        };
+        for i in 0..2 {
+            let v = self.sigma[i] * self.sigma[i] / (s[i] * s[i]);
+            sys.A[i][i] = -1.0 / self.tau[i];
+            sys.Qc[i][i] = 2.0 * v / self.tau[i];
+            sys.P0[i][i] = v;
+        }
+        Ok(sys)
+    }
+
+    fn blocks(&self, f: &mut dyn FnMut(StateBlock)) {
+        for (start, name) in [(0, "fast"), (1, "slow")] {
+            f(StateBlock {
+                name,
+                component: Some(ComponentKind::GaussMarkov),
+                start,
+                width: 1,
+            });
+        }
+    }
+
+    fn same_layout(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl IdentifiableModel<f64, 2, 2> for TwoSpeeds {
+    const BLANK: Self = Self {
+        sigma: [0.0; 2],
+        tau: [0.0; 2],
+        r: [0.0; 2],
+    };
+
+    fn with_parameters(&self, specs: &Specs, theta: &[f64; MAXP]) -> Option<Self> {
+        let mut m = self.clone();
+        for (s, t) in specs.iter().zip(theta.iter()) {
+            let v = t.exp();
+            if !(v.is_finite() && v > 0.0) {
+                return None;
+            }
+            match s.kind {
+                Quantity::Sigma => m.sigma[state(s)] = v,
+                Quantity::Tau => m.tau[state(s)] = v,
+                _ => return None,
+            }
+        }
+        Some(m)
+    }
+
+    fn identified(&self) -> Specs {
+        let mut out = Specs::new();
+        for sensor in [ErrorSource::Accel, ErrorSource::Gyro] {
+            for kind in [Quantity::Sigma, Quantity::Tau] {
+                let spec = ParamSpec {
+                    sensor,
+                    index: 0,
+                    kind,
+                };
+                if out.push(spec).is_err() {
+                    return out;
+                }
+            }
+        }
+        out
+    }
+
+    fn parameters(&self, specs: &Specs) -> [f64; MAXP] {
+        let mut theta = [0.0; MAXP];
+        for (t, s) in theta.iter_mut().zip(specs.iter()) {
+            *t = match s.kind {
+                Quantity::Sigma => self.sigma[state(s)].ln(),
+                Quantity::Tau => self.tau[state(s)].ln(),
+                _ => 0.0,
+            };
+        }
+        theta
+    }
+}
+
+const TRUTH: TwoSpeeds = TwoSpeeds {
+    sigma: [1.0, 0.5],
+    tau: [10.0, 300.0],
+    r: [0.25, 1.0],
+};
+
+/// `steps` observations of the truth: the exact AR(1) of each state at `dt = 1`.
+fn observations(seed: u64, steps: usize) -> Vec<[f64; 2]> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let n = Normal::new(0.0, 1.0).unwrap();
+    let phi = TRUTH.tau.map(|t| (-1.0 / t).exp());
+    let mut x = TRUTH.sigma.map(|s| s * n.sample(&mut rng));
+    (0..steps)
+        .map(|_| {
+            for i in 0..2 {
+                x[i] = phi[i] * x[i]
+                    + TRUTH.sigma[i] * (1.0 - phi[i] * phi[i]).sqrt() * n.sample(&mut rng);
+            }
+            let sum = x[0] + x[1];
+            [
+                sum + TRUTH.r[0].sqrt() * n.sample(&mut rng),
+                sum + TRUTH.r[1].sqrt() * n.sample(&mut rng),
+            ]
+        })
+        .collect()
+}
+
+/// The start with factors `f` on (sigma_0, tau_0, sigma_1, tau_1).
+fn start(f: [f64; 4]) -> TwoSpeeds {
+    TwoSpeeds {
+        sigma: [TRUTH.sigma[0] * f[0], TRUTH.sigma[1] * f[2]],
+        tau: [TRUTH.tau[0] * f[1], TRUTH.tau[1] * f[3]],
+        ..TRUTH
+    }
+}
+
+/// The starts: the eight sigma-only and tau-only corners, and `random` drawn log-uniformly in
+/// `[0.1, 10]` independently for each parameter.
+fn starts(seed: u64, random: usize) -> Vec<[f64; 4]> {
+    let mut out = Vec::new();
+    for k in [10.0, 0.1] {
+        out.push([k, 1.0, k, 1.0]);
+        out.push([1.0, k, 1.0, k]);
+        out.push([k, 1.0, 1.0, 1.0]);
+        out.push([1.0, 1.0, 1.0, k]);
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    for _ in 0..random {
+        out.push([0; 4].map(|_| 10f64.powf(rng.gen_range(-1.0..1.0))));
+    }
+    out
+}
+
+/// `theta` of the truth.
+fn truth() -> [f64; 4] {
+    [
+        TRUTH.sigma[0].ln(),
+        TRUTH.tau[0].ln(),
+        TRUTH.sigma[1].ln(),
+        TRUTH.tau[1].ln(),
+    ]
+}
+
+type TwoSpeedsIdentifier = Identifier<f64, TwoSpeeds, 2, 2>;
+
+/// Runs an identifier from `m` over `z`; returns it and the number of rejected steps.
+fn identify(m: TwoSpeeds, cfg: AdaptConfig<f64>, z: &[[f64; 2]]) -> (TwoSpeedsIdentifier, usize) {
+    let mut id = TwoSpeedsIdentifier::new(m, cfg).unwrap();
+    let rejected = z
+        .iter()
+        .filter(|zk| id.step_axes(zk, None).rejected)
+        .count();
+    (id, rejected)
+}
+
+/// The log-likelihood of `z[from..]` under the fixed model `m` [nats].
+fn loglik(m: TwoSpeeds, z: &[[f64; 2]], from: usize) -> f64 {
+    let cfg = AdaptConfig {
+        adapt: false,
+        probe_factor: 0.0,
+        ..AdaptConfig::default()
+    };
+    let mut f = TwoSpeedsIdentifier::new(m, cfg).unwrap();
+    let mut l = 0.0;
+    for (k, zk) in z.iter().enumerate() {
+        let s = f.step_axes(zk, None);
+        if k >= from {
+            l += s
+                .bank
+                .centre
+                .iter()
+                .flatten()
+                .map(|c| c.loglik())
+                .sum::<f64>();
+        }
+    }
+    l
+}
+
+/// From the truth, the four-parameter identification (recursion and probes, the default
+/// settings but for blocks of 500 steps) stays there: after 80 000 steps no coordinate is
+/// flagged and each is within 4 windowed Cramér-Rao sd of the truth (asymptotic normality of
+/// the window's estimate; `P(|N(0,1)| > 4) = 6e-5` per coordinate). The slow component's
+/// correlation time, 300 s, is the hardest: the 4-h window holds 48 of them.
+#[test]
+fn four_parameters_started_at_the_truth_stay_there() {
+    let z = observations(20_261_202, 80_000);
+    let cfg = AdaptConfig {
+        block: 500,
+        ..AdaptConfig::default()
+    };
+    let (id, rejected) = identify(TRUTH, cfg, &z);
+    assert_eq!(rejected, 0);
+    assert_eq!(id.flat(), 0, "{:?}", id.windowed_sd());
+    let sd = id.windowed_sd().unwrap();
+    let (th, t) = (id.theta(), truth());
+    for i in 0..4 {
+        assert!(
+            (th[i] - t[i]).abs() < 4.0 * sd[i],
+            "coordinate {i}: {} against {} (sd {})",
+            th[i],
+            t[i],
+            sd[i]
+        );
+    }
+}
+
+/// Measurement, not a check: the four-parameter identification from the eight sigma-only and
+/// tau-only corners and eight log-uniform starts in `[0.1, 10]` (`docs/ADAPTATION.md` §2.7):
+///
+/// ```text
+/// STEPS=160000 WINDOW=14400 EPOCH=3600 PROBES=3 HYSTERESIS=1 SEED=1 \
+///     cargo test --release --lib two_speeds_from_any_start -- --ignored --nocapture
+/// ```
+///
+/// Per start: the end's factors on the truth, its distance in windowed sd, the flat bits, the
+/// jumps, and the log-likelihood of the second half of the data at the end's parameters minus
+/// at the truth's. The observations see only the sum of the two components, so an end with the
+/// labels swapped (the "fast" component slower than the "slow" one) is the same model and is
+/// compared with the truth swapped.
+#[test]
+#[ignore]
+fn two_speeds_from_any_start() {
+    let var = |name: &str, default: f64| {
+        std::env::var(name)
+            .ok()
+            .and_then(|s| s.parse::<f64>().ok())
+            .unwrap_or(default)
+    };
+    let steps = var("STEPS", 160_000.0) as usize;
+    let epoch = var("EPOCH", 3600.0) as u32;
+    let seed = var("SEED", 1.0) as u64;
+    let cfg = AdaptConfig {
+        block: 500,
+        window: var("WINDOW", 14_400.0),
+        hysteresis: var("HYSTERESIS", 1.0),
+        probe_factor: var("PROBES", 3.0),
+        epoch,
+        warmup: epoch / 4,
+        ..AdaptConfig::default()
+    };
+    let z = observations(seed, steps);
+    let t = truth();
+    let at_truth = loglik(TRUTH, &z, steps / 2);
+    let mut converged = 0;
+    let all = starts(seed + 1000, 8);
+    for f in &all {
+        let (id, rejected) = identify(start(*f), cfg, &z);
+        let th = id.theta();
+        // The observations see only the sum: the two components can swap their labels.
+        let swapped = th[1] > th[3];
+        let th = if swapped {
+            [th[2], th[3], th[0], th[1]]
+        } else {
+            [th[0], th[1], th[2], th[3]]
+        };
+        let sd = id.windowed_sd().unwrap_or([f64::NAN; MAXP]);
+        let sd = if swapped {
+            [sd[2], sd[3], sd[0], sd[1]]
+        } else {
+            [sd[0], sd[1], sd[2], sd[3]]
+        };
+        let dev: Vec<f64> = (0..4).map(|i| (th[i] - t[i]) / sd[i]).collect();
+        let factor: Vec<f64> = (0..4).map(|i| (th[i] - t[i]).exp()).collect();
+        let gain = loglik(id.model().unwrap(), &z, steps / 2) - at_truth;
+        let ok = id.flat() == 0 && dev.iter().all(|d| d.abs() < 4.0);
+        converged += usize::from(ok);
+        std::println!(
+            "start {f:.2?}: end {factor:.2?} x truth{}, {dev:.1?} sd, flat {:#06b}, jumps {}, \
+             rejected {rejected}, log-likelihood vs truth {gain:.1} nats",
+            if swapped { " (swapped)" } else { "" },
+            id.flat(),
+            id.jumps()
+        );
+    }
+    std::println!(
+        "{converged} of {} within 4 sd of the truth and not flagged",
+        all.len()
+    );
+}
