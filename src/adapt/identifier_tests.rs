@@ -162,10 +162,10 @@ fn start(f: [f64; 4]) -> TwoSpeeds {
     }
 }
 
-/// The starts: the eight sigma-only and tau-only corners, and `random` drawn log-uniformly in
-/// `[0.1, 10]` independently for each parameter.
+/// The starts: the truth, the eight sigma-only and tau-only corners, and `random` drawn
+/// log-uniformly in `[0.1, 10]` independently for each parameter.
 fn starts(seed: u64, random: usize) -> Vec<[f64; 4]> {
-    let mut out = Vec::new();
+    let mut out = Vec::from([[1.0; 4]]);
     for k in [10.0, 0.1] {
         out.push([k, 1.0, k, 1.0]);
         out.push([1.0, k, 1.0, k]);
@@ -253,8 +253,9 @@ fn four_parameters_started_at_the_truth_stay_there() {
     }
 }
 
-/// Measurement, not a check: the four-parameter identification from the eight sigma-only and
-/// tau-only corners and eight log-uniform starts in `[0.1, 10]` (`docs/ADAPTATION.md` §2.7):
+/// Measurement, not a check: the four-parameter identification from the truth, the eight
+/// sigma-only and tau-only corners and eight log-uniform starts in `[0.1, 10]`
+/// (`docs/ADAPTATION.md` §2.7):
 ///
 /// ```text
 /// STEPS=160000 WINDOW=14400 EPOCH=3600 PROBES=3 HYSTERESIS=1 SEED=1 \

@@ -419,8 +419,9 @@ fn identify(start: TwoSensorMarkov, cfg: AdaptConfig<f64>, z: &[[f64; 2]]) -> Tw
 /// [`Identifier::flat`] bit and is within 4 windowed Cramér-Rao sd of the truth in each
 /// coordinate. The window's estimate is asymptotically normal with the sandwich covariance of
 /// [`Identifier::windowed_sd`], and `P(|N(0,1)| > 4) = 6e-5`.
-/// - **The recursion alone** (no probes). Seven runs converge and agree within 0.1 windowed sd
-///   (measured on 7 seeds: at most 0.05): the start does not matter. An answer that depended on
+/// - **The recursion alone** (no probes). Seven runs converge and agree within 0.2 windowed sd
+///   (measured: at most 0.05 on the 7 seeds tuned on, 0.08 on 7 fresh ones): the start does
+///   not matter. An answer that depended on
 ///   the start would differ by about an sd. With the default hysteresis (steps under one
 ///   standard error are not taken) they stop up to 1.5 sd apart ([`hysteresis_spread`];
 ///   `docs/ADAPTATION.md` §2.7). The recursion is local: started with sigma 10x, it climbs to
@@ -428,14 +429,14 @@ fn identify(start: TwoSensorMarkov, cfg: AdaptConfig<f64>, z: &[[f64; 2]]) -> Tw
 ///   is flat, and it stays there on every seed tried. The test asserts that this run says so:
 ///   both coordinates flagged.
 /// - **With the probes** (grid factor 3, epochs of 3600 steps, moves held while searching):
-///   all eight converge, the sigma-10x start too, and they agree within 1 windowed sd (measured
-///   on 7 seeds: at most 0.5; the search phase leaves the recursion fewer blocks to forget its
-///   path).
+///   all eight converge, the sigma-10x start too, and they agree within 1 windowed sd
+///   (measured: at most 0.50 on 7 seeds, 0.61 on 7 fresh ones; the search phase leaves the
+///   recursion fewer blocks to forget its path).
 #[test]
 fn the_identifier_converges_online_or_flags_its_ridge() {
     let z = observations(20_261_201, 40_000);
     let truth = [TRUTH.sigma.ln(), TRUTH.tau.ln()];
-    for (probe_factor, agree) in [(0.0, 0.1), (3.0, 1.0)] {
+    for (probe_factor, agree) in [(0.0, 0.2), (3.0, 1.0)] {
         let cfg = AdaptConfig {
             block: 500,
             window: 5000.0,
@@ -495,8 +496,10 @@ fn the_identifier_converges_online_or_flags_its_ridge() {
 
 /// Measurement, not a check (`cargo test --release --lib hysteresis_spread -- --ignored
 /// --nocapture`): how far apart the starts of
-/// [`the_identifier_converges_online_or_flags_its_ridge`] end, in windowed sd, on seeds 1-7:
-/// the recursion alone (the seven starts other than sigma 10x) and with the probes (all eight),
+/// [`the_identifier_converges_online_or_flags_its_ridge`] end, in windowed sd, on seeds 1-7
+/// (`FIRST_SEED=k`: seeds `k` to `k + 6`):
+/// the recursion alone (the seven starts other than sigma 10x, and how often that one ends
+/// flagged) and with the probes (all eight),
 /// with the hysteresis off and at its default (steps under one standard error not taken), with
 /// the default 4-h window and with the 10-block one of the test, after 40 000 and 160 000 steps.
 #[test]
@@ -510,6 +513,10 @@ fn hysteresis_spread() {
         (14_400.0, 0.0, 160_000),
         (14_400.0, 1.0, 160_000),
     ];
+    let first: u64 = std::env::var("FIRST_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1);
     for probe_factor in [0.0, 3.0] {
         let starts = if probe_factor > 1.0 {
             &STARTS[..]
@@ -526,8 +533,35 @@ fn hysteresis_spread() {
             };
             let (mut worst, mut far): (f64, f64) = (0.0, 0.0);
             let (mut flagged, mut runs) = (0, 0);
-            for seed in 1..=7 {
+            // The sigma-10x start: flagged, converged, neither.
+            let mut ridge = [0; 3];
+            for seed in first..first + 7 {
                 let z = observations(seed, steps);
+                if probe_factor <= 1.0 {
+                    // The sigma-10x start, left out of the spread: does it end flagged?
+                    let start = TwoSensorMarkov {
+                        sigma: TRUTH.sigma * STARTS[0][0],
+                        tau: TRUTH.tau * STARTS[0][1],
+                        ..TRUTH
+                    };
+                    let f = identify(start, cfg, &z);
+                    let sd = f.windowed_sd().unwrap_or([f64::INFINITY; MAXP]);
+                    let th = f.theta();
+                    let near = (th[0] - TRUTH.sigma.ln()).abs() < 4.0 * sd[0]
+                        && (th[1] - TRUTH.tau.ln()).abs() < 4.0 * sd[1];
+                    if f.flat() != 0 {
+                        ridge[0] += 1;
+                    } else if near {
+                        ridge[1] += 1;
+                    } else {
+                        ridge[2] += 1;
+                        std::println!(
+                            "  sigma 10x, seed {seed}: theta {:?}, sd {:?}",
+                            &th[..2],
+                            &sd[..2]
+                        );
+                    }
+                }
                 let mut ends = Vec::new();
                 for factors in starts {
                     let start = TwoSensorMarkov {
@@ -555,7 +589,17 @@ fn hysteresis_spread() {
             std::println!(
                 "probes {probe_factor}, window {window} s, hysteresis {hysteresis}, {steps} \
                  steps: widest spread {worst:.3} windowed sd, farthest from the truth \
-                 {far:.2} sd; {flagged} of {runs} runs flagged"
+                 {far:.2} sd; {flagged} of {runs} runs flagged{}",
+                if probe_factor <= 1.0 {
+                    std::format!(
+                        "; sigma 10x on 7 seeds: {} flagged, {} converged, {} neither",
+                        ridge[0],
+                        ridge[1],
+                        ridge[2]
+                    )
+                } else {
+                    std::string::String::new()
+                }
             );
         }
     }
