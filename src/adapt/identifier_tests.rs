@@ -327,3 +327,79 @@ fn two_speeds_from_any_start() {
         all.len()
     );
 }
+
+/// No input breaks the four-parameter identification, probes, jumps and Gauss-Newton moves
+/// included (short blocks and epochs and no jump margin, so that they happen within a case).
+/// The observations mix ordinary values with NaN, +-Inf, 1e30, `-f64::MAX` and subnormals, with
+/// or without the vector gate. After every step: no panic, `theta` finite and within its
+/// bounds, the centre's `P` positive definite and its state finite, and the windowed score and
+/// information finite. Over the cases, moves and jumps must both have happened.
+#[test]
+fn four_parameters_survive_any_input() {
+    use proptest::prelude::*;
+    use proptest::test_runner::{Config, TestRunner};
+    let value = prop_oneof![
+        8 => -3.0..3.0f64,
+        1 => Just(f64::NAN),
+        1 => Just(f64::INFINITY),
+        1 => Just(f64::NEG_INFINITY),
+        1 => Just(1e30),
+        1 => Just(-f64::MAX),
+        1 => Just(f64::MIN_POSITIVE / 4.0),
+    ];
+    let row = (value.clone(), value);
+    let factor = prop_oneof![0.1..10.0f64, Just(1.0)];
+    let case = (
+        proptest::collection::vec(row, 1..400),
+        [factor.clone(), factor.clone(), factor.clone(), factor],
+        any::<bool>(),
+    );
+    let cfg = AdaptConfig {
+        block: 20,
+        window: 200.0,
+        epoch: 60,
+        warmup: 10,
+        first_margin: 0.0,
+        margin: 0.0,
+        ..AdaptConfig::default()
+    };
+    let (moves, jumps) = (std::cell::Cell::new(0), std::cell::Cell::new(0));
+    let mut runner = TestRunner::new(Config {
+        cases: 64,
+        ..Config::default()
+    });
+    // The 99.9 % chi-square quantile for the number of finite axes (1 or 2).
+    let gate = |m: usize| if m == 1 { 10.83 } else { 13.82 };
+    runner
+        .run(&case, |(rows, f, gated)| {
+            let mut id = TwoSpeedsIdentifier::new(start(f), cfg).unwrap();
+            let p = id.specs().len();
+            for (a, b) in &rows {
+                let g: Option<&dyn Fn(usize) -> f64> = if gated { Some(&gate) } else { None };
+                let s = id.step_axes(&[*a, *b], g);
+                moves.set(moves.get() + usize::from(s.moved && !s.jumped));
+                jumps.set(jumps.get() + usize::from(s.jumped));
+                let (th, bounds) = (id.theta(), id.bounds());
+                for i in 0..p {
+                    prop_assert!(th[i].is_finite());
+                    prop_assert!(bounds.lo[i] <= th[i] && th[i] <= bounds.hi[i]);
+                }
+                let c = &id.centre().kf;
+                prop_assert!(crate::linalg::is_positive_definite(
+                    &c.P,
+                    id.bank().active()
+                ));
+                prop_assert!(c.x.iter().all(|v| v.is_finite()));
+                let w = id.windowed_information();
+                prop_assert!(w.score.iter().all(|v| v.is_finite()));
+                prop_assert!(w.fisher.iter().flatten().all(|v| v.is_finite()));
+            }
+            Ok(())
+        })
+        .unwrap();
+    // The paths the test is about ran (a test of them that never ran would prove nothing).
+    assert!(
+        moves.get() > 0 && jumps.get() > 0,
+        "moves {moves:?}, jumps {jumps:?}"
+    );
+}
