@@ -71,17 +71,11 @@ impl IdentifiableModel<f64, 1, 2> for TwoSensorMarkov {
 
     fn with_parameters(&self, specs: &Specs, theta: &[f64; MAXP]) -> Option<Self> {
         let mut m = self.clone();
-        for (s, t) in specs.iter().zip(theta.iter()) {
-            let v = t.exp();
-            if !(v.is_finite() && v > 0.0) {
-                return None;
-            }
-            match s.kind {
-                Quantity::Sigma => m.sigma = v,
-                Quantity::Tau => m.tau = v,
-                _ => return None,
-            }
-        }
+        set_each(&mut m, specs, theta, |m, s| match s.kind {
+            Quantity::Sigma => Some(&mut m.sigma),
+            Quantity::Tau => Some(&mut m.tau),
+            _ => None,
+        })?;
         Some(m)
     }
 
@@ -100,6 +94,24 @@ impl IdentifiableModel<f64, 1, 2> for TwoSensorMarkov {
         }
         theta
     }
+}
+
+/// Writes `exp` of each spec's `theta` into the field of `m` that `slot` names; `None` at the
+/// first value that is not positive and finite, or spec that `slot` does not name.
+pub(super) fn set_each<M>(
+    m: &mut M,
+    specs: &Specs,
+    theta: &[f64; MAXP],
+    slot: for<'a> fn(&'a mut M, &ParamSpec) -> Option<&'a mut f64>,
+) -> Option<()> {
+    for (s, t) in specs.iter().zip(theta.iter()) {
+        let v = t.exp();
+        if !(v.is_finite() && v > 0.0) {
+            return None;
+        }
+        *slot(m, s)? = v;
+    }
+    Some(())
 }
 
 const TRUTH: TwoSensorMarkov = TwoSensorMarkov {
@@ -254,6 +266,22 @@ fn a_two_axis_bank_finds_the_maximum_likelihood_from_either_side() {
     }
 }
 
+/// Observation values for the fuzz tests: mostly ordinary, with NaN, +-Inf, 1e30, `-f64::MAX`,
+/// subnormals and zeros.
+pub(super) fn hostile_values() -> impl proptest::strategy::Strategy<Value = f64> + Clone {
+    use proptest::prelude::*;
+    prop_oneof![
+        6 => -3.0..3.0f64,
+        1 => Just(f64::NAN),
+        1 => Just(f64::INFINITY),
+        1 => Just(f64::NEG_INFINITY),
+        1 => Just(1e30),
+        1 => Just(-f64::MAX),
+        1 => Just(f64::MIN_POSITIVE / 4.0),
+        1 => Just(0.0),
+    ]
+}
+
 /// The vector gate withholds a whole observation when one axis is an outlier (as the strapdown
 /// filter's `fuse` does): no member uses either axis, nothing is accumulated, and the members
 /// only predict. An observation with one axis missing adds that step's one finite axis.
@@ -295,16 +323,7 @@ fn a_two_axis_bank_gates_the_whole_observation_and_uses_a_partial_one() {
 fn a_two_axis_bank_survives_any_input() {
     use proptest::prelude::*;
     use proptest::test_runner::{Config, TestRunner};
-    let value = prop_oneof![
-        6 => -3.0..3.0f64,
-        1 => Just(f64::NAN),
-        1 => Just(f64::INFINITY),
-        1 => Just(f64::NEG_INFINITY),
-        1 => Just(1e30),
-        1 => Just(-f64::MAX),
-        1 => Just(f64::MIN_POSITIVE / 4.0),
-        1 => Just(0.0),
-    ];
+    let value = hostile_values();
     let row = (value.clone(), value);
     // Log-parameters up to e^800: beyond e^709 the value overflows and the move is rolled back.
     let log = prop_oneof![3 => -60.0..60.0f64, 1 => -800.0..800.0f64];
@@ -397,6 +416,15 @@ const STARTS: [[f64; 2]; 8] = [
 
 type TwoAxisIdentifier = Identifier<f64, TwoSensorMarkov, 1, 2>;
 
+/// The truth with `factors` on (sigma, tau).
+fn start_at(factors: [f64; 2]) -> TwoSensorMarkov {
+    TwoSensorMarkov {
+        sigma: TRUTH.sigma * factors[0],
+        tau: TRUTH.tau * factors[1],
+        ..TRUTH
+    }
+}
+
 /// An identifier from `start`, run over `z` (no move may be rejected).
 fn identify(start: TwoSensorMarkov, cfg: AdaptConfig<f64>, z: &[[f64; 2]]) -> TwoAxisIdentifier {
     let mut f = TwoAxisIdentifier::new(start, cfg).unwrap();
@@ -446,12 +474,7 @@ fn the_identifier_converges_online_or_flags_its_ridge() {
         };
         let mut ends = Vec::new();
         for factors in STARTS {
-            let start = TwoSensorMarkov {
-                sigma: TRUTH.sigma * factors[0],
-                tau: TRUTH.tau * factors[1],
-                ..TRUTH
-            };
-            let f = identify(start, cfg, &z);
+            let f = identify(start_at(factors), cfg, &z);
             assert!(f.updates() > 0 && f.steps() == 40_000);
             if factors == [10.0, 1.0] && probe_factor == 0.0 {
                 assert_eq!(
@@ -539,12 +562,7 @@ fn hysteresis_spread() {
                 let z = observations(seed, steps);
                 if probe_factor <= 1.0 {
                     // The sigma-10x start, left out of the spread: does it end flagged?
-                    let start = TwoSensorMarkov {
-                        sigma: TRUTH.sigma * STARTS[0][0],
-                        tau: TRUTH.tau * STARTS[0][1],
-                        ..TRUTH
-                    };
-                    let f = identify(start, cfg, &z);
+                    let f = identify(start_at(STARTS[0]), cfg, &z);
                     let sd = f.windowed_sd().unwrap_or([f64::INFINITY; MAXP]);
                     let th = f.theta();
                     let near = (th[0] - TRUTH.sigma.ln()).abs() < 4.0 * sd[0]
@@ -564,12 +582,7 @@ fn hysteresis_spread() {
                 }
                 let mut ends = Vec::new();
                 for factors in starts {
-                    let start = TwoSensorMarkov {
-                        sigma: TRUTH.sigma * factors[0],
-                        tau: TRUTH.tau * factors[1],
-                        ..TRUTH
-                    };
-                    let f = identify(start, cfg, &z);
+                    let f = identify(start_at(*factors), cfg, &z);
                     runs += 1;
                     flagged += usize::from(f.flat() != 0);
                     let sd = f.windowed_sd().unwrap();
