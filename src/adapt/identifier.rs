@@ -45,7 +45,7 @@ use crate::Real;
 pub struct IdentifierStep<T, const Z: usize> {
     /// The bank's step: the centre's innovations, the gated axes, a rolled-back move.
     pub bank: BankStep<T, Z>,
-    /// `theta` moved at the end of this step's block.
+    /// `theta` moved: a Gauss-Newton step at the end of this step's block, or a jump.
     pub moved: bool,
     /// The centre jumped to a winning probe at the end of this step's epoch.
     pub jumped: bool,
@@ -54,7 +54,8 @@ pub struct IdentifierStep<T, const Z: usize> {
     pub rejected: bool,
 }
 
-/// The recursive Gauss-Newton identification of an [`IdentifiableModel`]'s noise parameters.
+/// The recursive Gauss-Newton identification of an [`IdentifiableModel`]'s noise parameters,
+/// with its probe epochs (module documentation).
 #[derive(Debug, Clone)]
 pub struct Identifier<T: Real, M = InsModel<T>, const N: usize = NX, const Z: usize = 1>
 where
