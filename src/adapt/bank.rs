@@ -482,13 +482,6 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize> Ban
 }
 
 impl<T: Real> Bank<T> {
-    /// [`step_axes`](Self::step_axes) for the one-channel model's scalar observation, gated at
-    /// `gate` on its NIS.
-    pub fn step(&mut self, z: T, info: &mut Information<T>, gate: Option<T>) -> BankStep<T> {
-        let g = gate.map(|g| move |_: usize| g);
-        self.step_axes(&[z], info, g.as_ref().map(|f| f as &dyn Fn(usize) -> T))
-    }
-
     /// The state scaling (physical = scale x scaled).
     pub fn scale(&self) -> Scaling<T> {
         to_vec(&self.scale)
@@ -517,7 +510,7 @@ mod tests {
         bank.request_theta(&moved);
         let mut info = Information::default();
         for _ in 0..3 {
-            let _ = bank.step(0.0, &mut info, None);
+            let _ = bank.step_axes(&[0.0], &mut info, None);
         }
         assert!(bank.moving());
         let i = sp.iter().rposition(|s| s.kind == Quantity::Tau).unwrap();

@@ -244,21 +244,38 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
             jumped: false,
             rejected: bank.failed || probe_failed,
         };
+        self.conclude(&mut out, false, false);
+        out
+    }
+
+    /// The rest of a step after [`observe`](Self::observe) (and after whatever the parent did
+    /// with the observation, which may already have set `out.jumped`): when an epoch ends, the
+    /// probes' verdict ([`epoch_end`](Self::epoch_end)); when a block ends, the Gauss-Newton
+    /// update. The update is held on the step of a jump (its information was just discarded),
+    /// during the search phase (with `hold_first_epoch`) when probes or the parent's search
+    /// (`parent_searches`) choose the basin, and always when `parent_holds`.
+    pub(super) fn conclude(
+        &mut self,
+        out: &mut IdentifierStep<T, Z>,
+        parent_searches: bool,
+        parent_holds: bool,
+    ) {
         if self.epoch_due() {
             match self.epoch_end() {
-                Ok(j) => out.jumped = j,
+                Ok(j) => out.jumped |= j,
                 Err(_) => out.rejected = true,
             }
         }
         if self.block_due() {
-            let holding = self.cfg.hold_first_epoch && self.searching && !self.probes.is_empty();
-            match self.update(!holding && !out.jumped) {
+            let holding = self.cfg.hold_first_epoch
+                && self.searching
+                && (!self.probes.is_empty() || parent_searches);
+            match self.update(!holding && !out.jumped && !parent_holds) {
                 Ok(m) => out.moved = m,
                 Err(_) => out.rejected = true,
             }
         }
         out.moved |= out.jumped;
-        out
     }
 
     /// End of a probe epoch: jump to a winning probe (fresh information, the old one describes

@@ -53,7 +53,7 @@ use crate::model::{ErrorSource, InsModel, ModelError, StateRow, NX};
 use crate::Real;
 use bank::MemberInnovation;
 pub use config::AdaptConfig;
-use identifier::Identifier;
+use identifier::{Identifier, IdentifierStep};
 use information::Information;
 use params::{Specs, MAXP};
 pub use report::{StepReport, StepStatus};
@@ -159,8 +159,13 @@ impl<T: Real> AdaptiveFilter<T> {
         let z = if gated.is_some() { nan } else { z };
         // A staggered move that could not be discretised (the identifier followed the bank's
         // roll-back), or a probe that could not be.
-        let mut rejected = out.failed || probe_failed;
-        let (mut moved, mut jumped, mut switched) = (false, false, false);
+        let mut step = IdentifierStep {
+            bank: out,
+            moved: false,
+            jumped: false,
+            rejected: out.failed || probe_failed,
+        };
+        let mut switched = false;
         let changed = self.global.push(z, &self.id.base, &self.id.specs);
         if changed {
             // The windowed information describes the sensor before the change.
@@ -174,32 +179,21 @@ impl<T: Real> AdaptiveFilter<T> {
             .work(&self.id.base, &self.id.specs, &self.id.bounds)
         {
             let switches = self.switches;
-            jumped |= self.global_end(&found);
+            step.jumped |= self.global_end(&found);
             switched = self.switches != switches;
             // The model the filter now runs is watched for a change in service.
             self.global.watch(&self.id.theta);
         }
-        if self.id.epoch_due() {
-            match self.id.epoch_end() {
-                Ok(j) => jumped = j,
-                Err(_) => rejected = true,
-            }
-        }
-        if self.id.block_due() {
-            // No Gauss-Newton move on the step of a jump (its information was just discarded),
-            // nor before the first epoch has chosen the basin.
-            let cfg = &self.id.cfg;
-            let holding = cfg.hold_first_epoch
-                && self.id.searching
-                && (!self.id.probes.is_empty() || cfg.global.enabled());
-            let held = cfg.global.enabled() && cfg.global.hold_recursion;
-            let allow = !holding && !jumped && !held;
-            match self.id.update(allow) {
-                Ok(m) => moved = m,
-                Err(_) => rejected = true,
-            }
-        }
-        moved |= jumped;
+        // The global stage chooses the basin like the probes, and may hold the recursion.
+        let global = self.id.cfg.global;
+        let held = global.enabled() && global.hold_recursion;
+        self.id.conclude(&mut step, global.enabled(), held);
+        let IdentifierStep {
+            moved,
+            jumped,
+            rejected,
+            ..
+        } = step;
         if moved || switched || changed {
             self.at_start = false;
         }
