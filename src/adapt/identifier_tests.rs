@@ -20,7 +20,7 @@ use std::vec::Vec;
 
 /// `x_i' = -x_i / tau_i + w_i` (stationary sd `sigma_i`), observed as `z_j = x_0 + x_1 + v_j`.
 #[derive(Debug, Clone, PartialEq)]
-struct TwoSpeeds {
+pub(super) struct TwoSpeeds {
     sigma: [f64; 2],
     tau: [f64; 2],
     r: [f64; 2],
@@ -31,21 +31,25 @@ fn state(s: &ParamSpec) -> usize {
     usize::from(s.sensor == ErrorSource::Gyro)
 }
 
-impl ErrorModel<f64, 2, 2> for TwoSpeeds {
+/// States: the two components, then room for the global stage's two block sums
+/// ([`block_system`](crate::adapt::window::pass::block_system): `n + Z` states).
+pub(super) const N: usize = 4;
+
+impl ErrorModel<f64, N, 2> for TwoSpeeds {
     fn dt(&self) -> f64 {
         1.0
     }
 
-    fn scaling(&self) -> Result<[f64; 2], ModelError> {
-        Ok(self.sigma)
+    fn scaling(&self) -> Result<[f64; N], ModelError> {
+        Ok([self.sigma[0], self.sigma[1], 1.0, 1.0])
     }
 
-    fn system(&self, s: &[f64; 2]) -> Result<ContinuousSystem<f64, 2, 2>, ModelError> {
+    fn system(&self, s: &[f64; N]) -> Result<ContinuousSystem<f64, N, 2>, ModelError> {
         let mut sys = ContinuousSystem {
-            A: [[0.0; 2]; 2],
-            Qc: [[0.0; 2]; 2],
-            P0: [[0.0; 2]; 2],
-            H: [[s[0], s[1]]; 2],
+            A: [[0.0; N]; N],
+            Qc: [[0.0; N]; N],
+            P0: [[0.0; N]; N],
+            H: [[s[0], s[1], 0.0, 0.0]; 2],
             R: self.r,
             n: 2,
         };
@@ -74,12 +78,19 @@ impl ErrorModel<f64, 2, 2> for TwoSpeeds {
     }
 }
 
-impl IdentifiableModel<f64, 2, 2> for TwoSpeeds {
+impl IdentifiableModel<f64, N, 2> for TwoSpeeds {
     const BLANK: Self = Self {
         sigma: [0.0; 2],
         tau: [0.0; 2],
         r: [0.0; 2],
     };
+
+    type Outputs = ();
+    const NO_OUTPUTS: () = ();
+
+    fn outputs(&self, _: &[f64; N]) -> Result<(), ModelError> {
+        Ok(())
+    }
 
     fn with_parameters(&self, specs: &Specs, theta: &[f64; MAXP]) -> Option<Self> {
         let mut m = self.clone();
@@ -121,14 +132,14 @@ impl IdentifiableModel<f64, 2, 2> for TwoSpeeds {
     }
 }
 
-const TRUTH: TwoSpeeds = TwoSpeeds {
+pub(super) const TRUTH: TwoSpeeds = TwoSpeeds {
     sigma: [1.0, 0.5],
     tau: [10.0, 300.0],
     r: [0.25, 1.0],
 };
 
 /// `steps` observations of the truth: the exact AR(1) of each state at `dt = 1`.
-fn observations(seed: u64, steps: usize) -> Vec<[f64; 2]> {
+pub(super) fn observations(seed: u64, steps: usize) -> Vec<[f64; 2]> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let n = Normal::new(0.0, 1.0).unwrap();
     let phi = TRUTH.tau.map(|t| (-1.0 / t).exp());
@@ -149,7 +160,7 @@ fn observations(seed: u64, steps: usize) -> Vec<[f64; 2]> {
 }
 
 /// The start with factors `f` on (sigma_0, tau_0, sigma_1, tau_1).
-fn start(f: [f64; 4]) -> TwoSpeeds {
+pub(super) fn start(f: [f64; 4]) -> TwoSpeeds {
     TwoSpeeds {
         sigma: [TRUTH.sigma[0] * f[0], TRUTH.sigma[1] * f[2]],
         tau: [TRUTH.tau[0] * f[1], TRUTH.tau[1] * f[3]],
@@ -159,7 +170,7 @@ fn start(f: [f64; 4]) -> TwoSpeeds {
 
 /// The starts: the truth, the eight sigma-only and tau-only corners, and `random` drawn
 /// log-uniformly in `[0.1, 10]` independently for each parameter.
-fn starts(seed: u64, random: usize) -> Vec<[f64; 4]> {
+pub(super) fn starts(seed: u64, random: usize) -> Vec<[f64; 4]> {
     let mut out = Vec::from([[1.0; 4]]);
     for k in [10.0, 0.1] {
         out.push([k, 1.0, k, 1.0]);
@@ -184,7 +195,7 @@ fn truth() -> [f64; 4] {
     ]
 }
 
-type TwoSpeedsIdentifier = Identifier<f64, TwoSpeeds, 2, 2>;
+type TwoSpeedsIdentifier = Identifier<f64, TwoSpeeds, N, 2>;
 
 /// Runs an identifier from `m` over `z`; returns it and the number of rejected steps.
 fn identify(m: TwoSpeeds, cfg: AdaptConfig<f64>, z: &[[f64; 2]]) -> (TwoSpeedsIdentifier, usize) {
@@ -197,7 +208,7 @@ fn identify(m: TwoSpeeds, cfg: AdaptConfig<f64>, z: &[[f64; 2]]) -> (TwoSpeedsId
 }
 
 /// The log-likelihood of `z[from..]` under the fixed model `m` [nats].
-fn loglik(m: TwoSpeeds, z: &[[f64; 2]], from: usize) -> f64 {
+pub(super) fn loglik(m: TwoSpeeds, z: &[[f64; 2]], from: usize) -> f64 {
     let cfg = AdaptConfig {
         adapt: false,
         probe_factor: 0.0,
@@ -265,62 +276,91 @@ fn four_parameters_started_at_the_truth_stay_there() {
 #[test]
 #[ignore]
 fn two_speeds_from_any_start() {
-    let var = |name: &str, default: f64| {
-        std::env::var(name)
-            .ok()
-            .and_then(|s| s.parse::<f64>().ok())
-            .unwrap_or(default)
-    };
-    let steps = var("STEPS", 160_000.0) as usize;
-    let epoch = var("EPOCH", 3600.0) as u32;
-    let seed = var("SEED", 1.0) as u64;
+    let epoch = env_var("EPOCH", 3600.0) as u32;
     let cfg = AdaptConfig {
         block: 500,
-        window: var("WINDOW", 14_400.0),
-        hysteresis: var("HYSTERESIS", 1.0),
-        probe_factor: var("PROBES", 3.0),
+        window: env_var("WINDOW", 14_400.0),
+        hysteresis: env_var("HYSTERESIS", 1.0),
+        probe_factor: env_var("PROBES", 3.0),
         epoch,
         warmup: epoch / 4,
         ..AdaptConfig::default()
     };
+    from_any_start(|m, z| {
+        let (id, rejected) = identify(m, cfg, z);
+        let note = std::format!("jumps {}, rejected {rejected}", id.jumps());
+        (*id.theta(), id.windowed_sd(), id.flat(), note)
+    });
+}
+
+/// An environment variable of the measurements (a number), or `default`.
+pub(super) fn env_var(name: &str, default: f64) -> f64 {
+    std::env::var(name)
+        .ok()
+        .and_then(|s| s.parse::<f64>().ok())
+        .unwrap_or(default)
+}
+
+/// The measurements from any start: `STEPS` observations of seed `SEED`, and `run` from the
+/// truth, the eight corners and eight log-uniform starts (`starts`), each returning its end's
+/// `theta`, Cramér-Rao sd, flags and a note. Prints each end ([`judge`]) and how many are
+/// within 4 sd of the truth and not flagged.
+#[allow(clippy::type_complexity)]
+pub(super) fn from_any_start(
+    run: impl Fn(TwoSpeeds, &[[f64; 2]]) -> ([f64; MAXP], Option<[f64; MAXP]>, u8, std::string::String),
+) {
+    let steps = env_var("STEPS", 160_000.0) as usize;
+    let seed = env_var("SEED", 1.0) as u64;
     let z = observations(seed, steps);
-    let t = truth();
     let at_truth = loglik(TRUTH, &z, steps / 2);
     let mut converged = 0;
     let all = starts(seed + 1000, 8);
     for f in &all {
-        let (id, rejected) = identify(start(*f), cfg, &z);
-        let th = id.theta();
-        // The observations see only the sum: the two components can swap their labels.
-        let swapped = th[1] > th[3];
-        let th = if swapped {
-            [th[2], th[3], th[0], th[1]]
-        } else {
-            [th[0], th[1], th[2], th[3]]
-        };
-        let sd = id.windowed_sd().unwrap_or([f64::NAN; MAXP]);
-        let sd = if swapped {
-            [sd[2], sd[3], sd[0], sd[1]]
-        } else {
-            [sd[0], sd[1], sd[2], sd[3]]
-        };
-        let dev: Vec<f64> = (0..4).map(|i| (th[i] - t[i]) / sd[i]).collect();
-        let factor: Vec<f64> = (0..4).map(|i| (th[i] - t[i]).exp()).collect();
-        let gain = loglik(id.model().unwrap(), &z, steps / 2) - at_truth;
-        let ok = id.flat() == 0 && dev.iter().all(|d| d.abs() < 4.0);
-        converged += usize::from(ok);
-        std::println!(
-            "start {f:.2?}: end {factor:.2?} x truth{}, {dev:.1?} sd, flat {:#06b}, jumps {}, \
-             rejected {rejected}, log-likelihood vs truth {gain:.1} nats",
-            if swapped { " (swapped)" } else { "" },
-            id.flat(),
-            id.jumps()
-        );
+        let (theta, sd, flat, note) = run(start(*f), &z);
+        let (within, end) = judge(&theta, sd, flat, &z, at_truth);
+        converged += usize::from(within && flat == 0);
+        std::println!("start {f:.2?}: {end}, {note}");
     }
     std::println!(
         "{converged} of {} within 4 sd of the truth and not flagged",
         all.len()
     );
+}
+
+/// An end `theta` with Cramér-Rao sd `sd` and flags `flat` on the observations `z` (the
+/// log-likelihood of their second half at the truth is `at_truth`): whether it is within 4 sd
+/// of the truth on every coordinate, and a line that says where it is. The
+/// observations see only the sum, so an end with the labels swapped (the "fast" component
+/// slower than the "slow" one) is the same model and is compared with the truth swapped.
+pub(super) fn judge(
+    th: &[f64; MAXP],
+    sd: Option<[f64; MAXP]>,
+    flat: u8,
+    z: &[[f64; 2]],
+    at_truth: f64,
+) -> (bool, std::string::String) {
+    let t = truth();
+    let swap = |v: [f64; MAXP]| {
+        if th[1] > th[3] {
+            [v[2], v[3], v[0], v[1]]
+        } else {
+            [v[0], v[1], v[2], v[3]]
+        }
+    };
+    let (ths, sds) = (swap(*th), swap(sd.unwrap_or([f64::NAN; MAXP])));
+    let dev: Vec<f64> = (0..4).map(|i| (ths[i] - t[i]) / sds[i]).collect();
+    let factor: Vec<f64> = (0..4).map(|i| (ths[i] - t[i]).exp()).collect();
+    let mut end = TRUTH;
+    end.sigma = [th[0].exp(), th[2].exp()];
+    end.tau = [th[1].exp(), th[3].exp()];
+    let gain = loglik(end, z, z.len() / 2) - at_truth;
+    let within = dev.iter().all(|d| d.abs() < 4.0);
+    let line = std::format!(
+        "end {factor:.2?} x truth{}, {dev:.1?} sd, flat {flat:#06b}, log-likelihood vs truth \
+         {gain:.1} nats",
+        if th[1] > th[3] { " (swapped)" } else { "" },
+    );
+    (within, line)
 }
 
 /// No input breaks the four-parameter identification, probes, jumps and Gauss-Newton moves
@@ -355,8 +395,6 @@ fn four_parameters_survive_any_input() {
         cases: 64,
         ..Config::default()
     });
-    // The 99.9 % chi-square quantile for the number of finite axes (1 or 2).
-    let gate = |m: usize| if m == 1 { 10.83 } else { 13.82 };
     runner
         .run(&case, |(rows, f, gated)| {
             let mut id = TwoSpeedsIdentifier::new(start(f), cfg).unwrap();
@@ -366,17 +404,7 @@ fn four_parameters_survive_any_input() {
                 let s = id.step_axes(&[*a, *b], g);
                 moves.set(moves.get() + usize::from(s.moved && !s.jumped));
                 jumps.set(jumps.get() + usize::from(s.jumped));
-                let (th, bounds) = (id.theta(), id.bounds());
-                for i in 0..p {
-                    prop_assert!(th[i].is_finite());
-                    prop_assert!(bounds.lo[i] <= th[i] && th[i] <= bounds.hi[i]);
-                }
-                let c = &id.centre().kf;
-                prop_assert!(crate::linalg::is_positive_definite(
-                    &c.P,
-                    id.bank().active()
-                ));
-                prop_assert!(c.x.iter().all(|v| v.is_finite()));
+                sound(id.theta(), id.bounds(), p, &id.centre().kf)?;
                 let w = id.windowed_information();
                 prop_assert!(w.score.iter().all(|v| v.is_finite()));
                 prop_assert!(w.fisher.iter().flatten().all(|v| v.is_finite()));
@@ -389,4 +417,31 @@ fn four_parameters_survive_any_input() {
         moves.get() > 0 && jumps.get() > 0,
         "moves {moves:?}, jumps {jumps:?}"
     );
+}
+
+/// The 99.9 % chi-square quantile for `m` finite axes (1 or 2): the fuzz tests' vector gate.
+pub(super) fn gate(m: usize) -> f64 {
+    if m == 1 {
+        10.83
+    } else {
+        13.82
+    }
+}
+
+/// What no input may break: `theta` (its first `p` coordinates) finite and within `bounds`, the
+/// centre's `P` positive definite over its active states, and its state finite.
+pub(super) fn sound(
+    th: &[f64; MAXP],
+    bounds: &crate::adapt::guard::Bounds<f64>,
+    p: usize,
+    kf: &crate::filter::Kalman<f64, N>,
+) -> Result<(), proptest::test_runner::TestCaseError> {
+    use proptest::prop_assert;
+    for i in 0..p.min(MAXP) {
+        prop_assert!(th[i].is_finite());
+        prop_assert!(bounds.lo[i] <= th[i] && th[i] <= bounds.hi[i]);
+    }
+    prop_assert!(crate::linalg::is_positive_definite(&kf.P, kf.active()));
+    prop_assert!(kf.x.iter().all(|v| v.is_finite()));
+    Ok(())
 }

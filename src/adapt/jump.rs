@@ -4,6 +4,7 @@
 //! windowed information instead of refining it. This module is a child of [`super`], so it
 //! reads the filter's fields.
 
+use super::identifiable::IdentifiableModel;
 use super::params::{has_coordinate, MAXP};
 use super::window::CONSERVATIVE_CAP;
 use super::{AdaptiveFilter, Found};
@@ -16,7 +17,9 @@ use crate::Real;
 /// (`keep_start`, `keep_identified`).
 const HOLD_QUANTILE: [f64; 8] = [1.921, 2.996, 3.907, 4.744, 5.535, 6.296, 7.034, 7.754];
 
-impl<T: Real> AdaptiveFilter<T> {
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
+    AdaptiveFilter<T, M, N, Z>
+{
     /// The window's answer with each identified intensity raised by
     /// [`WindowConfig::conservative`](super::window::WindowConfig::conservative) of its
     /// Cramér-Rao standard deviations (at most `CONSERVATIVE_CAP`), flat coordinates left; the

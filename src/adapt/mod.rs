@@ -49,10 +49,11 @@ pub mod restructure;
 pub mod window;
 
 use crate::filter::Estimates;
-use crate::model::{ErrorSource, InsModel, ModelError, StateRow, NX};
+use crate::model::{InsModel, ModelError, NX};
 use crate::Real;
 use bank::MemberInnovation;
 pub use config::AdaptConfig;
+use identifiable::IdentifiableModel;
 use identifier::{Identifier, IdentifierStep};
 use information::Information;
 use params::{Specs, MAXP};
@@ -75,15 +76,20 @@ pub enum AdaptError {
 }
 
 /// An INS filter that identifies its own sensor-noise parameters online: the recursive
-/// [`Identifier`] of the one-channel model, with the probe grid, the global window search and
-/// the structure switch that choose its basin.
+/// [`Identifier`], with the probe grid, the global window search and the structure switch that
+/// choose its basin. Generic over the error model like them; the one-channel model is the
+/// default, with its scalar [`step`](Self::step) and [`estimates`](Self::estimates).
 #[derive(Debug, Clone)]
-pub struct AdaptiveFilter<T: Real> {
+pub struct AdaptiveFilter<T: Real, M = InsModel<T>, const N: usize = NX, const Z: usize = 1>
+where
+    M: IdentifiableModel<T, N, Z>,
+{
     /// The bank, `theta`, the windowed information, the Gauss-Newton recursion and the probes.
-    id: Identifier<T>,
-    global: WindowSearch<T>,
-    accel_row: StateRow<T>,
-    gyro_row: StateRow<T>,
+    id: Identifier<T, M, N, Z>,
+    global: WindowSearch<T, M, N, Z>,
+    /// The model's [`Outputs`](IdentifiableModel::Outputs) (for the one-channel model, the rows
+    /// of [`estimates`](Self::estimates)).
+    outputs: M::Outputs,
     last_global: Found<T>,
     switches: u32,
     /// The coordinates the last search's window did not identify (bit `i`: `theta[i]`).
@@ -93,14 +99,29 @@ pub struct AdaptiveFilter<T: Real> {
     at_start: bool,
 }
 
-impl<T: Real> AdaptiveFilter<T> {
+/// What one [`AdaptiveFilter::step_axes`] did: the identifier's step (the centre's innovations
+/// on each axis, the gated axes, the moves) and the global stage's events.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AxesStep<T, const Z: usize> {
+    /// The bank's step and the moves.
+    pub step: IdentifierStep<T, Z>,
+    /// A move ended at a physical bound.
+    pub clamped: bool,
+    /// A global search ended in a structure switch.
+    pub switched: bool,
+    /// The change monitor found a change in service.
+    pub changed: bool,
+}
+
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
+    AdaptiveFilter<T, M, N, Z>
+{
     /// An empty filter (a compile-time value, all zeros): call [`init`](Self::init) before use.
     /// A `static` initialised with it costs no flash (it goes to `.bss`) and no stack.
     pub const BLANK: Self = Self {
         id: Identifier::BLANK,
         global: WindowSearch::BLANK,
-        accel_row: StateRow::from_array_storage(nalgebra::ArrayStorage([[T::ZERO; 1]; NX])),
-        gyro_row: StateRow::from_array_storage(nalgebra::ArrayStorage([[T::ZERO; 1]; NX])),
+        outputs: M::NO_OUTPUTS,
         last_global: Found::BLANK,
         switches: 0,
         flat: 0,
@@ -108,7 +129,7 @@ impl<T: Real> AdaptiveFilter<T> {
     };
 
     /// Starts from `model` (its parameters are the initial guess).
-    pub fn new(model: InsModel<T>, cfg: AdaptConfig<T>) -> Result<Self, AdaptError> {
+    pub fn new(model: M, cfg: AdaptConfig<T>) -> Result<Self, AdaptError> {
         let mut f = Self::BLANK;
         f.init(model, cfg)?;
         Ok(f)
@@ -117,14 +138,13 @@ impl<T: Real> AdaptiveFilter<T> {
     /// [`new`](Self::new) in place: the filters (about 21 KB in `f32`) are initialised where
     /// they are, never built on the stack and moved. On error the filter must not be stepped
     /// (initialise it again).
-    pub fn init(&mut self, model: InsModel<T>, cfg: AdaptConfig<T>) -> Result<(), AdaptError> {
+    pub fn init(&mut self, model: M, cfg: AdaptConfig<T>) -> Result<(), AdaptError> {
         // The settings are checked by `Identifier::init` (the recursion's and the probes') and
         // `WindowSearch::init` (the global stage's).
         self.id.init(model, cfg)?;
-        let (accel_row, gyro_row) = output_rows(&self.id.base)?;
+        let scale = self.id.base.scaling().map_err(AdaptError::Model)?;
+        self.outputs = self.id.base.outputs(&scale).map_err(AdaptError::Model)?;
         self.global.init(cfg.global, &self.id.theta);
-        self.accel_row = accel_row;
-        self.gyro_row = gyro_row;
         self.last_global = Found::BLANK;
         self.switches = 0;
         self.flat = 0;
@@ -132,31 +152,19 @@ impl<T: Real> AdaptiveFilter<T> {
         Ok(())
     }
 
-    /// One filter cycle with velocity observation `z` [m/s] (non-finite: missing), then, every
-    /// `block` steps, one Gauss-Newton update of the parameters.
-    pub fn step(&mut self, z: T) -> StepReport<T> {
-        self.step_gated(z, None)
-    }
-
-    /// [`step`](Self::step) with a chi-square outlier gate: an observation whose NIS on the
-    /// centre filter exceeds `gate` is used by no filter (bank or probes) and reported as
-    /// [`StepStatus::Gated`] with its innovation.
-    pub fn step_gated(&mut self, z: T, gate: Option<T>) -> StepReport<T> {
-        let g = gate.map(|g| move |_: usize| g);
-        let (out, probe_failed) = self
-            .id
-            .observe(&[z], g.as_ref().map(|f| f as &dyn Fn(usize) -> T));
-        let nan = T::lit(f64::NAN);
-        let [centre] = out.centre;
-        let [gated] = out.gated;
-        let (innovation, variance, status) = match (centre, gated) {
-            (Some(MemberInnovation { nu, s }), _) => (nu, s, StepStatus::Updated),
-            (None, Some(MemberInnovation { nu, s })) => (nu, s, StepStatus::Gated),
-            (None, None) if z.is_finite() => (nan, nan, StepStatus::BadInnovationVariance),
-            (None, None) => (nan, nan, StepStatus::Missing),
-        };
+    /// One filter cycle with the observation `z` (per axis; non-finite: missing on that axis)
+    /// and an optional outlier gate (`gate(k)`: the chi-square bound for `k` axes; see
+    /// [`Bank::step_axes`](bank::Bank::step_axes)), then the identifier's moves and the global
+    /// stage's share of the tick. A gated axis is missing for the global stage too.
+    pub fn step_axes(&mut self, z: &[T; Z], gate: Option<&dyn Fn(usize) -> T>) -> AxesStep<T, Z> {
+        let (out, probe_failed) = self.id.observe(z, gate);
         // The global stage sees what the bank saw: a gated observation is missing for it too.
-        let z = if gated.is_some() { nan } else { z };
+        let mut seen = *z;
+        for (v, g) in seen.iter_mut().zip(out.gated.iter()) {
+            if g.is_some() {
+                *v = T::lit(f64::NAN);
+            }
+        }
         // A staggered move that could not be discretised (the identifier followed the bank's
         // roll-back), or a probe that could not be.
         let mut step = IdentifierStep {
@@ -166,7 +174,7 @@ impl<T: Real> AdaptiveFilter<T> {
             rejected: out.failed || probe_failed,
         };
         let mut switched = false;
-        let changed = self.global.push(z, &self.id.base, &self.id.specs);
+        let changed = self.global.push(&seen, &self.id.base, &self.id.specs);
         if changed {
             // The windowed information describes the sensor before the change.
             self.id.forget_window(false);
@@ -188,23 +196,12 @@ impl<T: Real> AdaptiveFilter<T> {
         let global = self.id.cfg.global;
         let held = global.enabled() && global.hold_recursion;
         self.id.conclude(&mut step, global.enabled(), held);
-        let IdentifierStep {
-            moved,
-            jumped,
-            rejected,
-            ..
-        } = step;
-        if moved || switched || changed {
+        if step.moved || switched || changed {
             self.at_start = false;
         }
-        let clamped = moved && self.id.take_clamped();
-        StepReport {
-            innovation,
-            variance,
-            status,
-            moved,
-            jumped,
-            rejected,
+        let clamped = step.moved && self.id.take_clamped();
+        AxesStep {
+            step,
             clamped,
             switched,
             changed,
@@ -217,12 +214,12 @@ impl<T: Real> AdaptiveFilter<T> {
     }
 
     /// The global stage's window and search state.
-    pub fn global(&self) -> &WindowSearch<T> {
+    pub fn global(&self) -> &WindowSearch<T, M, N, Z> {
         &self.global
     }
 
     /// The model this filter started from (what `theta` is applied to).
-    pub fn base(&self) -> &InsModel<T> {
+    pub fn base(&self) -> &M {
         self.id.base()
     }
 
@@ -252,7 +249,7 @@ impl<T: Real> AdaptiveFilter<T> {
     }
 
     /// The recursion: the bank, `theta` and the windowed information.
-    pub fn identifier(&self) -> &Identifier<T> {
+    pub fn identifier(&self) -> &Identifier<T, M, N, Z> {
         &self.id
     }
 
@@ -267,7 +264,7 @@ impl<T: Real> AdaptiveFilter<T> {
     }
 
     /// The model with the current parameters.
-    pub fn model(&self) -> Result<InsModel<T>, AdaptError> {
+    pub fn model(&self) -> Result<M, AdaptError> {
         self.id.model()
     }
 
@@ -310,7 +307,7 @@ impl<T: Real> AdaptiveFilter<T> {
     }
 
     /// The centre filter (scaled states; see [`Bank::scale`](bank::Bank::scale)).
-    pub fn centre(&self) -> &bank::Member<T> {
+    pub fn centre(&self) -> &bank::Member<T, N> {
         self.id.centre()
     }
 
@@ -323,32 +320,59 @@ impl<T: Real> AdaptiveFilter<T> {
     pub fn repairs(&self) -> u32 {
         self.id.bank.repairs
     }
+}
+
+/// The one-channel filter's scalar step and its estimates.
+impl<T: Real> AdaptiveFilter<T> {
+    /// One filter cycle with velocity observation `z` [m/s] (non-finite: missing), then, every
+    /// `block` steps, one Gauss-Newton update of the parameters.
+    pub fn step(&mut self, z: T) -> StepReport<T> {
+        self.step_gated(z, None)
+    }
+
+    /// [`step`](Self::step) with a chi-square outlier gate: an observation whose NIS on the
+    /// centre filter exceeds `gate` is used by no filter (bank or probes) and reported as
+    /// [`StepStatus::Gated`] with its innovation.
+    pub fn step_gated(&mut self, z: T, gate: Option<T>) -> StepReport<T> {
+        let g = gate.map(|g| move |_: usize| g);
+        let AxesStep {
+            step,
+            clamped,
+            switched,
+            changed,
+        } = self.step_axes(&[z], g.as_ref().map(|f| f as &dyn Fn(usize) -> T));
+        let nan = T::lit(f64::NAN);
+        let [centre] = step.bank.centre;
+        let [gated] = step.bank.gated;
+        let (innovation, variance, status) = match (centre, gated) {
+            (Some(MemberInnovation { nu, s }), _) => (nu, s, StepStatus::Updated),
+            (None, Some(MemberInnovation { nu, s })) => (nu, s, StepStatus::Gated),
+            (None, None) if z.is_finite() => (nan, nan, StepStatus::BadInnovationVariance),
+            (None, None) => (nan, nan, StepStatus::Missing),
+        };
+        StepReport {
+            innovation,
+            variance,
+            status,
+            moved: step.moved,
+            jumped: step.jumped,
+            rejected: step.rejected,
+            clamped,
+            switched,
+            changed,
+        }
+    }
 
     /// The centre filter's estimates in SI units.
     pub fn estimates(&self) -> Estimates<T> {
         let c = self.id.bank.centre();
-        Estimates::from_kalman(
-            &c.kf,
-            &self.id.bank.scale(),
-            &self.accel_row,
-            &self.gyro_row,
-        )
+        let (accel, gyro) = &self.outputs;
+        Estimates::from_kalman(&c.kf, &self.id.bank.scale(), accel, gyro)
     }
 }
 
-/// The rows that sum each sensor's component states (for [`Estimates`]), in the scaling the bank
-/// chooses from the same model.
-fn output_rows<T: Real>(model: &InsModel<T>) -> Result<(StateRow<T>, StateRow<T>), AdaptError> {
-    let scale = model.scaling().map_err(AdaptError::Model)?;
-    let accel = model
-        .output_row(ErrorSource::Accel, &scale)
-        .map_err(AdaptError::Model)?;
-    let gyro = model
-        .output_row(ErrorSource::Gyro, &scale)
-        .map_err(AdaptError::Model)?;
-    Ok((accel, gyro))
-}
-
+#[cfg(test)]
+mod global_tests;
 #[cfg(test)]
 mod identifier_tests;
 #[cfg(test)]

@@ -9,7 +9,7 @@
 //! [`ComponentKind::identified`](crate::model::ComponentKind::identified)), accelerometer first,
 //! then gyro, in component order, until [`MAXP`] parameters are taken.
 
-use crate::model::{Component, ErrorSource, InsModel, Quantity, IDENTIFIABLE_SD};
+use crate::model::{Component, ComponentKind, ErrorSource, InsModel, Quantity, IDENTIFIABLE_SD};
 use crate::Real;
 use heapless::Vec;
 
@@ -38,6 +38,28 @@ pub struct ParamSpec {
     pub index: u8,
     /// The quantity.
     pub kind: Quantity,
+}
+
+/// Where a structure switch happens and to which kind: the component of `sensor` at `index`
+/// becomes a `kind` ([`window::structure`](crate::adapt::window::structure)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Site {
+    /// The error source of the component.
+    pub sensor: ErrorSource,
+    /// Its index in that sensor's list.
+    pub index: u8,
+    /// The kind it becomes.
+    pub kind: ComponentKind,
+}
+
+impl Site {
+    /// A placeholder (all-zero bits: statics stay in `.bss`).
+    pub const BLANK: Self = Self {
+        sensor: ErrorSource::Accel,
+        index: 0,
+        kind: ComponentKind::GaussMarkov,
+    };
 }
 
 impl ParamSpec {

@@ -11,64 +11,31 @@
 // Small fixed-size matrix code reads best with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
+use crate::adapt::identifiable::IdentifiableModel;
 use crate::adapt::information::Information;
-use crate::adapt::params::apply;
 use crate::adapt::{AdaptError, Switch};
 use crate::linalg::Arr;
-use crate::model::{idx, InsModel, ModelError, Scaling, NX};
 use crate::Real;
-
-/// For each state of `new`, the state of `old` that carries the same quantity (`None`: new).
-pub fn state_map<T: Real>(
-    old: &InsModel<T>,
-    new: &InsModel<T>,
-) -> Result<[Option<usize>; NX], ModelError> {
-    let (lo, ln) = (old.layout()?, new.layout()?);
-    let mut map = [None; NX];
-    if let Some(m) = map.get_mut(idx::DV) {
-        *m = Some(idx::DV);
-    }
-    if let Some(m) = map.get_mut(idx::DELTA) {
-        *m = Some(idx::DELTA);
-    }
-    for s in &ln {
-        let kind = new.component(s).map(|c| c.kind());
-        let twin = lo.iter().find(|o| {
-            o.sensor == s.sensor
-                && o.index == s.index
-                && o.states == s.states
-                && old.component(o).map(|c| c.kind()) == kind
-        });
-        if let Some(o) = twin {
-            for k in 0..s.states {
-                if let Some(m) = map.get_mut(s.start + k) {
-                    *m = Some(o.start + k);
-                }
-            }
-        }
-    }
-    Ok(map)
-}
 
 /// The state and covariance of `new` (scaled by `s_new`, `n` active states, initial covariance
 /// `p0_new`) that carry `x, P` of the old model (scaled by `s_old`) through `map`.
-pub fn carry<T: Real>(
-    map: &[Option<usize>; NX],
-    x: &[T; NX],
-    p: &Arr<T, NX>,
-    s_old: &Scaling<T>,
-    s_new: &Scaling<T>,
-    p0_new: &Arr<T, NX>,
+pub fn carry<T: Real, const N: usize>(
+    map: &[Option<usize>; N],
+    x: &[T; N],
+    p: &Arr<T, N>,
+    s_old: &[T; N],
+    s_new: &[T; N],
+    p0_new: &Arr<T, N>,
     n: usize,
-) -> ([T; NX], Arr<T, NX>) {
-    let n = n.min(NX);
-    let mut xn = [T::zero(); NX];
+) -> ([T; N], Arr<T, N>) {
+    let n = n.min(N);
+    let mut xn = [T::zero(); N];
     let mut pn = *p0_new;
     // Physical value = scale x scaled value, so a carried entry is multiplied by the old scale
     // and divided by the new one (twice for a covariance).
     let ratio = |i: usize, j: usize| s_old[j] / s_new[i];
     for i in 0..n {
-        let Some(oi) = map[i].filter(|&o| o < NX) else {
+        let Some(oi) = map[i].filter(|&o| o < N) else {
             // A new state: its prior row and column (the new block's own entries stay).
             for j in 0..n {
                 if map[j].is_some() {
@@ -80,7 +47,7 @@ pub fn carry<T: Real>(
         };
         xn[i] = x[oi] * ratio(i, oi);
         for j in 0..n {
-            if let Some(oj) = map[j].filter(|&o| o < NX) {
+            if let Some(oj) = map[j].filter(|&o| o < N) {
                 pn[i][j] = p[oi][oj] * ratio(i, oi) * ratio(j, oj);
             }
         }
@@ -89,7 +56,9 @@ pub fn carry<T: Real>(
 }
 
 /// The switch itself (this module is a child of [`super`], so it reads the filter's fields).
-impl<T: Real> super::AdaptiveFilter<T> {
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
+    super::AdaptiveFilter<T, M, N, Z>
+{
     /// Replaces the model's structure by the search's alternative `sw` (found on a window of
     /// `blocks` block means): a new bank at `sw.theta`
     /// that carries the centre's state ([`restructure`]), new specs and bounds, and fresh
@@ -113,10 +82,17 @@ impl<T: Real> super::AdaptiveFilter<T> {
             window_s,
         )
         .ok_or(AdaptError::BadParameter)?;
-        let model = apply(&alt.base, &alt.specs, &sw.theta).ok_or(AdaptError::BadParameter)?;
-        let map = state_map(&self.id.base, &model).map_err(AdaptError::Model)?;
-        let (accel_row, gyro_row) = super::output_rows(&model)?;
-        let old_scale = self.id.bank.scale();
+        let model = (alt.base)
+            .with_parameters(&alt.specs, &sw.theta)
+            .ok_or(AdaptError::BadParameter)?;
+        let map = self
+            .id
+            .base
+            .state_map(&model)
+            .ok_or(AdaptError::BadParameter)?;
+        let scale = model.scaling().map_err(AdaptError::Model)?;
+        let outputs = model.outputs(&scale).map_err(AdaptError::Model)?;
+        let old_scale = *self.id.bank.scale_array();
         let (x, p) = (self.id.bank.centre().kf.x, self.id.bank.centre().kf.P);
         // In place (a second bank would not fit on the firmware's stack); `init` changes nothing
         // on error, and a failed `set_theta` is rolled back to the bank `init` built (from
@@ -136,7 +112,7 @@ impl<T: Real> super::AdaptiveFilter<T> {
             &x,
             &p,
             &old_scale,
-            &self.id.bank.scale(),
+            self.id.bank.scale_array(),
             self.id.bank.p0(),
             self.id.bank.active(),
         );
@@ -148,8 +124,7 @@ impl<T: Real> super::AdaptiveFilter<T> {
         self.id.specs = alt.specs;
         self.id.theta = sw.theta;
         self.id.bounds = alt.bounds;
-        self.accel_row = accel_row;
-        self.gyro_row = gyro_row;
+        self.outputs = outputs;
         self.id.forget_window(true);
         self.id.total = Information::default();
         if self.id.cfg.probe_factor > T::one() {
@@ -168,6 +143,7 @@ impl<T: Real> super::AdaptiveFilter<T> {
 mod tests {
     use super::*;
     use crate::adapt::window::structure::{site, swap};
+    use crate::model::{ErrorModel, InsModel, NX};
 
     /// Paper -> gyro exp-cosine: the navigation errors and the accelerometer's state are
     /// carried (with the scalings' ratio), the gyro's two new states start at their prior.
@@ -175,11 +151,14 @@ mod tests {
     fn switching_the_gyro_keeps_the_rest_of_the_state() {
         let old = InsModel::<f64>::paper();
         let new = swap(&old, &site(&old, 1).unwrap(), 0.01).unwrap();
-        let map = state_map(&old, &new).unwrap();
+        let map = old.state_map(&new).unwrap();
         assert_eq!(&map[..5], &[Some(0), Some(1), Some(2), None, None]);
-        let (so, sn) = (old.scaling().unwrap(), new.scaling().unwrap());
-        let sys = new.continuous(&sn).unwrap();
-        let p0: Arr<f64, NX> = crate::linalg::from_mat(&sys.P0);
+        let (so, sn) = (
+            ErrorModel::scaling(&old).unwrap(),
+            ErrorModel::scaling(&new).unwrap(),
+        );
+        let sys = new.system(&sn).unwrap();
+        let p0: Arr<f64, NX> = sys.P0;
         let mut x = [0.0; NX];
         let mut p = [[0.0; NX]; NX];
         for i in 0..4 {

@@ -69,6 +69,13 @@ impl IdentifiableModel<f64, 1, 2> for TwoSensorMarkov {
         r: [0.0; 2],
     };
 
+    type Outputs = ();
+    const NO_OUTPUTS: () = ();
+
+    fn outputs(&self, _: &[f64; 1]) -> Result<(), ModelError> {
+        Ok(())
+    }
+
     fn with_parameters(&self, specs: &Specs, theta: &[f64; MAXP]) -> Option<Self> {
         let mut m = self.clone();
         set_each(&mut m, specs, theta, |m, s| match s.kind {

@@ -12,6 +12,7 @@
 
 use super::{WindowSearch, MAXP};
 use crate::adapt::guard::Bounds;
+use crate::adapt::identifiable::IdentifiableModel;
 use crate::Real;
 
 /// Parameters one grid spans (the first ones in `theta` order: for `paper`, the accelerometer's
@@ -37,7 +38,9 @@ pub fn grid_points(p: usize) -> (usize, usize) {
     (first, second)
 }
 
-impl<T: Real> WindowSearch<T> {
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
+    WindowSearch<T, M, N, Z>
+{
     /// The `k`-th point of the grids for `p` parameters (`k` below the sum of [`grid_points`]).
     pub(super) fn grid_point(&self, k: usize, p: usize, bounds: &Bounds<T>) -> [T; MAXP] {
         // Every other search shifts the lattice by half a spacing in every parameter, so

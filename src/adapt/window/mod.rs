@@ -60,8 +60,9 @@ pub mod structure;
 mod tests;
 
 use crate::adapt::guard::{Bounds, Mat};
+use crate::adapt::identifiable::IdentifiableModel;
 use crate::adapt::params::{Specs, MAXP};
-use crate::model::InsModel;
+use crate::model::{InsModel, NX};
 use crate::Real;
 use monitor::Monitor;
 use pass::Pass;
@@ -134,11 +135,14 @@ enum Phase {
     HoldRefine,
 }
 
-/// The buffered window and the time-sliced search over it.
+/// The buffered window and the time-sliced search over it, for the error model `M` with `N`
+/// states and `Z` observation axes (the one-channel INS by default). Its passes are filters
+/// of `n + Z` states (the model's `n` and one block sum per axis), so `n + Z <= N`.
 #[derive(Debug, Clone)]
-pub struct WindowSearch<T: Real> {
+pub struct WindowSearch<T: Real, M = InsModel<T>, const N: usize = NX, const Z: usize = 1> {
     cfg: WindowConfig<T>,
-    ring: [T; WINDOW_CAP],
+    /// Block means, one per axis (NaN: missing on that axis).
+    ring: [[T; Z]; WINDOW_CAP],
     /// Index the next block mean goes to.
     head: usize,
     /// Block means pushed since the start.
@@ -148,17 +152,17 @@ pub struct WindowSearch<T: Real> {
     /// Changes in service found by the monitor.
     changes: u32,
     /// Watches the filter's model on the new blocks for a change in service.
-    monitor: Monitor<T>,
-    acc: T,
+    monitor: Monitor<T, N, Z>,
+    acc: [T; Z],
     acc_n: u32,
-    missing: bool,
+    missing: [bool; Z],
     /// Frozen window of the running search: first block (ring index) and length.
     w0: usize,
     wlen: usize,
     /// Blocks pushed when the running search started.
     started_at: u32,
-    /// The window's first finite block mean.
-    z0: T,
+    /// The window's first finite block mean on each axis.
+    z0: [T; Z],
     phase: Phase,
     /// Centre of the grid: the start model (fixed, so that the grid covers the same region
     /// whatever happened since).
@@ -209,7 +213,7 @@ pub struct WindowSearch<T: Real> {
     acc_fisher: Mat<T>,
     lambda: T,
     iterations: u32,
-    pass: Pass<T>,
+    pass: Pass<T, N, Z>,
     running: bool,
     evaluations: u32,
     next_search: u32,
@@ -217,7 +221,7 @@ pub struct WindowSearch<T: Real> {
     searches: u32,
     /// Structure test: the alternative being searched, its index among the model's switchable
     /// components, its best scan point, and the best alternative so far.
-    alt: Alternative<T>,
+    alt: Alternative<T, M, N, Z>,
     alt_k: usize,
     scan_best: [T; MAXP],
     scan_ll: T,
@@ -230,23 +234,25 @@ pub struct WindowSearch<T: Real> {
     prior: prior::Prior<T>,
 }
 
-impl<T: Real> WindowSearch<T> {
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
+    WindowSearch<T, M, N, Z>
+{
     /// Nothing buffered, off (a compile-time value).
     pub const BLANK: Self = Self {
         cfg: WindowConfig::OFF,
-        ring: [T::ZERO; WINDOW_CAP],
+        ring: [[T::ZERO; Z]; WINDOW_CAP],
         head: 0,
         pushed: 0,
         floor: 0,
         changes: 0,
         monitor: Monitor::BLANK,
-        acc: T::ZERO,
+        acc: [T::ZERO; Z],
         acc_n: 0,
-        missing: false,
+        missing: [false; Z],
         w0: 0,
         wlen: 0,
         started_at: 0,
-        z0: T::ZERO,
+        z0: [T::ZERO; Z],
         phase: Phase::Idle,
         centre: [T::ZERO; MAXP],
         anchor: [T::ZERO; MAXP],
@@ -363,34 +369,49 @@ impl<T: Real> WindowSearch<T> {
         self.evaluations
     }
 
-    /// Adds one tick's observation (non-finite: missing) to the current block; `base`/`specs`
-    /// describe the filter's model (as for [`work`](Self::work)). Returns whether the change
-    /// monitor found a change in service at this tick.
-    pub fn push(&mut self, z: T, base: &InsModel<T>, specs: &Specs) -> bool {
+    /// Adds one tick's observation (per axis; non-finite: missing) to the current block, in
+    /// which an axis is missing if it was missing on any tick; `base`/`specs` describe the
+    /// filter's model (as for [`work`](Self::work)). Returns whether the change monitor found a
+    /// change in service at this tick.
+    pub fn push(&mut self, z: &[T; Z], base: &M, specs: &Specs) -> bool {
         if !self.cfg.enabled() {
             return false;
         }
-        if z.is_finite() {
-            self.acc += z;
-        } else {
-            self.missing = true;
+        for ((a, m), v) in self
+            .acc
+            .iter_mut()
+            .zip(self.missing.iter_mut())
+            .zip(z.iter())
+        {
+            if v.is_finite() {
+                *a += *v;
+            } else {
+                *m = true;
+            }
         }
         self.acc_n += 1;
         if self.acc_n >= self.cfg.block {
-            let mean = if self.missing {
-                T::lit(f64::NAN)
-            } else {
-                self.acc / T::lit(f64::from(self.acc_n))
-            };
+            let mut mean = [T::zero(); Z];
+            for ((v, a), m) in mean
+                .iter_mut()
+                .zip(self.acc.iter())
+                .zip(self.missing.iter())
+            {
+                *v = if *m {
+                    T::lit(f64::NAN)
+                } else {
+                    *a / T::lit(f64::from(self.acc_n))
+                };
+            }
             if let Some(v) = self.ring.get_mut(self.head) {
                 *v = mean;
             }
             self.head = (self.head + 1) % WINDOW_CAP;
             self.pushed = self.pushed.saturating_add(1);
-            self.acc = T::zero();
+            self.acc = [T::zero(); Z];
             self.acc_n = 0;
-            self.missing = false;
-            let (alarm, built) = self.monitor.push(mean, self.cfg.block, base, specs);
+            self.missing = [false; Z];
+            let (alarm, built) = self.monitor.push(&mean, self.cfg.block, base, specs);
             self.monitor_built = built;
             if let Some(blocks) = alarm {
                 self.changed(blocks);
@@ -412,16 +433,16 @@ impl<T: Real> WindowSearch<T> {
     }
 
     /// The block means of the last search's window, oldest first (host tools and tests).
-    pub fn window_blocks(&self) -> impl Iterator<Item = T> + '_ {
+    pub fn window_blocks(&self) -> impl Iterator<Item = [T; Z]> + '_ {
         (0..self.wlen).map(move |i| self.block(i))
     }
 
     /// The `i`-th block mean of the window (NaN outside it).
-    fn block(&self, i: usize) -> T {
+    fn block(&self, i: usize) -> [T; Z] {
         self.ring
             .get((self.w0 + i) % WINDOW_CAP)
             .copied()
-            .unwrap_or(T::lit(f64::NAN))
+            .unwrap_or([T::lit(f64::NAN); Z])
     }
 
     fn window_intact(&self) -> bool {
@@ -429,24 +450,31 @@ impl<T: Real> WindowSearch<T> {
         arrived + self.wlen <= WINDOW_CAP
     }
 
-    fn first_finite(&self) -> T {
-        self.window_blocks()
-            .find(|v| v.is_finite())
-            .unwrap_or(T::zero())
+    /// The window's first finite block mean on each axis (zero on an axis with none).
+    fn first_finite(&self) -> [T; Z] {
+        let mut z0 = [T::zero(); Z];
+        for (k, v) in z0.iter_mut().enumerate() {
+            *v = self
+                .window_blocks()
+                .filter_map(|b| b.get(k).copied())
+                .find(|v| v.is_finite())
+                .unwrap_or(T::zero());
+        }
+        z0
     }
 
     /// The log-likelihood of `theta` over the window of the last (or running) search, computed
     /// at once (for tests and host tools: it costs a whole window). `None` if the model cannot be
     /// discretised or the window was overwritten since.
-    pub fn window_loglik(&self, base: &InsModel<T>, specs: &Specs, theta: &[T; MAXP]) -> Option<T> {
+    pub fn window_loglik(&self, base: &M, specs: &Specs, theta: &[T; MAXP]) -> Option<T> {
         if !self.window_intact() {
             return None;
         }
         let mut p = self.pass.clone();
-        p.start(theta, specs.len(), None, self.cfg.block, self.z0);
+        p.start(theta, specs.len(), None, self.cfg.block, &self.z0);
         p.prepare(base, specs).ok()?;
         for z in self.window_blocks() {
-            p.push(z);
+            p.push(&z);
         }
         Some(p.ll)
     }
@@ -510,12 +538,7 @@ impl<T: Real> WindowSearch<T> {
     /// Runs at most `budget` filter steps (a pass with derivatives counts `2p + 1` per block).
     /// Returns the result when the search ends on this tick. `base`/`specs`/`bounds` describe
     /// the model (as the bank's).
-    pub fn work(
-        &mut self,
-        base: &InsModel<T>,
-        specs: &Specs,
-        bounds: &Bounds<T>,
-    ) -> Option<Found<T>> {
+    pub fn work(&mut self, base: &M, specs: &Specs, bounds: &Bounds<T>) -> Option<Found<T>> {
         // A filter the change monitor built on this tick counts as the tick's construction
         // (measured: with hourly searches the next search ran beside the monitor's rebuild
         // after the last one, and that tick reached 641k Cortex-M4 instructions). Taken on
@@ -530,7 +553,7 @@ impl<T: Real> WindowSearch<T> {
             return None;
         }
         let p = specs.len().min(MAXP);
-        self.block_s = T::lit(f64::from(self.cfg.block)) * base.dt;
+        self.block_s = T::lit(f64::from(self.cfg.block)) * base.dt();
         let mut budget = self.cfg.budget as usize;
         let mut prepared_this_tick = monitor_built;
         // Each turn starts a pass, runs some blocks, or ends one: a pass takes at most three
@@ -544,7 +567,7 @@ impl<T: Real> WindowSearch<T> {
                 } else {
                     p
                 };
-                self.pass.start(&theta, np, h, self.cfg.block, self.z0);
+                self.pass.start(&theta, np, h, self.cfg.block, &self.z0);
                 self.set_prior(specs);
                 self.running = true;
             }
@@ -592,7 +615,7 @@ impl<T: Real> WindowSearch<T> {
             }
             for _ in 0..steps {
                 let z = self.block(self.pass.pos);
-                self.pass.push(z);
+                self.pass.push(&z);
             }
             budget = budget.saturating_sub(steps * cost);
             if self.pass.pos >= self.wlen {

@@ -17,9 +17,10 @@
 use super::pass::{block_filter, BURN};
 use crate::adapt::bank::Member;
 use crate::adapt::change::ChangeDetector;
+use crate::adapt::identifiable::IdentifiableModel;
 use crate::adapt::params::{Specs, MAXP};
 use crate::filter::UpdateStatus;
-use crate::model::{InsModel, NX};
+use crate::model::NX;
 use crate::Real;
 
 /// What the monitor is doing.
@@ -35,21 +36,21 @@ enum State {
 
 /// One block filter at the filter's model and the CUSUM on its innovations.
 #[derive(Debug, Clone)]
-pub struct Monitor<T: Real> {
-    member: Member<T>,
-    h: [T; NX],
-    r: T,
+pub struct Monitor<T: Real, const N: usize = NX, const Z: usize = 1> {
+    member: Member<T, N>,
+    h: [[T; N]; Z],
+    r: [T; Z],
     theta: [T; MAXP],
     state: State,
     detector: ChangeDetector<T>,
 }
 
-impl<T: Real> Monitor<T> {
+impl<T: Real, const N: usize, const Z: usize> Monitor<T, N, Z> {
     /// Off (a compile-time value).
     pub const BLANK: Self = Self {
         member: Member::BLANK,
-        h: [T::ZERO; NX],
-        r: T::ZERO,
+        h: [[T::ZERO; N]; Z],
+        r: [T::ZERO; Z],
         theta: [T::ZERO; MAXP],
         state: State::Off,
         detector: ChangeDetector::BLANK,
@@ -71,21 +72,25 @@ impl<T: Real> Monitor<T> {
         }
     }
 
-    /// One block mean `z` (non-finite: missing) of `block` ticks. On an alarm, returns the
-    /// blocks since the estimated change and stops watching; and whether it built its filter
-    /// (a discretisation and a block system) on this block.
-    pub fn push(
+    /// One block mean `z` (per axis; non-finite: missing) of `block` ticks. On an alarm,
+    /// returns the blocks since the estimated change and stops watching; and whether it built
+    /// its filter (a discretisation and a block system) on this block.
+    ///
+    /// With several axes each axis's normalised innovation enters the CUSUM in turn (each is
+    /// chi-square with one degree of freedom under the model, as one axis's), and the age of a
+    /// change is counted in blocks (rounded up).
+    pub fn push<M: IdentifiableModel<T, N, Z>>(
         &mut self,
-        z: T,
+        z: &[T; Z],
         block: u32,
-        base: &InsModel<T>,
+        base: &M,
         specs: &Specs,
     ) -> (Option<u32>, bool) {
         match self.state {
             State::Off => (None, false),
             State::Pending => {
-                // The velocity starts at this block's mean; a missing one waits for the next.
-                if z.is_finite() {
+                // The filter starts at this block's mean; a missing one waits for the next.
+                if z.iter().all(|v| v.is_finite()) {
                     self.state =
                         match block_filter(base, specs, &self.theta, block, z, &mut self.member) {
                             Ok((h, r)) => {
@@ -102,25 +107,32 @@ impl<T: Real> Monitor<T> {
             }
             State::On(n) => {
                 self.member.predict();
-                let inn = self.member.update(z, &self.h, self.r, None);
                 let n = n.saturating_add(1);
                 self.state = State::On(n);
-                let e2 = match inn.status {
-                    UpdateStatus::Updated if n as usize > BURN => {
-                        Some(inn.innovation * inn.innovation / inn.variance)
-                    }
-                    _ => None,
-                };
+                let mut e2 = [None; Z];
+                for (e, (zk, (h, r))) in e2.iter_mut().zip(z.iter().zip(self.h.iter().zip(self.r)))
+                {
+                    let inn = self.member.update(*zk, h, r, None);
+                    *e = match inn.status {
+                        UpdateStatus::Updated if n as usize > BURN => {
+                            Some(inn.innovation * inn.innovation / inn.variance)
+                        }
+                        _ => None,
+                    };
+                }
                 if !self.member.kf.diagonal_healthy() {
                     // A broken filter says nothing about the sensor: stop watching.
                     self.state = State::Off;
                     return (None, false);
                 }
-                let Some(age) = self.detector.push(e2) else {
-                    return (None, false);
-                };
-                self.state = State::Off;
-                (Some(age), false)
+                for e in e2 {
+                    if let Some(age) = self.detector.push(e) {
+                        self.state = State::Off;
+                        let axes = u32::try_from(Z.max(1)).unwrap_or(1);
+                        return (Some(age.div_ceil(axes)), false);
+                    }
+                }
+                (None, false)
             }
         }
     }

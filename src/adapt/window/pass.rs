@@ -10,169 +10,176 @@ use crate::adapt::information::{accumulate, Information};
 
 /// Filters of a pass at most (`2 MAXP + 1`).
 pub const MEMBERS_MAX: usize = MEMBERS;
-use crate::adapt::params::{apply, Specs, MAXP};
+use crate::adapt::identifiable::IdentifiableModel;
+use crate::adapt::params::{Specs, MAXP};
 use crate::adapt::AdaptError;
 use crate::filter::UpdateStatus;
-use crate::linalg::{dot, from_mat, from_vec, mul, mul_t_sym, zeros, Arr};
-use crate::model::{idx, InsModel, NX};
+use crate::linalg::{dot, mul, mul_t_sym, zeros, Arr};
+use crate::model::NX;
 use crate::Real;
 
 /// Longest block [ticks] (bounds the loop of [`block_system`]).
 pub const MAX_BLOCK: u32 = 600;
-/// Loose initial standard deviations of a pass's velocity [m/s] and tilt [rad] errors. The
-/// velocity starts at the first block mean, which differs from the velocity error at the
-/// block's end by half a block of its slope (about 0.75 m/s for a free Schuler loop 20 m/s in
-/// amplitude and 60-s blocks); a free one-channel INS's tilt stays within a few mrad in a day.
-/// Not larger: the first update's `P - K S K^T` cancels about `P / R` of precision, and with
-/// 300 m/s every f32 pass broke (measured).
-const DIFFUSE_DV: f64 = 2.0;
-const DIFFUSE_TILT: f64 = 0.01;
-/// Leading innovations of a pass not summed: the two diffuse states are fixed by the first
-/// two observations; one more for margin.
+/// Leading innovations of a pass not summed: a model's diffuse states
+/// ([`IdentifiableModel::window_start`]; the one-channel INS's velocity and tilt) are fixed by
+/// the first two observations; one more for margin.
 pub const BURN: usize = 3;
 
 /// The exact discrete system of block sums: over `m` ticks of `(phi, qd)` (`n` states), the
-/// state at the block's end and `s = sum_{j=1..m} h x_j`, the sum of the noise-free
-/// observations over the block, as one `n + 1`-state step `[x; s]' = A [x; s] + w`:
+/// state at the block's end and, for each of the `Z` observation rows `h_k`,
+/// `s_k = sum_{j=1..m} h_k x_j`, the sum of the noise-free observations over the block, as one
+/// `n + Z`-state step `[x; s]' = A [x; s] + w`:
 ///
 /// ```text
-/// A = [[Phi^m, 0], [sum_j h Phi^j, 0]],   Cov(w) = [[E_m, C_m], [C_m^T, V_m]]
-/// E_j = Phi E_{j-1} Phi^T + Qd                       (noise accumulated in x)
-/// C_j = Phi C_{j-1} + E_j h^T                        (its covariance with the sum's noise)
-/// V_j = V_{j-1} + 2 h Phi C_{j-1} + h E_j h^T        (the sum's noise variance)
+/// A = [[Phi^m, 0], [sum_j h_k Phi^j, 0]],   Cov(w) = [[E_m, C_m], [C_m^T, V_m]]
+/// E_j = Phi E_{j-1} Phi^T + Qd                          (noise accumulated in x)
+/// C_j^k = Phi C_{j-1}^k + E_j h_k^T                     (its covariance with sum k's noise)
+/// V_j^kl = V_{j-1}^kl + h_k Phi C_{j-1}^l + h_l Phi C_{j-1}^k + h_k E_j h_l^T
 /// ```
 ///
-/// (`e_j = Phi e_{j-1} + w_j`, `sigma_j = sigma_{j-1} + h e_j`, `E_0 = 0`, `C_0 = 0`,
+/// (`e_j = Phi e_{j-1} + w_j`, `sigma_j^k = sigma_{j-1}^k + h_k e_j`, `E_0 = 0`, `C_0 = 0`,
 /// `V_0 = 0`). The block mean is then `s / m` plus the mean of `m` white observation errors:
 /// the likelihood of the block means is exact, not the sampled-point approximation.
-/// `None` when `n + 1` states do not fit.
+/// `None` when `n + Z` states do not fit in `N`.
 #[allow(clippy::type_complexity)]
-pub fn block_system<T: Real>(
-    phi: &Arr<T, NX>,
-    qd: &Arr<T, NX>,
-    h: &[T; NX],
+pub fn block_system<T: Real, const N: usize, const Z: usize>(
+    phi: &Arr<T, N>,
+    qd: &Arr<T, N>,
+    h: &[[T; N]; Z],
     n: usize,
     m: u32,
-) -> Option<(Arr<T, NX>, Arr<T, NX>, usize)> {
-    if n >= NX || n == 0 {
+) -> Option<(Arr<T, N>, Arr<T, N>, usize)> {
+    if n + Z > N || n == 0 {
         return None;
     }
-    // Restated so that the optimiser sees `n < NX` for the indexing below (no panic path).
-    let n = n.min(NX - 1);
-    let mut pj: Arr<T, NX> = zeros();
+    // Restated so that the optimiser sees `n < N` for the indexing below (no panic path).
+    let n = n.min(N - 1);
+    let mut pj: Arr<T, N> = zeros();
     for i in 0..n {
         pj[i][i] = T::one();
     }
-    let mut e: Arr<T, NX> = zeros();
-    let mut c = [T::zero(); NX];
-    let mut v = T::zero();
-    let mut r = [T::zero(); NX];
+    let mut e: Arr<T, N> = zeros();
+    let mut c = [[T::zero(); N]; Z];
+    let mut v = [[T::zero(); Z]; Z];
+    let mut r = [[T::zero(); N]; Z];
     for _ in 0..m.min(MAX_BLOCK) {
-        let mut phic = [T::zero(); NX];
-        for i in 0..n {
-            phic[i] = dot(&phi[i], &c, n);
+        let mut phic = [[T::zero(); N]; Z];
+        for (pc, ck) in phic.iter_mut().zip(c.iter()) {
+            for i in 0..n {
+                pc[i] = dot(&phi[i], ck, n);
+            }
         }
-        let hphic = dot(h, &phic, n);
         let pe = mul(phi, &e, n);
         e = mul_t_sym(&pe, phi, qd, n);
-        let mut eh = [T::zero(); NX];
-        for i in 0..n {
-            eh[i] = dot(&e[i], h, n);
-        }
-        for i in 0..n {
-            c[i] = phic[i] + eh[i];
-        }
-        v += T::lit(2.0) * hphic + dot(h, &eh, n);
-        pj = mul(phi, &pj, n);
-        for k in 0..n {
-            let mut acc = T::zero();
+        let mut eh = [[T::zero(); N]; Z];
+        for (ek, hk) in eh.iter_mut().zip(h.iter()) {
             for i in 0..n {
-                acc += h[i] * pj[i][k];
+                ek[i] = dot(&e[i], hk, n);
             }
-            r[k] += acc;
+        }
+        for ((ck, pc), ek) in c.iter_mut().zip(phic.iter()).zip(eh.iter()) {
+            for i in 0..n {
+                ck[i] = pc[i] + ek[i];
+            }
+        }
+        for (k, (vk, hk)) in v.iter_mut().zip(h.iter()).enumerate() {
+            for (l, vkl) in vk.iter_mut().enumerate() {
+                let (Some(pcl), Some(el)) = (phic.get(l), eh.get(l)) else {
+                    continue;
+                };
+                *vkl += if k == l {
+                    T::lit(2.0) * dot(hk, pcl, n) + dot(hk, el, n)
+                } else {
+                    let (hl, pck) = (h.get(l).unwrap_or(hk), phic.get(k).unwrap_or(pcl));
+                    dot(hk, pcl, n) + dot(hl, pck, n) + dot(hk, el, n)
+                };
+            }
+        }
+        pj = mul(phi, &pj, n);
+        for (rk, hk) in r.iter_mut().zip(h.iter()) {
+            for k in 0..n {
+                let mut acc = T::zero();
+                for i in 0..n {
+                    acc += hk[i] * pj[i][k];
+                }
+                rk[k] += acc;
+            }
         }
     }
     // `pj` and `e` are zero outside their leading n x n blocks (`mul` and `mul_t_sym` write
-    // only those), so they are the blocks of A and Q; row and column n are the block sum's.
+    // only those), so they are the blocks of A and Q; rows and columns n.. are the block sums'.
     let (mut a, mut q) = (pj, e);
-    if let Some(row) = a.get_mut(n) {
-        row.copy_from_slice(&r);
-    }
-    for (i, row) in q.iter_mut().enumerate() {
-        if let (Some(x), Some(ci)) = (row.get_mut(n), c.get(i)) {
-            *x = if i == n { v } else { *ci };
+    for (k, ((rk, ck), vk)) in r.iter().zip(c.iter()).zip(v.iter()).enumerate() {
+        if let Some(row) = a.get_mut(n + k) {
+            row.copy_from_slice(rk);
+        }
+        for (i, row) in q.iter_mut().enumerate().take(n) {
+            if let (Some(x), Some(ci)) = (row.get_mut(n + k), ck.get(i)) {
+                *x = *ci;
+            }
+        }
+        if let Some(row) = q.get_mut(n + k) {
+            for (x, ci) in row.iter_mut().zip(ck.iter()).take(n) {
+                *x = *ci;
+            }
+            for (x, vkl) in row.iter_mut().skip(n).zip(vk.iter()) {
+                *x = *vkl;
+            }
         }
     }
-    if let Some(row) = q.get_mut(n) {
-        for (x, ci) in row.iter_mut().zip(c.iter()).take(n) {
-            *x = *ci;
-        }
-    }
-    Some((a, q, n + 1))
+    Some((a, q, n + Z))
 }
 
 /// Builds `mem` as the filter of the block sums of `base` with `theta` (`ln` parameters of
-/// `specs`) over blocks of `block` ticks, with a diffuse start whose velocity is the first
-/// finite block mean `z0`. Returns the block mean's observation row and noise variance.
-pub fn block_filter<T: Real>(
-    base: &InsModel<T>,
+/// `specs`) over blocks of `block` ticks, started for a window whose first finite block means
+/// are `z0` ([`IdentifiableModel::window_start`]). Returns the block means' observation rows
+/// and noise variances.
+#[allow(clippy::type_complexity)]
+pub fn block_filter<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>(
+    base: &M,
     specs: &Specs,
     theta: &[T; MAXP],
     block: u32,
-    z0: T,
-    mem: &mut Member<T>,
-) -> Result<([T; NX], T), AdaptError> {
+    z0: &[T; Z],
+    mem: &mut Member<T, N>,
+) -> Result<([[T; N]; Z], [T; Z]), AdaptError> {
     let k = T::lit(f64::from(block.max(1)));
-    let m = apply(base, specs, theta).ok_or(AdaptError::BadParameter)?;
+    let m = base
+        .with_parameters(specs, theta)
+        .ok_or(AdaptError::BadParameter)?;
     let scale = m.scaling().map_err(AdaptError::Model)?;
-    let sys = m.continuous(&scale).map_err(AdaptError::Model)?;
-    let (phi1, qd1) = m.discretise_block(&scale).map_err(AdaptError::Model)?;
-    let h1 = from_vec(&sys.H);
+    let sys = m.system(&scale).map_err(AdaptError::Model)?;
+    let (phi1, qd1) = m.discrete(&scale).map_err(AdaptError::Model)?;
     let (phi, qd, n) =
-        block_system(&phi1, &qd1, &h1, sys.n, block).ok_or(AdaptError::BadParameter)?;
-    // Diffuse start of the INS states: the window begins hours into the run, where the
-    // velocity and tilt errors are far outside the model's initial covariance (a free
-    // Schuler loop drifts to metres per second). A tight prior there makes the first
-    // innovations dominate the comparison and favours whichever model absorbs them fastest
-    // (measured: 386 nats for a 10x accelerometer sigma). Velocity starts at the first
-    // block mean; the first BURN terms, dominated by the prior, are not summed.
-    let mut p0 = from_mat(&sys.P0);
-    for (i, sd) in [(idx::DV, DIFFUSE_DV), (idx::DELTA, DIFFUSE_TILT)] {
-        let s = scale.get(i).copied().unwrap_or(T::one());
-        for row in p0.iter_mut() {
-            if let Some(v) = row.get_mut(i) {
-                *v = T::zero();
-            }
-        }
-        if let Some(row) = p0.get_mut(i) {
-            row.fill(T::zero());
-            if let Some(v) = row.get_mut(i) {
-                let sd = T::lit(sd) / s;
-                *v = sd * sd;
-            }
-        }
-    }
+        block_system(&phi1, &qd1, &sys.H, sys.n, block).ok_or(AdaptError::BadParameter)?;
+    // The window begins hours into the run: the model says where its prior does not hold
+    // there (the INS's diffuse velocity and tilt); the first BURN terms are not summed.
+    let mut p0 = sys.P0;
+    let mut x0 = [T::zero(); N];
+    m.window_start(&scale, &mut p0, &mut x0, z0);
     mem.reset(&p0, n);
-    if let (Some(x), Some(s)) = (mem.kf.x.get_mut(idx::DV), scale.get(idx::DV)) {
-        *x = z0 / *s;
-    }
+    mem.kf.x = x0;
     mem.set_system(&phi, &qd);
-    // z_block = s / k + the mean of k white observation errors.
-    let mut h = [T::zero(); NX];
-    if let Some(v) = h.get_mut(n.wrapping_sub(1)) {
-        *v = T::one() / k;
+    // z_block,k = s_k / m + the mean of m white observation errors.
+    let mut h = [[T::zero(); N]; Z];
+    let mut r = [T::zero(); Z];
+    for (i, (hk, (rk, rs))) in h.iter_mut().zip(r.iter_mut().zip(sys.R.iter())).enumerate() {
+        if let Some(v) = hk.get_mut((n.saturating_sub(Z) + i).min(N - 1)) {
+            *v = T::one() / k;
+        }
+        *rk = *rs / k;
     }
-    Ok((h, m.sigma_v * m.sigma_v / k))
+    Ok((h, r))
 }
 
 /// A pass in progress: `count` filters (`1`, or `2p + 1` with derivatives) over the window.
 #[derive(Debug, Clone)]
-pub struct Pass<T: Real> {
-    members: [Member<T>; MEMBERS],
+pub struct Pass<T: Real, const N: usize = NX, const Z: usize = 1> {
+    members: [Member<T, N>; MEMBERS],
     count: usize,
     np: usize,
-    h: [T; NX],
-    r: T,
+    h: [[T; N]; Z],
+    r: [T; Z],
     /// Finite-difference step (`ln`).
     step: T,
     /// The point.
@@ -184,25 +191,25 @@ pub struct Pass<T: Real> {
     /// Blocks consumed.
     pub pos: usize,
     block: u32,
-    z0: T,
+    z0: [T; Z],
     prepared: usize,
 }
 
-impl<T: Real> Pass<T> {
+impl<T: Real, const N: usize, const Z: usize> Pass<T, N, Z> {
     /// Nothing (a compile-time value).
     pub const BLANK: Self = Self {
         members: [Member::BLANK; MEMBERS],
         count: 0,
         np: 0,
-        h: [T::ZERO; NX],
-        r: T::ZERO,
+        h: [[T::ZERO; N]; Z],
+        r: [T::ZERO; Z],
         step: T::ZERO,
         theta: [T::ZERO; MAXP],
         ll: T::ZERO,
         info: Information::BLANK,
         pos: 0,
         block: 0,
-        z0: T::ZERO,
+        z0: [T::ZERO; Z],
         prepared: 0,
     };
 
@@ -210,13 +217,20 @@ impl<T: Real> Pass<T> {
     /// `block` ticks whose first finite mean is `z0`. Its filters are then built one per
     /// [`prepare`](Self::prepare) call (each is a discretisation and a block system: spreading
     /// them over ticks bounds the worst tick).
-    pub fn start(&mut self, theta: &[T; MAXP], np: usize, derivs: Option<T>, block: u32, z0: T) {
+    pub fn start(
+        &mut self,
+        theta: &[T; MAXP],
+        np: usize,
+        derivs: Option<T>,
+        block: u32,
+        z0: &[T; Z],
+    ) {
         let np = np.min(MAXP);
         self.count = if derivs.is_some() { 2 * np + 1 } else { 1 }.min(MEMBERS);
         self.np = np;
         self.step = derivs.unwrap_or(T::zero());
         self.block = block.max(1);
-        self.z0 = z0;
+        self.z0 = *z0;
         self.prepared = 0;
         self.theta = *theta;
         self.ll = T::zero();
@@ -250,7 +264,11 @@ impl<T: Real> Pass<T> {
 
     /// Builds the next filter of the pass: the model at its point as the exact system of the
     /// block sums, with a diffuse start.
-    pub fn prepare(&mut self, base: &InsModel<T>, specs: &Specs) -> Result<(), AdaptError> {
+    pub fn prepare<M: IdentifiableModel<T, N, Z>>(
+        &mut self,
+        base: &M,
+        specs: &Specs,
+    ) -> Result<(), AdaptError> {
         let j = self.prepared;
         if j >= self.count {
             return Ok(());
@@ -264,7 +282,7 @@ impl<T: Real> Pass<T> {
             }
         }
         let mem = self.members.get_mut(j).ok_or(AdaptError::BadParameter)?;
-        (self.h, self.r) = block_filter(base, specs, &th, self.block, self.z0, mem)?;
+        (self.h, self.r) = block_filter(base, specs, &th, self.block, &self.z0, mem)?;
         self.prepared += 1;
         Ok(())
     }
@@ -274,35 +292,36 @@ impl<T: Real> Pass<T> {
         self.count
     }
 
-    /// One block mean through every filter of the pass (non-finite: missing).
-    pub fn push(&mut self, z: T) {
+    /// One block mean (per axis; non-finite: missing on that axis) through every filter of the
+    /// pass, fused axis by axis (sequential scalar updates: exact for independent axes, as in
+    /// the bank). The score and information are added when every axis was finite and used.
+    pub fn push(&mut self, z: &[T; Z]) {
         self.pos += 1;
-        let mut inn = [MemberInnovation::<T>::default(); MEMBERS];
-        let mut all = z.is_finite() && self.pos > BURN;
-        for (j, (m, out)) in self
-            .members
-            .iter_mut()
-            .zip(inn.iter_mut())
-            .take(self.count)
-            .enumerate()
-        {
+        let summed = self.pos > BURN;
+        let mut inn = [[MemberInnovation::<T>::default(); MEMBERS]; Z];
+        let mut all = z.iter().all(|v| v.is_finite()) && summed;
+        for (j, m) in self.members.iter_mut().take(self.count).enumerate() {
             m.predict();
-            let i = m.update(z, &self.h, self.r, None);
-            match i.status {
-                UpdateStatus::Updated => {
-                    *out = MemberInnovation {
-                        nu: i.innovation,
-                        s: i.variance,
-                    };
-                    if j == 0 && self.pos > BURN {
-                        self.ll += i.loglik();
+            for (k, (zk, (h, r))) in z.iter().zip(self.h.iter().zip(self.r.iter())).enumerate() {
+                let i = m.update(*zk, h, *r, None);
+                match i.status {
+                    UpdateStatus::Updated => {
+                        if let Some(out) = inn.get_mut(k).and_then(|a| a.get_mut(j)) {
+                            *out = MemberInnovation {
+                                nu: i.innovation,
+                                s: i.variance,
+                            };
+                        }
+                        if j == 0 && summed {
+                            self.ll += i.loglik();
+                        }
                     }
-                }
-                UpdateStatus::Missing => all = false,
-                UpdateStatus::Gated | UpdateStatus::BadInnovationVariance => {
-                    all = false;
-                    if j == 0 {
-                        self.ll = T::lit(f64::NEG_INFINITY);
+                    UpdateStatus::Missing => all = false,
+                    UpdateStatus::Gated | UpdateStatus::BadInnovationVariance => {
+                        all = false;
+                        if j == 0 {
+                            self.ll = T::lit(f64::NEG_INFINITY);
+                        }
                     }
                 }
             }
@@ -311,7 +330,9 @@ impl<T: Real> Pass<T> {
             }
         }
         if all && self.count > 1 {
-            accumulate(&inn, self.np, self.step, &mut self.info);
+            for axis in inn.iter() {
+                accumulate(axis, self.np, self.step, &mut self.info);
+            }
         }
     }
 }
@@ -330,10 +351,10 @@ mod tests {
         let scale = m.scaling().unwrap();
         let sys = m.continuous(&scale).unwrap();
         let (phi, qd) = m.discretise_block(&scale).unwrap();
-        let h = from_vec(&sys.H);
+        let h = crate::linalg::from_vec(&sys.H);
         let n = sys.n;
         let ticks = 60;
-        let (a, q, na) = block_system(&phi, &qd, &h, n, ticks).unwrap();
+        let (a, q, na) = block_system(&phi, &qd, &[h], n, ticks).unwrap();
         assert_eq!(na, n + 1);
         // Per-tick augmented transition and noise.
         let mut t: Arr<f64, NX> = zeros();
@@ -395,8 +416,8 @@ mod tests {
         let alt = swap(&paper, &site(&paper, 1).unwrap(), 0.01).unwrap();
         let built = |m: &InsModel<f64>, derivs: bool| {
             let s = specs(m);
-            let mut p = Pass::BLANK;
-            p.start(&theta_of(m, &s), s.len(), derivs.then_some(0.1), 60, 0.0);
+            let mut p: Pass<f64> = Pass::BLANK;
+            p.start(&theta_of(m, &s), s.len(), derivs.then_some(0.1), 60, &[0.0]);
             while !p.ready() {
                 p.prepare(m, &s).unwrap();
             }

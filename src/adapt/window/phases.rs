@@ -4,11 +4,13 @@
 
 use super::{grid_points, structure, Found, Phase, Switch, WindowSearch};
 use crate::adapt::guard::Bounds;
+use crate::adapt::identifiable::IdentifiableModel;
 use crate::adapt::params::{Specs, MAXP};
-use crate::model::InsModel;
 use crate::Real;
 
-impl<T: Real> WindowSearch<T> {
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
+    WindowSearch<T, M, N, Z>
+{
     /// Whether the running phase is the structure test's.
     pub(super) fn in_alternative(&self) -> bool {
         matches!(self.phase, Phase::AltScan(_) | Phase::AltRefine)
@@ -33,7 +35,7 @@ impl<T: Real> WindowSearch<T> {
     /// Records the finished pass and moves on; the result when the search ends.
     pub(super) fn complete(
         &mut self,
-        base: &InsModel<T>,
+        base: &M,
         specs: &Specs,
         bounds: &Bounds<T>,
     ) -> Option<Found<T>> {
@@ -178,12 +180,7 @@ impl<T: Real> WindowSearch<T> {
     }
 
     /// The next alternative's scan or polish, or the end of the structure test.
-    fn after_alternative(
-        &mut self,
-        base: &InsModel<T>,
-        specs: &Specs,
-        bounds: &Bounds<T>,
-    ) -> Phase {
+    fn after_alternative(&mut self, base: &M, specs: &Specs, bounds: &Bounds<T>) -> Phase {
         match self.next_alternative(base, specs, bounds) {
             Phase::Idle => self.structure_done(specs),
             next => next,

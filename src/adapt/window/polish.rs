@@ -8,11 +8,14 @@
 
 use super::{Phase, WindowSearch, CROWD, FINAL, MAX_ITERATIONS, SHORT_ITERATIONS, TOP};
 use crate::adapt::guard::Bounds;
+use crate::adapt::identifiable::IdentifiableModel;
 use crate::adapt::params::{has_coordinate, ParamSpec, Specs, MAXP};
 use crate::linalg::{chol_solve, cholesky};
 use crate::Real;
 
-impl<T: Real> WindowSearch<T> {
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
+    WindowSearch<T, M, N, Z>
+{
     /// Keeps `theta` (with its gain still `ahead`: zero before the brief polishes) among the
     /// `TOP` best points by likelihood.
     pub(super) fn offer(&mut self, ll: T, theta: &[T; MAXP], ahead: T) {

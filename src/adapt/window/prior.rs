@@ -25,6 +25,7 @@
 //! [`Found::fisher`]: super::Found::fisher
 
 use super::WindowSearch;
+use crate::adapt::identifiable::IdentifiableModel;
 use crate::adapt::params::{Specs, MAXP};
 use crate::model::Quantity;
 use crate::Real;
@@ -78,7 +79,9 @@ impl<T: Real> Prior<T> {
     }
 }
 
-impl<T: Real> WindowSearch<T> {
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
+    WindowSearch<T, M, N, Z>
+{
     /// Sets the prior of the pass about to start: the start model's point in the layout the
     /// pass searches (the structure test's alternative, or the filter's model `specs`) and the
     /// weight of each coordinate.

@@ -43,10 +43,11 @@
 
 use super::{Phase, Switch};
 use crate::adapt::guard::Bounds;
-use crate::adapt::params::{remap, specs, theta_of, Specs, MAXP};
-use crate::model::{
-    Component, ComponentKind, ErrorSource, ExpCosine, GaussMarkov, InsModel, Quantity,
-};
+use crate::adapt::identifiable::IdentifiableModel;
+use crate::adapt::params::{remap, Specs, MAXP};
+#[cfg(doc)]
+use crate::model::InsModel;
+use crate::model::Quantity;
 use crate::Real;
 
 /// Periods scanned for a new `beta`.
@@ -72,32 +73,13 @@ pub const MIN_QUALITY: f64 = core::f64::consts::PI;
 const SCAN_FIRST: f64 = 3.0;
 const SCAN_RATIO: f64 = 1.5;
 
-/// Where a switch happens and to which kind.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Site {
-    /// The error source of the component.
-    pub sensor: ErrorSource,
-    /// Its index in that sensor's list.
-    pub index: u8,
-    /// The kind it becomes.
-    pub kind: ComponentKind,
-}
-
-impl Site {
-    /// A placeholder (all-zero bits: statics stay in `.bss`).
-    pub const BLANK: Self = Self {
-        sensor: ErrorSource::Accel,
-        index: 0,
-        kind: ComponentKind::GaussMarkov,
-    };
-}
+pub use crate::adapt::params::Site;
 
 /// A model that differs from the filter's in one component's kind, ready to be searched.
 #[derive(Debug, Clone)]
-pub struct Alternative<T: Real> {
+pub struct Alternative<T: Real, M, const N: usize, const Z: usize> {
     /// The model with the component replaced (its parameter values are those of `start`).
-    pub base: InsModel<T>,
+    pub base: M,
     /// Its identified parameters.
     pub specs: Specs,
     /// Their bounds (the filter's, and for a new `beta` the physical range of the component's
@@ -117,60 +99,24 @@ pub struct Alternative<T: Real> {
     pub block_s: T,
 }
 
-fn components<T: Real>(
-    model: &InsModel<T>,
-) -> impl Iterator<Item = (ErrorSource, usize, &Component<T>)> {
-    let a = model
-        .accel
-        .iter()
-        .enumerate()
-        .map(|(i, c)| (ErrorSource::Accel, i, c));
-    let g = model
-        .gyro
-        .iter()
-        .enumerate()
-        .map(|(i, c)| (ErrorSource::Gyro, i, c));
-    a.chain(g)
-}
-
-/// The `k`-th switchable component of `model` (accelerometer first, in component order), with
-/// the kind it would become.
-pub fn site<T: Real>(model: &InsModel<T>, k: usize) -> Option<Site> {
-    components(model)
-        .filter_map(|(sensor, i, c)| {
-            let kind = c.kind().alternative()?;
-            let index = u8::try_from(i).ok()?;
-            Some(Site {
-                sensor,
-                index,
-                kind,
-            })
-        })
-        .nth(k)
+/// The `k`-th switchable component of `model` ([`IdentifiableModel::site`]; for [`InsModel`]:
+/// accelerometer first, in component order), with the kind it would become.
+pub fn site<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>(
+    model: &M,
+    k: usize,
+) -> Option<Site> {
+    model.site(k)
 }
 
 /// `model` with the component at `site` replaced by a component of `site.kind` with the same
-/// `sigma, tau` (and `beta` when the new kind has one). `None` if the site does not exist or its
-/// kind cannot become `site.kind`.
-pub fn swap<T: Real>(model: &InsModel<T>, site: &Site, beta: T) -> Option<InsModel<T>> {
-    let mut m = model.clone();
-    let list = match site.sensor {
-        ErrorSource::Accel => &mut m.accel,
-        ErrorSource::Gyro => &mut m.gyro,
-        ErrorSource::Observation => return None,
-    };
-    let c = list.get_mut(usize::from(site.index))?;
-    if c.kind().alternative() != Some(site.kind) {
-        return None;
-    }
-    let sigma = c.get(Quantity::Sigma)?;
-    let tau = c.get(Quantity::Tau)?;
-    *c = match site.kind {
-        ComponentKind::GaussMarkov => Component::GaussMarkov(GaussMarkov { sigma, tau }),
-        ComponentKind::ExpCosine => Component::ExpCosine(ExpCosine { sigma, tau, beta }),
-        _ => return None,
-    };
-    Some(m)
+/// `sigma, tau` (and `beta` when the new kind has one) ([`IdentifiableModel::swapped`]). `None`
+/// if the site does not exist or its kind cannot become `site.kind`.
+pub fn swap<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>(
+    model: &M,
+    site: &Site,
+    beta: T,
+) -> Option<M> {
+    model.swapped(site, beta)
 }
 
 /// The alternative at `site` of the filter's model (`base`, `specs`, best point `theta`, the
@@ -178,8 +124,8 @@ pub fn swap<T: Real>(model: &InsModel<T>, site: &Site, beta: T) -> Option<InsMod
 /// `block_s` seconds. `None` if the site does not exist, the alternative's parameters do not
 /// all fit in [`MAXP`], or the window is too short for any scanned period.
 #[allow(clippy::too_many_arguments)]
-pub fn alternative<T: Real>(
-    base: &InsModel<T>,
+pub fn alternative<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>(
+    base: &M,
     specs_now: &Specs,
     theta: &[T; MAXP],
     centre: &[T; MAXP],
@@ -187,14 +133,14 @@ pub fn alternative<T: Real>(
     site: Site,
     block_s: T,
     window_s: T,
-) -> Option<Alternative<T>> {
+) -> Option<Alternative<T, M, N, Z>> {
     let longest = window_s / T::lit(MIN_CYCLES);
     let periods = (0..PERIODS)
         .take_while(|&k| block_s * T::lit(scan_blocks(k)) <= longest)
         .count();
     let beta0 = T::lit(core::f64::consts::TAU) / (block_s * T::lit(scan_blocks(0)));
     let alt = swap(base, &site, beta0)?;
-    let specs_alt = specs(&alt);
+    let specs_alt = alt.identified();
     let same = |s: &crate::adapt::params::ParamSpec, q| {
         s.sensor == site.sensor && s.index == site.index && s.kind == q
     };
@@ -204,7 +150,7 @@ pub fn alternative<T: Real>(
             return None;
         }
     }
-    let fill = theta_of(&alt, &specs_alt);
+    let fill = alt.parameters(&specs_alt);
     let start = remap(specs_now, theta, &specs_alt, &fill);
     let origin = remap(specs_now, centre, &specs_alt, &fill);
     let mut lo = remap(specs_now, &bounds.lo, &specs_alt, &fill);
@@ -247,10 +193,12 @@ fn scan_blocks(k: usize) -> f64 {
     SCAN_FIRST * libm::pow(SCAN_RATIO, k as f64)
 }
 
-impl<T: Real> Alternative<T> {
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
+    Alternative<T, M, N, Z>
+{
     /// A placeholder (a compile-time value).
     pub const BLANK: Self = Self {
-        base: InsModel::BLANK,
+        base: M::BLANK,
         specs: Specs::new(),
         bounds: Bounds::BLANK,
         start: [T::ZERO; MAXP],
@@ -289,12 +237,14 @@ impl<T: Real> Alternative<T> {
 
 /// The structure test's phases of the window search (its state is the search's: this module is
 /// a child of [`super`], so it reads the private fields).
-impl<T: Real> super::WindowSearch<T> {
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
+    super::WindowSearch<T, M, N, Z>
+{
     /// The structure test's next alternative (the next switchable component of the model), or
     /// the end of the search.
     pub(super) fn next_alternative(
         &mut self,
-        base: &InsModel<T>,
+        base: &M,
         specs: &Specs,
         bounds: &Bounds<T>,
     ) -> Phase {

@@ -266,7 +266,7 @@ fn a_tick_the_monitor_built_on_holds_no_construction_of_the_search() {
     for built in [false, true] {
         let mut w = search(cfg);
         for k in 0..(cfg.block * 10) {
-            w.push(1e-3 * f64::from(k % 7), &base, &s);
+            w.push(&[1e-3 * f64::from(k % 7)], &base, &s);
         }
         w.start(&theta);
         w.monitor_built = built;
