@@ -6,10 +6,10 @@
 use super::identifier_tests::{
     env_var, from_any_start, gate, judge, loglik, observations, sound, start, TwoSpeeds, N, TRUTH,
 };
-use crate::adapt::{AdaptConfig, AdaptiveFilter, WindowConfig};
+use crate::adapt::{AdaptConfig, AdaptiveFilter, WindowConfig, WINDOW_CAP};
 extern crate std;
 
-type TwoSpeedsFilter = AdaptiveFilter<f64, TwoSpeeds, N, 2>;
+type TwoSpeedsFilter<const W: usize = WINDOW_CAP> = AdaptiveFilter<f64, TwoSpeeds, N, 2, W>;
 
 /// The global stage's settings for this model: blocks of `block` steps, a window of 480 blocks,
 /// searches every 240, and a budget that lets a search end within its blocks' slack on the
@@ -26,9 +26,14 @@ fn global(block: u32) -> AdaptConfig<f64> {
     }
 }
 
-/// Runs the adaptive filter from `m` over `z`; returns it and the number of rejected steps.
-fn identify(m: TwoSpeeds, cfg: AdaptConfig<f64>, z: &[[f64; 2]]) -> (TwoSpeedsFilter, usize) {
-    let mut f = TwoSpeedsFilter::new(m, cfg).unwrap();
+/// Runs the adaptive filter (its ring of `W` block means) from `m` over `z`; returns it and the
+/// number of rejected steps.
+fn identify<const W: usize>(
+    m: TwoSpeeds,
+    cfg: AdaptConfig<f64>,
+    z: &[[f64; 2]],
+) -> (TwoSpeedsFilter<W>, usize) {
+    let mut f = TwoSpeedsFilter::<W>::from_model(m, cfg).unwrap();
     let rejected = z
         .iter()
         .filter(|zk| f.step_axes(zk, None).step.rejected)
@@ -40,7 +45,7 @@ fn identify(m: TwoSpeeds, cfg: AdaptConfig<f64>, z: &[[f64; 2]]) -> (TwoSpeedsFi
 /// tau-only corners and eight log-uniform starts in `[0.1, 10]` (`docs/ADAPTATION.md` §2.7):
 ///
 /// ```text
-/// STEPS=160000 BLOCK=5 HOLD=1 MARGIN=0 SEED=1 \
+/// STEPS=160000 BLOCK=5 HOLD=1 MARGIN=0 RING=600 WINDOW=480 SEED=1 \
 ///     cargo test --release --lib two_speeds_global_from_any_start -- --ignored --nocapture
 /// ```
 ///
@@ -55,8 +60,19 @@ fn two_speeds_global_from_any_start() {
     // MARGIN: the nats a search's answer must gain over the filter's point on its window
     // before the filter jumps to it.
     cfg.global.margin = env_var("MARGIN", 0.0);
+    // RING=2400 with WINDOW=2000: a window four times the default's.
+    cfg.global.window = env_var("WINDOW", 480.0) as u32;
+    if env_var("RING", 600.0) == 2400.0 {
+        measure::<2400>(cfg);
+    } else {
+        measure::<WINDOW_CAP>(cfg);
+    }
+}
+
+/// [`two_speeds_global_from_any_start`] with a ring of `W` block means.
+fn measure<const W: usize>(cfg: AdaptConfig<f64>) {
     from_any_start(|m, z| {
-        let (id, rejected) = identify(m, cfg, z);
+        let (id, rejected) = identify::<W>(m, cfg, z);
         let note = std::format!(
             "jumps {}, last search {} passes, rejected {rejected}",
             id.jumps(),
@@ -83,7 +99,7 @@ fn the_global_stage_leaves_the_wrong_basin() {
         [0.1, 1.0, 0.1, 1.0],
         [0.1, 1.0, 1.0, 1.0],
     ] {
-        let (id, rejected) = identify(start(f), global(5), &z);
+        let (id, rejected) = identify::<WINDOW_CAP>(start(f), global(5), &z);
         assert_eq!(rejected, 0);
         assert!(id.jumps() > 0, "start {f:?}: no search moved the filter");
         let (within, end) = judge(id.theta(), id.cr_sd(), id.flat(), &z, at_truth);
@@ -141,7 +157,7 @@ fn the_global_stage_survives_any_input() {
     });
     runner
         .run(&case, |(rows, f, gated)| {
-            let mut id = TwoSpeedsFilter::new(start(f), cfg).unwrap();
+            let mut id = TwoSpeedsFilter::<WINDOW_CAP>::from_model(start(f), cfg).unwrap();
             let p = id.specs().len();
             for (a, b) in &rows {
                 let g: Option<&dyn Fn(usize) -> f64> = if gated { Some(&gate) } else { None };

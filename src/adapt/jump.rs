@@ -17,8 +17,8 @@ use crate::Real;
 /// (`keep_start`, `keep_identified`).
 const HOLD_QUANTILE: [f64; 8] = [1.921, 2.996, 3.907, 4.744, 5.535, 6.296, 7.034, 7.754];
 
-impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
-    AdaptiveFilter<T, M, N, Z>
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, const W: usize>
+    AdaptiveFilter<T, M, N, Z, W>
 {
     /// The window's answer with each identified intensity raised by
     /// [`WindowConfig::conservative`](super::window::WindowConfig::conservative) of its

@@ -58,8 +58,8 @@ use identifier::{Identifier, IdentifierStep};
 use information::Information;
 use params::{Specs, MAXP};
 pub use report::{StepReport, StepStatus};
-pub use window::WindowSearch;
 pub use window::{Found, Switch, WindowConfig};
+pub use window::{WindowSearch, WINDOW_CAP};
 
 /// Why the adaptive filter could not be built or moved.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -77,16 +77,22 @@ pub enum AdaptError {
 
 /// An INS filter that identifies its own sensor-noise parameters online: the recursive
 /// [`Identifier`], with the probe grid, the global window search and the structure switch that
-/// choose its basin. Generic over the error model like them; the one-channel model is the
-/// default, with its scalar [`step`](Self::step) and [`estimates`](Self::estimates).
+/// choose its basin. Generic over the error model like them (and over the capacity `W` of the
+/// global stage's ring of block means); the one-channel model is the default, with its scalar
+/// [`step`](Self::step) and [`estimates`](Self::estimates).
 #[derive(Debug, Clone)]
-pub struct AdaptiveFilter<T: Real, M = InsModel<T>, const N: usize = NX, const Z: usize = 1>
-where
+pub struct AdaptiveFilter<
+    T: Real,
+    M = InsModel<T>,
+    const N: usize = NX,
+    const Z: usize = 1,
+    const W: usize = WINDOW_CAP,
+> where
     M: IdentifiableModel<T, N, Z>,
 {
     /// The bank, `theta`, the windowed information, the Gauss-Newton recursion and the probes.
     id: Identifier<T, M, N, Z>,
-    global: WindowSearch<T, M, N, Z>,
+    global: WindowSearch<T, M, N, Z, W>,
     /// The model's [`Outputs`](IdentifiableModel::Outputs) (for the one-channel model, the rows
     /// of [`estimates`](Self::estimates)).
     outputs: M::Outputs,
@@ -113,8 +119,8 @@ pub struct AxesStep<T, const Z: usize> {
     pub changed: bool,
 }
 
-impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
-    AdaptiveFilter<T, M, N, Z>
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, const W: usize>
+    AdaptiveFilter<T, M, N, Z, W>
 {
     /// An empty filter (a compile-time value, all zeros): call [`init`](Self::init) before use.
     /// A `static` initialised with it costs no flash (it goes to `.bss`) and no stack.
@@ -128,16 +134,17 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
         at_start: false,
     };
 
-    /// Starts from `model` (its parameters are the initial guess).
-    pub fn new(model: M, cfg: AdaptConfig<T>) -> Result<Self, AdaptError> {
+    /// Starts from `model` (its parameters are the initial guess). For the one-channel model,
+    /// [`new`](AdaptiveFilter::new) says the same without naming the type's parameters.
+    pub fn from_model(model: M, cfg: AdaptConfig<T>) -> Result<Self, AdaptError> {
         let mut f = Self::BLANK;
         f.init(model, cfg)?;
         Ok(f)
     }
 
-    /// [`new`](Self::new) in place: the filters (about 21 KB in `f32`) are initialised where
-    /// they are, never built on the stack and moved. On error the filter must not be stepped
-    /// (initialise it again).
+    /// [`from_model`](Self::from_model) in place: the filters (about 21 KB in `f32`) are
+    /// initialised where they are, never built on the stack and moved. On error the filter must not
+    /// be stepped (initialise it again).
     pub fn init(&mut self, model: M, cfg: AdaptConfig<T>) -> Result<(), AdaptError> {
         // The settings are checked by `Identifier::init` (the recursion's and the probes') and
         // `WindowSearch::init` (the global stage's).
@@ -214,7 +221,7 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
     }
 
     /// The global stage's window and search state.
-    pub fn global(&self) -> &WindowSearch<T, M, N, Z> {
+    pub fn global(&self) -> &WindowSearch<T, M, N, Z, W> {
         &self.global
     }
 
@@ -322,8 +329,13 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
     }
 }
 
-/// The one-channel filter's scalar step and its estimates.
+/// The one-channel filter's constructor, scalar step and estimates.
 impl<T: Real> AdaptiveFilter<T> {
+    /// Starts from `model` (its parameters are the initial guess).
+    pub fn new(model: InsModel<T>, cfg: AdaptConfig<T>) -> Result<Self, AdaptError> {
+        Self::from_model(model, cfg)
+    }
+
     /// One filter cycle with velocity observation `z` [m/s] (non-finite: missing), then, every
     /// `block` steps, one Gauss-Newton update of the parameters.
     pub fn step(&mut self, z: T) -> StepReport<T> {

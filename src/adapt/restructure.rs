@@ -56,8 +56,8 @@ pub fn carry<T: Real, const N: usize>(
 }
 
 /// The switch itself (this module is a child of [`super`], so it reads the filter's fields).
-impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
-    super::AdaptiveFilter<T, M, N, Z>
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, const W: usize>
+    super::AdaptiveFilter<T, M, N, Z, W>
 {
     /// Replaces the model's structure by the search's alternative `sw` (found on a window of
     /// `blocks` block means): a new bank at `sw.theta`

@@ -38,8 +38,8 @@ pub fn grid_points(p: usize) -> (usize, usize) {
     (first, second)
 }
 
-impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
-    WindowSearch<T, M, N, Z>
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, const W: usize>
+    WindowSearch<T, M, N, Z, W>
 {
     /// The `k`-th point of the grids for `p` parameters (`k` below the sum of [`grid_points`]).
     pub(super) fn grid_point(&self, k: usize, p: usize, bounds: &Bounds<T>) -> [T; MAXP] {

@@ -136,13 +136,21 @@ enum Phase {
 }
 
 /// The buffered window and the time-sliced search over it, for the error model `M` with `N`
-/// states and `Z` observation axes (the one-channel INS by default). Its passes are filters
-/// of `n + Z` states (the model's `n` and one block sum per axis), so `n + Z <= N`.
+/// states and `Z` observation axes (the one-channel INS by default), in a ring of `W` block
+/// means (a window holds at most nine tenths of it; the rest takes the blocks that arrive
+/// while a search runs). Its passes are filters of `n + Z` states (the model's `n` and one
+/// block sum per axis), so `n + Z <= N`.
 #[derive(Debug, Clone)]
-pub struct WindowSearch<T: Real, M = InsModel<T>, const N: usize = NX, const Z: usize = 1> {
+pub struct WindowSearch<
+    T: Real,
+    M = InsModel<T>,
+    const N: usize = NX,
+    const Z: usize = 1,
+    const W: usize = WINDOW_CAP,
+> {
     cfg: WindowConfig<T>,
     /// Block means, one per axis (NaN: missing on that axis).
-    ring: [[T; Z]; WINDOW_CAP],
+    ring: [[T; Z]; W],
     /// Index the next block mean goes to.
     head: usize,
     /// Block means pushed since the start.
@@ -234,13 +242,13 @@ pub struct WindowSearch<T: Real, M = InsModel<T>, const N: usize = NX, const Z: 
     prior: prior::Prior<T>,
 }
 
-impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
-    WindowSearch<T, M, N, Z>
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, const W: usize>
+    WindowSearch<T, M, N, Z, W>
 {
     /// Nothing buffered, off (a compile-time value).
     pub const BLANK: Self = Self {
         cfg: WindowConfig::OFF,
-        ring: [[T::ZERO; Z]; WINDOW_CAP],
+        ring: [[T::ZERO; Z]; W],
         head: 0,
         pushed: 0,
         floor: 0,
@@ -302,7 +310,9 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
         self.centre = *centre;
         // The window leaves a tenth of the ring for the blocks that arrive during a search.
         self.cfg = WindowConfig {
-            window: cfg.window.min(WINDOW_CAP as u32 / 10 * 9),
+            window: cfg
+                .window
+                .min(u32::try_from(W / 10 * 9).unwrap_or(u32::MAX)),
             block: cfg.block.min(pass::MAX_BLOCK),
             ..cfg
         };
@@ -406,7 +416,7 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
             if let Some(v) = self.ring.get_mut(self.head) {
                 *v = mean;
             }
-            self.head = (self.head + 1) % WINDOW_CAP;
+            self.head = (self.head + 1) % W.max(1);
             self.pushed = self.pushed.saturating_add(1);
             self.acc = [T::zero(); Z];
             self.acc_n = 0;
@@ -440,14 +450,14 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
     /// The `i`-th block mean of the window (NaN outside it).
     fn block(&self, i: usize) -> [T; Z] {
         self.ring
-            .get((self.w0 + i) % WINDOW_CAP)
+            .get((self.w0 + i) % W.max(1))
             .copied()
             .unwrap_or([T::lit(f64::NAN); Z])
     }
 
     fn window_intact(&self) -> bool {
         let arrived = self.pushed.saturating_sub(self.started_at) as usize;
-        arrived + self.wlen <= WINDOW_CAP
+        arrived + self.wlen <= W
     }
 
     /// The window's first finite block mean on each axis (zero on an axis with none).
@@ -482,9 +492,9 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
     /// Starts a search anchored at `anchor` over the most recent blocks.
     pub fn start(&mut self, anchor: &[T; MAXP]) {
         let since_change = self.pushed.saturating_sub(self.floor) as usize;
-        let avail = (self.pushed as usize).min(WINDOW_CAP).min(since_change);
+        let avail = (self.pushed as usize).min(W).min(since_change);
         self.wlen = avail.min(self.cfg.window as usize);
-        self.w0 = (self.head + WINDOW_CAP - self.wlen) % WINDOW_CAP;
+        self.w0 = (self.head + W - self.wlen) % W.max(1);
         self.started_at = self.pushed;
         // Structure first when the last answer settled and its best alternative beat it, with
         // the test on. Not after every settled answer: one can be a wrong basin's, and the

@@ -8,8 +8,8 @@ use crate::adapt::identifiable::IdentifiableModel;
 use crate::adapt::params::{Specs, MAXP};
 use crate::Real;
 
-impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
-    WindowSearch<T, M, N, Z>
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, const W: usize>
+    WindowSearch<T, M, N, Z, W>
 {
     /// Whether the running phase is the structure test's.
     pub(super) fn in_alternative(&self) -> bool {

@@ -13,8 +13,8 @@ use crate::adapt::params::{has_coordinate, ParamSpec, Specs, MAXP};
 use crate::linalg::{chol_solve, cholesky};
 use crate::Real;
 
-impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
-    WindowSearch<T, M, N, Z>
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, const W: usize>
+    WindowSearch<T, M, N, Z, W>
 {
     /// Keeps `theta` (with its gain still `ahead`: zero before the brief polishes) among the
     /// `TOP` best points by likelihood.

@@ -79,8 +79,8 @@ impl<T: Real> Prior<T> {
     }
 }
 
-impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
-    WindowSearch<T, M, N, Z>
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, const W: usize>
+    WindowSearch<T, M, N, Z, W>
 {
     /// Sets the prior of the pass about to start: the start model's point in the layout the
     /// pass searches (the structure test's alternative, or the filter's model `specs`) and the

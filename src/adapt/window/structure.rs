@@ -237,8 +237,8 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
 
 /// The structure test's phases of the window search (its state is the search's: this module is
 /// a child of [`super`], so it reads the private fields).
-impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>
-    super::WindowSearch<T, M, N, Z>
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, const W: usize>
+    super::WindowSearch<T, M, N, Z, W>
 {
     /// The structure test's next alternative (the next switchable component of the model), or
     /// the end of the search.
