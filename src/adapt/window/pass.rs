@@ -350,12 +350,24 @@ mod tests {
         let m = InsModel::<f64>::paper();
         let scale = m.scaling().unwrap();
         let sys = m.continuous(&scale).unwrap();
-        let (phi, qd) = m.discretise_block(&scale).unwrap();
         let h = crate::linalg::from_vec(&sys.H);
-        let n = sys.n;
+        augmented_propagation(&m, [h]);
+        // Two axes: the velocity and a second row that also sees the gyro's drift (the cross
+        // terms `V^kl` of the block sums).
+        let mut h2 = h.map(|v| 0.5 * v);
+        h2[2] += 1.0;
+        augmented_propagation(&m, [h, h2]);
+    }
+
+    /// `block_system` of `m` with the rows `h` against the per-tick augmented system
+    /// `[x; s]_j = [[Phi, 0], [H Phi, I]] [x; s]_{j-1} + [w; H w]` propagated from `s = 0`.
+    fn augmented_propagation<const Z: usize>(m: &InsModel<f64>, h: [[f64; NX]; Z]) {
+        let scale = m.scaling().unwrap();
+        let n = m.continuous(&scale).unwrap().n;
+        let (phi, qd) = m.discretise_block(&scale).unwrap();
         let ticks = 60;
-        let (a, q, na) = block_system(&phi, &qd, &[h], n, ticks).unwrap();
-        assert_eq!(na, n + 1);
+        let (a, q, na) = block_system(&phi, &qd, &h, n, ticks).unwrap();
+        assert_eq!(na, n + Z);
         // Per-tick augmented transition and noise.
         let mut t: Arr<f64, NX> = zeros();
         let mut w: Arr<f64, NX> = zeros();
@@ -365,35 +377,40 @@ mod tests {
                 w[i][k] = qd[i][k];
             }
         }
-        for k in 0..n {
-            t[n][k] = (0..n).map(|i| h[i] * phi[i][k]).sum();
+        let qh = |i: usize, hk: &[f64; NX]| -> f64 { (0..n).map(|k| qd[i][k] * hk[k]).sum() };
+        for (a, ha) in h.iter().enumerate() {
+            for k in 0..n {
+                t[n + a][k] = (0..n).map(|i| ha[i] * phi[i][k]).sum();
+            }
+            t[n + a][n + a] = 1.0;
+            for i in 0..n {
+                w[i][n + a] = qh(i, ha);
+                w[n + a][i] = qh(i, ha);
+            }
+            for (b, hb) in h.iter().enumerate() {
+                w[n + a][n + b] = (0..n).map(|i| ha[i] * qh(i, hb)).sum();
+            }
         }
-        t[n][n] = 1.0;
-        for i in 0..n {
-            let qh: f64 = (0..n).map(|k| qd[i][k] * h[k]).sum();
-            w[i][n] = qh;
-            w[n][i] = qh;
-        }
-        w[n][n] = (0..n)
-            .map(|i| h[i] * (0..n).map(|k| qd[i][k] * h[k]).sum::<f64>())
-            .sum();
+        let na = n + Z;
         let mut prod: Arr<f64, NX> = zeros();
-        for i in 0..=n {
+        for i in 0..na {
             prod[i][i] = 1.0;
         }
         let mut cov: Arr<f64, NX> = zeros();
         for _ in 0..ticks {
-            prod = mul(&t, &prod, n + 1);
-            let tc = mul(&t, &cov, n + 1);
-            cov = mul_t_sym(&tc, &t, &w, n + 1);
+            prod = mul(&t, &prod, na);
+            let tc = mul(&t, &cov, na);
+            cov = mul_t_sym(&tc, &t, &w, na);
         }
-        for i in 0..=n {
+        for i in 0..na {
             for k in 0..n {
                 let d = (a[i][k] - prod[i][k]).abs();
                 assert!(d <= 1e-9 * (1.0 + prod[i][k].abs()), "A[{i}][{k}]");
             }
-            assert_eq!(a[i][n], 0.0, "the block sum restarts every block");
-            for k in 0..=n {
+            for k in n..na {
+                assert_eq!(a[i][k], 0.0, "the block sums restart every block");
+            }
+            for k in 0..na {
                 let d = (q[i][k] - cov[i][k]).abs();
                 assert!(
                     d <= 1e-9 * (1.0 + cov[i][k].abs()),
