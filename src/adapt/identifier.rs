@@ -8,8 +8,7 @@
 //! `epoch` steps the centre jumps to a probe that beats it by the margin, and during the search
 //! phase (until an epoch ends without a jump) the Gauss-Newton moves are held. All of it is for
 //! a model of `N` states and `Z` observation axes. [`AdaptiveFilter`](super::AdaptiveFilter)
-//! runs one on the one-channel INS model and adds what is specific to that model: the global
-//! window search and the structure switch.
+//! runs one and adds the global window search and the structure switch.
 //!
 //! ```
 //! use imu_ident::adapt::identifier::Identifier;

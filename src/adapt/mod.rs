@@ -28,8 +28,8 @@
 //! Gauss-Newton moves are held; afterwards a probe must win by a larger margin.
 //!
 //! The recursion and the probe epochs are [`Identifier`], generic over the error model like the
-//! bank. [`AdaptiveFilter`] runs one on the one-channel model and adds the global stage
-//! ([`window`]) and the structure switch ([`restructure`]).
+//! bank. [`AdaptiveFilter`] runs one and adds the global stage ([`window`]) and the structure
+//! switch ([`restructure`]), generic the same way; the one-channel model is its default.
 
 // Small fixed-size matrix code reads best with explicit indices (they mirror the equations).
 #![allow(clippy::needless_range_loop)]

@@ -10,9 +10,14 @@
 //! parameter followed by a local polish reaches, from all 8, the maximum that an offline fit
 //! to the same hours reaches.
 //!
+//! The search is generic over the error model ([`IdentifiableModel`]): the window holds one
+//! block mean per observation axis, and the model says where its prior does not hold at a
+//! window's start ([`IdentifiableModel::window_start`]; the one-channel INS's diffuse velocity
+//! and tilt below).
+//!
 //! # What
-//! - Every `block` ticks the mean of the observations is pushed into a ring of [`WINDOW_CAP`]
-//!   block means (a block with a missing observation is missing).
+//! - Every `block` ticks the mean of the observations is pushed into a ring of `W` (by default
+//!   [`WINDOW_CAP`]) block means (a block with a missing observation is missing on its axis).
 //! - A search evaluates, each over the same frozen window of the most recent `window` blocks,
 //!   the exact innovation log-likelihood (Schweppe) of the block means: the model over one
 //!   block is the exact system of the block sums ([`pass::block_system`]), so nothing is
