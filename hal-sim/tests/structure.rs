@@ -115,8 +115,8 @@ fn exp_cosine_gyro_drift_is_found_and_paper_does_not_switch() {
 /// code; it asserts a bound, not a statistic.
 #[test]
 fn a_non_oscillating_exp_cosine_is_not_offered() {
+    use imu_ident::adapt::identifiable::IdentifiableModel;
     use imu_ident::adapt::params::{apply, specs};
-    use imu_ident::adapt::window::structure::swap;
     use imu_ident::model::{ErrorSource, Quantity};
     let paper = InsModel::<f64>::paper();
     let mut ec = paper.clone();
@@ -147,7 +147,9 @@ fn a_non_oscillating_exp_cosine_is_not_offered() {
             let Some(s) = g.switch.get().filter(|s| s.extra > 0) else {
                 continue;
             };
-            let alt = swap(&paper, &s.site, 1.0).unwrap_or_else(|| panic!("{:?}", s.site));
+            let alt = paper
+                .swapped(&s.site, 1.0)
+                .unwrap_or_else(|| panic!("{:?}", s.site));
             let m = apply(&alt, &specs(&alt), &s.theta).unwrap_or_else(|| panic!("theta"));
             let list = if s.site.sensor == ErrorSource::Accel {
                 &m.accel

@@ -149,8 +149,10 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, con
         // The settings are checked by `Identifier::init` (the recursion's and the probes') and
         // `WindowSearch::init` (the global stage's).
         self.id.init(model, cfg)?;
-        let scale = self.id.base.scaling().map_err(AdaptError::Model)?;
-        self.outputs = self.id.base.outputs(&scale).map_err(AdaptError::Model)?;
+        // The bank's scaling is the model's (`Bank::init`).
+        self.outputs = (self.id.base)
+            .outputs(self.id.bank.scale_array())
+            .map_err(AdaptError::Model)?;
         self.global.init(cfg.global, &self.id.theta);
         self.last_global = Found::BLANK;
         self.switches = 0;

@@ -142,7 +142,6 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, con
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::adapt::window::structure::{site, swap};
     use crate::model::{ErrorModel, InsModel, NX};
 
     /// Paper -> gyro exp-cosine: the navigation errors and the accelerometer's state are
@@ -150,7 +149,7 @@ mod tests {
     #[test]
     fn switching_the_gyro_keeps_the_rest_of_the_state() {
         let old = InsModel::<f64>::paper();
-        let new = swap(&old, &site(&old, 1).unwrap(), 0.01).unwrap();
+        let new = old.swapped(&old.site(1).unwrap(), 0.01).unwrap();
         let map = old.state_map(&new).unwrap();
         assert_eq!(&map[..5], &[Some(0), Some(1), Some(2), None, None]);
         let (so, sn) = (

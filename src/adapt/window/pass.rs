@@ -427,10 +427,10 @@ mod tests {
     /// alternative's 6 (`ceil(36 / 25) = 2` per filter).
     #[test]
     fn an_alternative_s_steps_cost_more() {
+        use crate::adapt::identifiable::IdentifiableModel;
         use crate::adapt::params::{specs, theta_of};
-        use crate::adapt::window::structure::{site, swap};
         let paper = InsModel::<f64>::paper();
-        let alt = swap(&paper, &site(&paper, 1).unwrap(), 0.01).unwrap();
+        let alt = paper.swapped(&paper.site(1).unwrap(), 0.01).unwrap();
         let built = |m: &InsModel<f64>, derivs: bool| {
             let s = specs(m);
             let mut p: Pass<f64> = Pass::BLANK;

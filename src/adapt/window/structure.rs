@@ -30,14 +30,14 @@
 //! with `beta tau` of 1.0-2.1, up to 4.1 nats; the issue's oscillation has `beta tau = 4 pi`.
 //!
 //! ```
-//! use imu_ident::adapt::window::structure::{site, swap};
+//! use imu_ident::adapt::identifiable::IdentifiableModel;
 //! use imu_ident::model::{ComponentKind, InsModel, ErrorSource};
 //! let paper = InsModel::<f64>::paper();
 //! // The paper's two Gauss-Markov components are the candidates, accelerometer first.
-//! let s = site(&paper, 1).unwrap();
+//! let s = paper.site(1).unwrap();
 //! assert_eq!((s.sensor, s.index, s.kind), (ErrorSource::Gyro, 0, ComponentKind::ExpCosine));
-//! assert!(site(&paper, 2).is_none());
-//! let ec = swap(&paper, &s, 0.01).unwrap();
+//! assert!(paper.site(2).is_none());
+//! let ec = paper.swapped(&s, 0.01).unwrap();
 //! assert_eq!(ec.gyro[0].kind(), ComponentKind::ExpCosine);
 //! ```
 
@@ -45,8 +45,6 @@ use super::{Phase, Switch};
 use crate::adapt::guard::Bounds;
 use crate::adapt::identifiable::IdentifiableModel;
 use crate::adapt::params::{remap, Specs, MAXP};
-#[cfg(doc)]
-use crate::model::InsModel;
 use crate::model::Quantity;
 use crate::Real;
 
@@ -99,26 +97,6 @@ pub struct Alternative<T: Real, M, const N: usize, const Z: usize> {
     pub block_s: T,
 }
 
-/// The `k`-th switchable component of `model` ([`IdentifiableModel::site`]; for [`InsModel`]:
-/// accelerometer first, in component order), with the kind it would become.
-pub fn site<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>(
-    model: &M,
-    k: usize,
-) -> Option<Site> {
-    model.site(k)
-}
-
-/// `model` with the component at `site` replaced by a component of `site.kind` with the same
-/// `sigma, tau` (and `beta` when the new kind has one) ([`IdentifiableModel::swapped`]). `None`
-/// if the site does not exist or its kind cannot become `site.kind`.
-pub fn swap<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize>(
-    model: &M,
-    site: &Site,
-    beta: T,
-) -> Option<M> {
-    model.swapped(site, beta)
-}
-
 /// The alternative at `site` of the filter's model (`base`, `specs`, best point `theta`, the
 /// start model's point `centre`, `bounds`), for a window of `window_s` seconds in blocks of
 /// `block_s` seconds. `None` if the site does not exist, the alternative's parameters do not
@@ -139,7 +117,7 @@ pub fn alternative<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const
         .take_while(|&k| block_s * T::lit(scan_blocks(k)) <= longest)
         .count();
     let beta0 = T::lit(core::f64::consts::TAU) / (block_s * T::lit(scan_blocks(0)));
-    let alt = swap(base, &site, beta0)?;
+    let alt = base.swapped(&site, beta0)?;
     let specs_alt = alt.identified();
     let same = |s: &crate::adapt::params::ParamSpec, q| {
         s.sensor == site.sensor && s.index == site.index && s.kind == q
@@ -255,7 +233,7 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, con
         for _ in 0..(2 * crate::model::ins::MAX_COMPONENTS) {
             let k = self.alt_k;
             self.alt_k += 1;
-            let Some(site) = site(base, k) else {
+            let Some(site) = base.site(k) else {
                 break;
             };
             let window_s = T::lit(self.wlen as f64) * self.block_s;

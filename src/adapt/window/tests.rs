@@ -290,7 +290,7 @@ fn a_tick_the_monitor_built_on_holds_no_construction_of_the_search() {
 #[test]
 fn after_a_settled_answer_the_structure_test_comes_first() {
     use super::{Phase, Switch};
-    use crate::adapt::window::structure::site;
+    use crate::adapt::identifiable::IdentifiableModel;
     let (base, s, theta, wide) = paper_at_truth();
     // The anchor's pass finished, at log-likelihood 0.
     let anchor_done = |w: &mut WindowSearch<f64>| {
@@ -307,7 +307,7 @@ fn after_a_settled_answer_the_structure_test_comes_first() {
     assert!(!w.early && !w.tested);
     assert!(matches!(w.phase, Phase::Grid(0) | Phase::Carried(0)));
     let winner = Switch {
-        site: site(&base, 1).unwrap(),
+        site: base.site(1).unwrap(),
         theta,
         gain: 5.0,
         extra: 1,
@@ -335,7 +335,7 @@ fn after_a_settled_answer_the_structure_test_comes_first() {
     assert!(anchor_done(&mut w).is_none());
     assert!(w.early && w.tested);
     assert_eq!(w.phase, Phase::AltScan(0));
-    assert_eq!(w.alt.site, site(&base, 0).unwrap());
+    assert_eq!(w.alt.site, base.site(0).unwrap());
     // The test ends with an alternative 5 nats up (one more parameter at 3 nats: it wins
     // beyond 4.5) and a model that moved 1 nat: the search ends, with the switch.
     w.switch = winner;
@@ -401,8 +401,9 @@ fn after_a_settled_answer_the_structure_test_comes_first() {
 #[test]
 fn the_prior_is_a_normal_about_the_start_model_without_beta() {
     let paper = InsModel::<f64>::paper();
-    let site = super::structure::site(&paper, 1).unwrap();
-    let ec = super::structure::swap(&paper, &site, 0.01).unwrap();
+    use crate::adapt::identifiable::IdentifiableModel;
+    let site = paper.site(1).unwrap();
+    let ec = paper.swapped(&site, 0.01).unwrap();
     let s = specs(&ec);
     let beta = s
         .iter()
