@@ -117,10 +117,7 @@ impl<T: Real> IdentifiableModel<T, NX, 1> for InsModel<T> {
     );
 
     fn outputs(&self, scale: &[T; NX]) -> Result<Self::Outputs, ModelError> {
-        let scale = crate::linalg::to_vec(scale);
-        let accel = self.output_row(ErrorSource::Accel, &scale)?;
-        let gyro = self.output_row(ErrorSource::Gyro, &scale)?;
-        Ok((accel, gyro))
+        self.output_rows(scale)
     }
 
     fn with_parameters(&self, specs: &Specs, theta: &[T; MAXP]) -> Option<Self> {

@@ -315,6 +315,11 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, con
         self.id.last_gain()
     }
 
+    /// The state scaling `S` of every filter (physical = `S` x scaled), the model's.
+    pub fn scale(&self) -> &[T; N] {
+        self.id.bank.scale_array()
+    }
+
     /// The centre filter (scaled states; see [`Bank::scale`](bank::Bank::scale)).
     pub fn centre(&self) -> &bank::Member<T, N> {
         self.id.centre()
@@ -392,4 +397,4 @@ mod identifier_tests;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
-mod vector_bank_tests;
+pub(crate) mod vector_bank_tests;

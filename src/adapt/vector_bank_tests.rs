@@ -21,10 +21,10 @@ use std::vec::Vec;
 
 /// `x' = -x / tau + w` (stationary sd `sigma`), observed as `z_i = x + v_i`, `v_i ~ N(0, r_i)`.
 #[derive(Debug, Clone, PartialEq)]
-struct TwoSensorMarkov {
-    sigma: f64,
-    tau: f64,
-    r: [f64; 2],
+pub(crate) struct TwoSensorMarkov {
+    pub(crate) sigma: f64,
+    pub(crate) tau: f64,
+    pub(crate) r: [f64; 2],
 }
 
 impl ErrorModel<f64, 1, 2> for TwoSensorMarkov {
@@ -121,7 +121,7 @@ pub(super) fn set_each<M>(
     Some(())
 }
 
-const TRUTH: TwoSensorMarkov = TwoSensorMarkov {
+pub(crate) const TRUTH: TwoSensorMarkov = TwoSensorMarkov {
     sigma: 0.5,
     tau: 20.0,
     r: [0.09, 0.36],
@@ -163,7 +163,7 @@ fn gate(m: usize) -> f64 {
 }
 
 /// `steps` observations of the truth: the exact AR(1) of the Gauss-Markov state at `dt = 1`.
-fn observations(seed: u64, steps: usize) -> Vec<[f64; 2]> {
+pub(crate) fn observations(seed: u64, steps: usize) -> Vec<[f64; 2]> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let n = Normal::new(0.0, 1.0).unwrap();
     let phi = (-1.0 / TRUTH.tau).exp();
@@ -275,7 +275,7 @@ fn a_two_axis_bank_finds_the_maximum_likelihood_from_either_side() {
 
 /// Observation values for the fuzz tests: mostly ordinary, with NaN, +-Inf, 1e30, `-f64::MAX`,
 /// subnormals and zeros.
-pub(super) fn hostile_values() -> impl proptest::strategy::Strategy<Value = f64> + Clone {
+pub(crate) fn hostile_values() -> impl proptest::strategy::Strategy<Value = f64> + Clone {
     use proptest::prelude::*;
     prop_oneof![
         6 => -3.0..3.0f64,

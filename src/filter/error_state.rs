@@ -44,6 +44,28 @@ pub enum AxisStatus {
     BadVariance,
 }
 
+impl From<UpdateStatus> for AxisStatus {
+    fn from(s: UpdateStatus) -> Self {
+        match s {
+            UpdateStatus::Updated => Self::Used,
+            UpdateStatus::Missing => Self::Missing,
+            UpdateStatus::Gated => Self::Gated,
+            UpdateStatus::BadInnovationVariance => Self::BadVariance,
+        }
+    }
+}
+
+impl From<AxisStatus> for UpdateStatus {
+    fn from(s: AxisStatus) -> Self {
+        match s {
+            AxisStatus::Used => Self::Updated,
+            AxisStatus::Missing => Self::Missing,
+            AxisStatus::Gated => Self::Gated,
+            AxisStatus::BadVariance => Self::BadInnovationVariance,
+        }
+    }
+}
+
 /// The result of fusing one vector observation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Fused<T, const Z: usize> {
@@ -132,6 +154,11 @@ impl<T: Real, M: ErrorModel<T, N, Z>, const N: usize, const Z: usize> ErrorState
         &self.sys
     }
 
+    /// The discrete system `(Phi, Qd)` over the active states, in scaled states.
+    pub fn discrete(&self) -> (&Arr<T, N>, &Arr<T, N>) {
+        (&self.phi, &self.qd)
+    }
+
     /// Propagates one step.
     pub fn predict(&mut self) {
         self.kf.predict(&self.phi, &self.qd);
@@ -139,7 +166,19 @@ impl<T: Real, M: ErrorModel<T, N, Z>, const N: usize, const Z: usize> ErrorState
 
     /// Fuses the vector observation `z` (non-finite axes missing) after the vector gate
     /// `gate(m)` on the NIS of its `m` finite axes (`None`: no gate).
+    ///
+    /// One axis keeps the kernel's scalar test `nu^2 / S <= g(1)`, like the identification
+    /// bank: the same decision without a Cholesky factor, and bit for bit the one-channel
+    /// filter's ([`InsFilter`](crate::filter::InsFilter); the vector NIS of one axis,
+    /// `(nu / sqrt(S))^2`, can differ from it in the last bit).
     pub fn update(&mut self, z: &[T; Z], gate: Option<&dyn Fn(usize) -> T>) -> Fused<T, Z> {
+        if Z == 1 {
+            if let (Some(&z0), Some(h0), Some(&r0)) =
+                (z.first(), self.sys.H.first(), self.sys.R.first())
+            {
+                return scalar(&mut self.kf, z0, h0, r0, gate.map(|g| g(1)));
+            }
+        }
         fuse(&mut self.kf, z, &self.sys.H, &self.sys.R, gate)
     }
 
@@ -282,6 +321,41 @@ pub fn joint<T: Real, const N: usize, const Z: usize>(
     out
 }
 
+/// One axis through the kernel's own gate: [`fuse`]'s result for `Z = 1`, with the NIS
+/// `nu^2 / S` (NaN when the axis is missing or `S` is not positive).
+fn scalar<T: Real, const N: usize, const Z: usize>(
+    kf: &mut Kalman<T, N>,
+    z: T,
+    h: &[T; N],
+    r: T,
+    gate: Option<T>,
+) -> Fused<T, Z> {
+    let nan = T::lit(f64::NAN);
+    let i = kf.update(z, h, r, gate);
+    let mut out = Fused {
+        axes: [AxisStatus::Missing; Z],
+        innovation: [nan; Z],
+        variance: [nan; Z],
+        nis: i.nis,
+        dof: usize::from(z.is_finite()),
+        gated: i.status == UpdateStatus::Gated,
+        loglik: T::zero(),
+    };
+    if i.status == UpdateStatus::Updated {
+        out.loglik = i.loglik();
+    }
+    if let (Some(a), Some(nu), Some(s)) = (
+        out.axes.first_mut(),
+        out.innovation.first_mut(),
+        out.variance.first_mut(),
+    ) {
+        *a = i.status.into();
+        *nu = i.innovation;
+        *s = i.variance;
+    }
+    out
+}
+
 /// Fuses the vector observation `z = H x + v`, `v ~ N(0, diag(R))` (non-finite axes missing)
 /// into `kf` after the vector gate `gate(m)` on the NIS of its `m` finite axes (`None`: no
 /// gate), as sequential scalar Joseph updates (module docs). The one fusion routine of the
@@ -321,12 +395,7 @@ pub fn fuse<T: Real, const N: usize, const Z: usize>(
         if r.status == UpdateStatus::Updated {
             out.loglik += r.loglik();
         }
-        out.axes[i] = match r.status {
-            UpdateStatus::Updated => AxisStatus::Used,
-            UpdateStatus::Missing => AxisStatus::Missing,
-            UpdateStatus::Gated => AxisStatus::Gated,
-            UpdateStatus::BadInnovationVariance => AxisStatus::BadVariance,
-        };
+        out.axes[i] = r.status.into();
     }
     out
 }

@@ -12,11 +12,11 @@
 //! assert!(e.sigma_dv < 0.03 && e.sigma_delta > 0.0);
 //! ```
 
+use crate::filter::error_state::ErrorStateFilter;
 use crate::filter::kalman::{Innovation, Kalman};
-use crate::linalg::{from_mat, from_vec, Arr};
-use crate::model::ins::Continuous;
+use crate::linalg::{to_vec, Arr};
 use crate::model::{
-    idx, ErrorSource, InsModel, ModelError, Scaling, StateMat, StateRow, StateVec, NX,
+    idx, ContinuousSystem, InsModel, ModelError, Scaling, StateMat, StateRow, StateVec, NX,
 };
 use crate::Real;
 
@@ -86,20 +86,14 @@ impl<T: Real> Estimates<T> {
     }
 }
 
-/// A Kalman filter of the one-channel INS errors with its sensor-noise model.
+/// A Kalman filter of the one-channel INS errors with its sensor-noise model: the generic
+/// [`ErrorStateFilter`] of [`InsModel`] (the one fixed-model filter), with the one-channel
+/// scalar interface, its gate and its SI estimates.
 #[derive(Debug, Clone)]
 pub struct InsFilter<T: Real> {
-    model: InsModel<T>,
-    scale: Scaling<T>,
-    sys: Continuous<T>,
-    /// `(Phi, Qd)` over the active states (row-major, the kernel's form).
-    phi: Arr<T, NX>,
-    qd: Arr<T, NX>,
-    h: [T; NX],
-    p0: Arr<T, NX>,
+    inner: ErrorStateFilter<T, InsModel<T>, NX, 1>,
     accel_row: StateRow<T>,
     gyro_row: StateRow<T>,
-    kf: Kalman<T, NX>,
     gate: Option<T>,
 }
 
@@ -107,24 +101,12 @@ impl<T: Real> InsFilter<T> {
     /// Builds the filter: validates the model, chooses the state scaling, discretises, and
     /// starts from a zero estimate with the model's initial covariance.
     pub fn new(model: InsModel<T>) -> Result<Self, ModelError> {
-        let scale = model.scaling()?;
-        let sys = model.continuous(&scale)?;
-        let (phi, qd) = model.discretise_block(&scale)?;
-        let accel_row = model.output_row(ErrorSource::Accel, &scale)?;
-        let gyro_row = model.output_row(ErrorSource::Gyro, &scale)?;
-        let p0 = from_mat(&sys.P0);
-        let kf = Kalman::new(&p0, sys.n);
+        let inner = ErrorStateFilter::new(model)?;
+        let (accel_row, gyro_row) = inner.model().output_rows(inner.scale())?;
         Ok(Self {
-            model,
-            scale,
-            h: from_vec(&sys.H),
-            sys,
-            phi,
-            qd,
-            p0,
+            inner,
             accel_row,
             gyro_row,
-            kf,
             gate: None,
         })
     }
@@ -133,19 +115,10 @@ impl<T: Real> InsFilter<T> {
     /// model must have the same state layout (same kinds in the same order); otherwise
     /// [`ModelError::TooManyStates`] is returned and nothing changes.
     pub fn set_model(&mut self, model: InsModel<T>) -> Result<(), ModelError> {
-        if model.layout()? != self.model.layout()? {
-            return Err(ModelError::TooManyStates);
-        }
-        let sys = model.continuous(&self.scale)?;
-        let (phi, qd) = model.discretise_block(&self.scale)?;
-        self.accel_row = model.output_row(ErrorSource::Accel, &self.scale)?;
-        self.gyro_row = model.output_row(ErrorSource::Gyro, &self.scale)?;
-        self.h = from_vec(&sys.H);
-        self.p0 = from_mat(&sys.P0);
-        self.sys = sys;
-        self.phi = phi;
-        self.qd = qd;
-        self.model = model;
+        let (accel, gyro) = model.output_rows(self.inner.scale())?;
+        self.inner.set_model(model)?;
+        self.accel_row = accel;
+        self.gyro_row = gyro;
         Ok(())
     }
 
@@ -156,38 +129,47 @@ impl<T: Real> InsFilter<T> {
 
     /// The model in use.
     pub fn model(&self) -> &InsModel<T> {
-        &self.model
+        self.inner.model()
     }
 
     /// The state scaling `S` (physical = `S` x scaled).
-    pub fn scale(&self) -> &Scaling<T> {
-        &self.scale
+    pub fn scale(&self) -> &[T; NX] {
+        self.inner.scale()
     }
 
     /// The underlying Kalman filter, in scaled states.
     pub fn kalman(&self) -> &Kalman<T, NX> {
-        &self.kf
+        self.inner.kalman()
     }
 
     /// The continuous system, in scaled states.
-    pub fn system(&self) -> &Continuous<T> {
-        &self.sys
+    pub fn system(&self) -> &ContinuousSystem<T, NX, 1> {
+        self.inner.system()
     }
 
     /// The discrete system `(Phi, Qd)` over the active states, in scaled states.
     pub fn discrete(&self) -> (&Arr<T, NX>, &Arr<T, NX>) {
-        (&self.phi, &self.qd)
+        self.inner.discrete()
     }
 
     /// Propagates one step `dt`.
     pub fn predict(&mut self) {
-        self.kf.predict(&self.phi, &self.qd);
+        self.inner.predict();
     }
 
     /// Uses one velocity observation `z` [m/s] (NaN: missing).
     pub fn update(&mut self, z: T) -> Innovation<T> {
-        let r = self.model.sigma_v * self.model.sigma_v;
-        self.kf.update(z, &self.h, r, self.gate)
+        let f = match self.gate {
+            Some(g) => self.inner.update(&[z], Some(&move |_| g)),
+            None => self.inner.update(&[z], None),
+        };
+        let [axis] = f.axes;
+        Innovation {
+            innovation: f.innovation[0],
+            variance: f.variance[0],
+            nis: f.nis,
+            status: axis.into(),
+        }
     }
 
     /// One filter cycle: predict to the observation time, then update.
@@ -199,22 +181,23 @@ impl<T: Real> InsFilter<T> {
     /// Repairs `P` if it lost positive definiteness (reset to the initial covariance).
     /// Returns true if a repair was made.
     pub fn repair(&mut self) -> bool {
-        self.kf.repair(&self.p0)
+        self.inner.repair()
     }
 
     /// Current estimates in SI units.
     pub fn estimates(&self) -> Estimates<T> {
-        Estimates::from_kalman(&self.kf, &self.scale, &self.accel_row, &self.gyro_row)
+        let scale = to_vec(self.inner.scale());
+        Estimates::from_kalman(self.kalman(), &scale, &self.accel_row, &self.gyro_row)
     }
 
     /// Physical covariance `S P S`.
     pub fn covariance_si(&self) -> StateMat<T> {
-        let s = StateMat::from_diagonal(&self.scale);
-        s * self.kf.covariance() * s
+        let s = StateMat::from_diagonal(&to_vec(self.inner.scale()));
+        s * self.kalman().covariance() * s
     }
 
     /// Physical state estimate `S x`.
     pub fn state_si(&self) -> StateVec<T> {
-        self.kf.state().component_mul(&self.scale)
+        to_vec(&self.inner.state_si())
     }
 }

@@ -1,7 +1,8 @@
 //! The one Kalman kernel of the crate: predict, Joseph-form scalar update, chi-square gate,
 //! health test and repair, over the leading `n` active states of a fixed capacity `N`.
 //!
-//! Every filter in the crate runs on it: the fixed-model filter ([`InsFilter`]), each member of
+//! Every filter in the crate runs on it: the fixed-model filter ([`ErrorStateFilter`], and
+//! [`InsFilter`] on it), the strapdown navigator's, each member of
 //! the identification bank and each probe ([`crate::adapt`]). Error models are linear, so the
 //! "extended" filter's Jacobians are the model matrices themselves; the kernel takes `Phi`,
 //! `Qd`, `h` and `r` as arguments (adskalman-style: models are small types, the filter composes
@@ -22,6 +23,7 @@
 //! ```
 //!
 //! [`InsFilter`]: crate::filter::InsFilter
+//! [`ErrorStateFilter`]: crate::filter::ErrorStateFilter
 
 // Small fixed-size matrix code reads best with explicit indices (they mirror the equations).
 #![allow(clippy::needless_range_loop)]

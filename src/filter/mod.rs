@@ -1,6 +1,8 @@
-//! The one Kalman kernel ([`Kalman`]) and the one-channel INS error filter built on it
-//! ([`InsFilter`]).
+//! The one Kalman kernel ([`Kalman`]), the one fixed-model filter built on it for any error
+//! model ([`ErrorStateFilter`]: vector gate, sequential scalar fusion), its one-channel
+//! interface ([`InsFilter`]), and the chi-square quantiles of the gates ([`chi_square`]).
 
+pub mod chi_square;
 pub mod error_state;
 pub mod ins_filter;
 pub mod kalman;

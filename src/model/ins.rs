@@ -403,6 +403,15 @@ impl<T: Real> InsModel<T> {
         self.output_row_in(sensor, scale, Realisation::Filter)
     }
 
+    /// The accelerometer's and the gyro's [`output_row`](Self::output_row)s, for the scaling as
+    /// the kernel's array: what a filter keeps to report its estimates.
+    pub fn output_rows(&self, scale: &[T; NX]) -> Result<(StateRow<T>, StateRow<T>), ModelError> {
+        let scale = crate::linalg::to_vec(scale);
+        let accel = self.output_row(ErrorSource::Accel, &scale)?;
+        let gyro = self.output_row(ErrorSource::Gyro, &scale)?;
+        Ok((accel, gyro))
+    }
+
     /// [`InsModel::output_row`] with the components in realisation `r`.
     pub fn output_row_in(
         &self,

@@ -7,8 +7,17 @@
 //! on the host) and hands the report to a [`TelemetrySink`]. It allocates nothing; it lives in a
 //! `static` or in a struct the binary owns (about 32 KB in `f32`, see `BENCHMARKS.md`).
 //!
-//! Two engines share the interface: a fixed model ([`InsFilter`]) and the online identification
-//! ([`AdaptiveFilter`], issue 3), chosen by [`StepConfig::adapt`].
+//! Two engines share the interface: a fixed model ([`ErrorStateFilter`]) and the online
+//! identification ([`AdaptiveFilter`], issue 3), chosen by [`StepConfig::adapt`].
+//!
+//! The estimator is generic over the error model like its engines: `Estimator<T, M, N, Z, W>`
+//! for any [`IdentifiableModel`] with `N` states and `Z` observation axes (`W`: the global
+//! stage's ring). [`tick_axes`](Estimator::tick_axes) and [`push_axes`](Estimator::push_axes)
+//! are its step for any model, with per-axis flags, a vector chi-square gate and the
+//! [`AxesRecord`](crate::telemetry::AxesRecord) telemetry; the one-channel Schuler model (the
+//! default type parameters) keeps its scalar [`tick`](Estimator::tick), [`push`](Estimator::push)
+//! and wire [`Record`], which are `tick_axes` with one axis plus the paper's autocorrelation
+//! loop. The time rules are [`clock`]'s, the same for both.
 //!
 //! ```
 //! use imu_ident::model::InsModel;
@@ -38,7 +47,11 @@
 //! s <- min(S_MAX, max(1, (1 - a) s + a min(NIS, g s))),   a = 1/64, over every finite innovation
 //! ```
 //!
-//! with `S_MAX` = [`StepConfig::max_gate_scale`].
+//! with `S_MAX` = [`StepConfig::max_gate_scale`]. With `Z` axes, an observation with `m` finite
+//! axes is gated on its NIS against `q_m s`, where `q_m` is the chi-square(`m`) quantile at the
+//! tail probability of `g` for one axis ([`chi_square`](crate::filter::chi_square); `q_1 = g`),
+//! and `s` follows `NIS / m` capped at `q_m s / m` (the NIS per degree of freedom, 1 in the mean
+//! under a right model).
 //!
 //! A fixed threshold would shield a badly wrong model from the very data that must correct it
 //! (a model with 10x too small a sigma sees NIS ~ 100 chi-square: most observations would be
@@ -50,20 +63,22 @@
 #![allow(clippy::large_enum_variant)]
 
 mod acf;
+mod axes;
+pub mod clock;
+mod one_channel;
 
 pub use crate::telemetry::{model_params, AcfRecord, ParamRecord};
-use crate::telemetry::{FLAT_BETA, FLAT_SIGMA, FLAT_TAU};
+pub use axes::AxesReport;
 
-use crate::adapt::params::{Specs, MAXP};
-use crate::adapt::{AdaptConfig, AdaptError, AdaptiveFilter, StepStatus};
+use crate::adapt::identifiable::IdentifiableModel;
+use crate::adapt::{AdaptConfig, AdaptError, AdaptiveFilter, WINDOW_CAP};
 use crate::autocorr::Autocorrelator;
-use crate::filter::{Estimates, InsFilter};
-use crate::model::{ErrorSource, InsModel, ModelError, Quantity, StateMat};
-use crate::telemetry::{
-    status_flags, time_flags, Record, TelemetrySink, BAD_INPUT, BRIDGED, GATED_OUTLIER, MISSING,
-    NOT_IDENTIFIABLE, PARAM_CLAMPED, P_REPAIRED, SENSOR_CHANGE, SKIPPED, TIME_JUMP,
-};
+use crate::filter::{chi_square, ErrorStateFilter, Kalman};
+use crate::model::{InsModel, ModelError, NX};
+use crate::telemetry::Record;
 use crate::Real;
+use clock::Clock;
+use nalgebra::SMatrix;
 
 /// Window of the estimate autocorrelators [samples].
 pub const ACF_WINDOW: usize = 1024;
@@ -167,34 +182,50 @@ pub struct Report {
 // Adaptive first: the all-zero `BLANK` estimator holds it, and an all-zero-bits `static`
 // goes to `.bss` (no flash image).
 #[derive(Debug, Clone)]
-enum Engine<T: Real> {
-    Adaptive(AdaptiveFilter<T>),
-    Fixed(InsFilter<T>),
+enum Engine<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, const W: usize>
+{
+    Adaptive(AdaptiveFilter<T, M, N, Z, W>),
+    Fixed(ErrorStateFilter<T, M, N, Z>),
 }
 
-/// The estimator of the firmware: filter, identification, gate and bookkeeping.
+/// The estimator of the firmware: filter, identification, gate and bookkeeping, for any
+/// error model (module documentation); the one-channel Schuler model by default.
 #[derive(Debug, Clone)]
-pub struct Estimator<T: Real> {
-    engine: Engine<T>,
+pub struct Estimator<
+    T: Real,
+    M = InsModel<T>,
+    const N: usize = NX,
+    const Z: usize = 1,
+    const W: usize = WINDOW_CAP,
+> where
+    M: IdentifiableModel<T, N, Z>,
+{
+    engine: Engine<T, M, N, Z, W>,
+    /// The fixed engine's [`Outputs`](IdentifiableModel::Outputs) (the adaptive filter keeps
+    /// its own).
+    outputs: M::Outputs,
     cfg: StepConfig<T>,
+    /// `q_m` for `m = 1..=Z` finite axes: the chi-square(`m`) quantile at the tail of the
+    /// gate `g = q_1` (module documentation).
+    quantiles: [T; Z],
     dt: T,
     acf: [EstimateAcf<T>; 2],
     /// Running mean of each estimate's variance `P` over the ACF window (`sigma^2` correction).
     p_mean: [T; 2],
     nis_scale: T,
-    prev_t: Option<f64>,
-    /// A row time more than `max_bridge` steps from `prev_t`, waiting for the next row to
-    /// confirm it as the new time base ([`push`](Self::push)).
-    suspect_t: Option<f64>,
+    clock: Clock,
     k: u32,
     repairs: u32,
 }
 
-impl<T: Real> Estimator<T> {
+impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, const W: usize>
+    Estimator<T, M, N, Z, W>
+{
     /// An uninitialised estimator (a compile-time value, all zeros): the firmware keeps one in
     /// a `static` (no flash, no stack) and calls [`init`](Self::init) on it.
     pub const BLANK: Self = Self {
         engine: Engine::Adaptive(AdaptiveFilter::BLANK),
+        outputs: M::NO_OUTPUTS,
         cfg: StepConfig {
             // `Some`: `None` would be stored as a non-zero niche value, which would put the
             // whole blank estimator in `.data` (30 KB of flash).
@@ -204,27 +235,29 @@ impl<T: Real> Estimator<T> {
             max_bridge: 0,
             acf_every: 0,
         },
+        quantiles: [T::ZERO; Z],
         dt: T::ZERO,
         acf: [EstimateAcf::new(), EstimateAcf::new()],
         p_mean: [T::ZERO; 2],
         nis_scale: T::ZERO,
-        prev_t: None,
-        suspect_t: None,
+        clock: Clock::BLANK,
         k: 0,
         repairs: 0,
     };
 
-    /// A estimator starting from `model`.
-    pub fn new(model: InsModel<T>, cfg: StepConfig<T>) -> Result<Self, StepError> {
+    /// An estimator starting from `model`. For the one-channel model,
+    /// [`new`](Estimator::new) says the same without naming the type's parameters.
+    pub fn from_model(model: M, cfg: StepConfig<T>) -> Result<Self, StepError> {
         let mut nav = Self::BLANK;
         nav.init(model, cfg)?;
         Ok(nav)
     }
 
-    /// [`new`](Self::new) in place, for a estimator in a `static`: nothing of its ~32 KB is
-    /// built on the stack and moved (measured: by-value construction peaked at 94 KB of stack
-    /// on the Cortex-M4, in place 18 KB; `BENCHMARKS.md`). On error it must not be ticked.
-    pub fn init(&mut self, model: InsModel<T>, cfg: StepConfig<T>) -> Result<(), StepError> {
+    /// [`from_model`](Self::from_model) in place, for a estimator in a `static`: nothing of
+    /// its ~32 KB is built on the stack and moved (measured: by-value construction peaked at
+    /// 94 KB of stack on the Cortex-M4, in place 18 KB; `BENCHMARKS.md`). On error it must not
+    /// be ticked.
+    pub fn init(&mut self, model: M, cfg: StepConfig<T>) -> Result<(), StepError> {
         let gate_ok = cfg.gate.is_finite()
             && cfg.gate > T::one()
             && cfg.max_gate_scale >= T::one()
@@ -232,12 +265,22 @@ impl<T: Real> Estimator<T> {
         if !gate_ok || cfg.acf_every == 0 || cfg.max_bridge == 0 {
             return Err(StepError::BadConfig);
         }
-        let dt = model.dt;
-        match cfg.adapt {
-            None => {
-                // Small (about 2 KB): built by value.
-                self.engine = Engine::Fixed(InsFilter::new(model).map_err(StepError::Model)?);
+        // `q_1 = g` itself; more axes get the chi-square quantile at the tail of the one-axis
+        // gate (computed only when there are more: a one-axis firmware links no `erfc`).
+        let mut quantiles = [cfg.gate; Z];
+        if Z > 1 {
+            let tail = chi_square::survival(1, cfg.gate.as_f64());
+            for (m, q) in quantiles.iter_mut().enumerate().skip(1) {
+                *q = T::lit(chi_square::quantile(m + 1, tail));
             }
+        }
+        self.quantiles = quantiles;
+        if !self.quantiles.iter().all(|q| q.is_finite()) {
+            return Err(StepError::BadConfig);
+        }
+        let dt = model.dt();
+        match cfg.adapt {
+            None => self.init_fixed(model)?,
             Some(a) => {
                 if !matches!(self.engine, Engine::Adaptive(_)) {
                     self.engine = Engine::Adaptive(AdaptiveFilter::BLANK);
@@ -254,10 +297,21 @@ impl<T: Real> Estimator<T> {
         }
         self.p_mean = [T::zero(); 2];
         self.nis_scale = T::one();
-        self.prev_t = None;
-        self.suspect_t = None;
+        self.clock = Clock::BLANK;
         self.k = 0;
         self.repairs = 0;
+        Ok(())
+    }
+
+    /// The fixed engine, small (a few KB) and built by value. Not inlined: its frame would
+    /// otherwise add to the stack of every [`init`](Self::init), the adaptive one's too
+    /// (measured: 4.2 KB at the firmware's start-up).
+    #[inline(never)]
+    fn init_fixed(&mut self, model: M) -> Result<(), StepError> {
+        self.engine = Engine::Fixed(ErrorStateFilter::new(model).map_err(StepError::Model)?);
+        if let Engine::Fixed(f) = &self.engine {
+            self.outputs = f.model().outputs(f.scale()).map_err(StepError::Model)?;
+        }
         Ok(())
     }
 
@@ -271,13 +325,19 @@ impl<T: Real> Estimator<T> {
         self.k
     }
 
-    /// The current outlier threshold on the NIS, `g s`.
+    /// The current outlier threshold on the NIS of one axis, `g s`.
     pub fn gate_threshold(&self) -> T {
         self.cfg.gate * self.nis_scale
     }
 
+    /// The threshold on the NIS of `m` finite axes, `q_m s` (NaN for `m` outside `1..=Z`).
+    pub fn gate_threshold_axes(&self, m: usize) -> T {
+        let q = m.checked_sub(1).and_then(|i| self.quantiles.get(i));
+        q.map_or(T::lit(f64::NAN), |q| *q * self.nis_scale)
+    }
+
     /// The model in use (with the identified parameters when adapting).
-    pub fn model(&self) -> Result<InsModel<T>, StepError> {
+    pub fn model(&self) -> Result<M, StepError> {
         match &self.engine {
             Engine::Fixed(f) => Ok(f.model().clone()),
             Engine::Adaptive(a) => a.model().map_err(StepError::Adapt),
@@ -285,97 +345,48 @@ impl<T: Real> Estimator<T> {
     }
 
     /// The adaptive filter, when identifying online.
-    pub fn adaptive(&self) -> Option<&AdaptiveFilter<T>> {
+    pub fn adaptive(&self) -> Option<&AdaptiveFilter<T, M, N, Z, W>> {
         match &self.engine {
             Engine::Adaptive(a) => Some(a),
             Engine::Fixed(_) => None,
         }
     }
 
+    /// The (centre) filter's kernel, in scaled states.
+    pub fn kalman(&self) -> &Kalman<T, N> {
+        match &self.engine {
+            Engine::Fixed(f) => f.kalman(),
+            Engine::Adaptive(a) => &a.centre().kf,
+        }
+    }
+
+    /// The state scaling `S` (physical = `S` x scaled).
+    pub fn scale(&self) -> &[T; N] {
+        match &self.engine {
+            Engine::Fixed(f) => f.scale(),
+            Engine::Adaptive(a) => a.scale(),
+        }
+    }
+
     /// The covariance of the (centre) filter in its scaled states, and the number of active
     /// states (the leading block; the rest is zero).
-    pub fn covariance_scaled(&self) -> (StateMat<T>, usize) {
-        match &self.engine {
-            Engine::Fixed(f) => (f.kalman().covariance(), f.kalman().active()),
-            Engine::Adaptive(a) => (a.centre().covariance(), a.active()),
-        }
+    pub fn covariance_scaled(&self) -> (SMatrix<T, N, N>, usize) {
+        let kf = self.kalman();
+        (kf.covariance(), kf.active())
     }
 
-    /// Estimates in SI units.
-    pub fn estimates(&self) -> Estimates<T> {
-        match &self.engine {
-            Engine::Fixed(f) => f.estimates(),
-            Engine::Adaptive(a) => a.estimates(),
-        }
+    /// The state estimate in physical units, `S x`.
+    pub fn state_si(&self) -> [T; N] {
+        self.kalman().state_si(self.scale())
     }
 
-    /// One tick at time `t` [s] with observation `z` [m/s] (non-finite: missing): exactly one
-    /// prediction and at most one update, so its cost is bounded whatever the input.
-    pub fn tick(&mut self, t: f64, z: T) -> Report {
-        let mut flags = time_flags(self.prev_t, t, self.dt.as_f64());
-        // Infinite (not NaN, which means missing): `z == z` is false only for NaN.
-        #[allow(clippy::eq_op)]
-        let infinite = !z.is_finite() && z == z;
-        if infinite {
-            flags |= BAD_INPUT;
-        }
-        let threshold = self.gate_threshold();
-        let (nu, s, mut reidentified, jumped) = match &mut self.engine {
-            Engine::Fixed(f) => {
-                f.set_gate(Some(threshold));
-                let inn = f.step(z);
-                flags |= status_flags(inn.status);
-                if f.repair() {
-                    flags |= P_REPAIRED;
-                }
-                (inn.innovation, inn.variance, false, false)
-            }
-            Engine::Adaptive(a) => {
-                let before = a.repairs();
-                let rep = a.step_gated(z, Some(threshold));
-                flags |= match rep.status {
-                    StepStatus::Updated => 0,
-                    StepStatus::Missing => MISSING,
-                    StepStatus::Gated => GATED_OUTLIER,
-                    StepStatus::BadInnovationVariance => P_REPAIRED,
-                };
-                if a.repairs() != before {
-                    flags |= P_REPAIRED;
-                }
-                if rep.clamped {
-                    flags |= PARAM_CLAMPED;
-                }
-                if rep.changed {
-                    flags |= SENSOR_CHANGE;
-                }
-                if a.flat() != 0 {
-                    flags |= NOT_IDENTIFIABLE;
-                }
-                (rep.innovation, rep.variance, rep.moved, rep.jumped)
-            }
-        };
-        self.track_scale(nu * nu / s, threshold);
-        let est = self.estimates();
-        self.feed_acf(&est);
-        if t.is_finite() {
-            self.prev_t = Some(t);
-        }
-        reidentified |= self.k == 0;
-        let record = Record::new(self.k, t, z, nu, s, &est, flags);
-        self.k = self.k.wrapping_add(1);
-        if flags & P_REPAIRED != 0 {
-            self.repairs = self.repairs.saturating_add(1);
-        }
-        Report {
-            record,
-            reidentified,
-            jumped,
-            // `checked_rem`: a BLANK estimator (acf_every = 0) ticked without `init` must not panic.
-            acf: self.k.checked_rem(self.cfg.acf_every) == Some(0),
-        }
+    /// Each state's standard deviation in physical units.
+    pub fn sigma_si(&self) -> [T; N] {
+        self.kalman().sigma_si(self.scale())
     }
 
-    /// The NIS scale `s` of the gate (module documentation).
+    /// The NIS scale `s` of the gate (module documentation), fed the NIS per degree of
+    /// freedom and the threshold per degree of freedom.
     fn track_scale(&mut self, nis: T, threshold: T) {
         if !nis.is_finite() {
             return;
@@ -384,158 +395,9 @@ impl<T: Real> Estimator<T> {
         let s = (T::one() - a) * self.nis_scale + a * nis.min(threshold);
         self.nis_scale = s.max(T::one()).min(self.cfg.max_gate_scale);
     }
-
-    fn feed_acf(&mut self, est: &Estimates<T>) {
-        let w = T::lit(1.0 / ACF_WINDOW as f64);
-        let pairs = [(est.da, est.sigma_da), (est.dw, est.sigma_dw)];
-        for ((acf, pm), (x, sd)) in self.acf.iter_mut().zip(self.p_mean.iter_mut()).zip(pairs) {
-            // A rejected sample (non-finite after a repair) leaves the window as it was.
-            if acf.push(x).is_ok() {
-                let first = acf.len() == 1;
-                *pm = if first {
-                    sd * sd
-                } else {
-                    *pm + w * (sd * sd - *pm)
-                };
-            }
-        }
-    }
-
-    /// One log row: bridges a gap in time with missing-observation ticks (at most
-    /// [`StepConfig::max_bridge`]), skips a row whose time does not advance or is not finite,
-    /// then ticks with the row. Every tick's record goes to `sink`, followed by the parameters
-    /// when they changed and the autocorrelation identification when it ran.
-    ///
-    /// A time more than `max_bridge` steps away from the previous one, ahead or behind, is
-    /// *suspect*: one corrupted time stamp must neither make every later row look as if it
-    /// went backwards nor bridge a day of blind prediction. The row is skipped (`SKIPPED`,
-    /// `TIME_JUMP`, and `BAD_INPUT` when behind) and its time remembered; when the next row
-    /// follows it (at least half a step and at most `max_bridge` steps after it), the clock
-    /// really jumped (a long outage, a reset clock): that row becomes the new time base,
-    /// ticked with `TIME_JUMP` after `max_bridge` bridged ticks when the jump was forward. A
-    /// row that follows the old time base instead is ticked as usual and the suspect time
-    /// forgotten. The cost of a genuine jump is one row.
-    pub fn push(&mut self, t: f64, z: T, sink: &mut impl TelemetrySink) {
-        let dt = self.dt.as_f64();
-        let span = f64::from(self.cfg.max_bridge) * dt;
-        // Not `<= span` written as a negation: NaN is caught by `is_finite` first.
-        let far = |p: f64| (t - p).abs() > span;
-        let confirms = |c: f64| t - c >= 0.5 * dt && t - c <= span;
-        let steps: f64 = match self.prev_t {
-            None => 1.0,
-            Some(p) if t.is_finite() && far(p) => {
-                if self.suspect_t.is_some_and(confirms) {
-                    // Forward: bridge the most we may (the outage was at least that long);
-                    // backward: a reset clock, nothing to bridge.
-                    if t > p {
-                        f64::from(self.cfg.max_bridge) + 2.0
-                    } else {
-                        1.0
-                    }
-                } else {
-                    self.suspect_t = Some(t);
-                    0.0
-                }
-            }
-            Some(p) => libm::round((t - p) / dt),
-        };
-        // Non-finite t (NaN, +-Inf), non-advancing and suspect times are skipped, never
-        // misread.
-        let advances = steps >= 1.0 && t.is_finite();
-        if !advances {
-            let nan = T::lit(f64::NAN);
-            let flags = time_flags(self.prev_t, t, dt) | SKIPPED;
-            sink.record(&Record::new(
-                self.k,
-                t,
-                z,
-                nan,
-                nan,
-                &self.estimates(),
-                flags,
-            ));
-            return;
-        }
-        self.suspect_t = None;
-        let gap = steps - 1.0;
-        let bridged = gap.min(f64::from(self.cfg.max_bridge)) as u32;
-        let start = self.prev_t.unwrap_or(t);
-        for i in 1..=bridged {
-            let mut r = self.tick(start + f64::from(i) * dt, T::lit(f64::NAN));
-            r.record.flags |= BRIDGED;
-            self.emit(&r, sink);
-        }
-        let mut r = self.tick(t, z);
-        if gap > f64::from(bridged) {
-            r.record.flags |= TIME_JUMP;
-        }
-        self.emit(&r, sink);
-    }
-
-    /// Sends a tick's record and what came with it.
-    pub fn emit(&self, r: &Report, sink: &mut impl TelemetrySink) {
-        sink.record(&r.record);
-        if r.reidentified {
-            if let Ok(m) = self.model() {
-                // One factorisation per re-identification, shared by the records.
-                let ident = self.adaptive().map(|a| (a.specs(), a.cr_sd(), a.flat()));
-                model_params(&m, r.record.k, r.record.t, |p| {
-                    let mut p = *p;
-                    if let Some((specs, sd, flat)) = &ident {
-                        add_crb(&mut p, specs, sd.as_ref(), *flat);
-                    }
-                    sink.params(&p);
-                });
-            }
-        }
-        if r.acf {
-            for sensor in [ErrorSource::Accel, ErrorSource::Gyro] {
-                sink.acf(&self.acf_identify(sensor, r.record.k, r.record.t));
-            }
-        }
-    }
-
-    /// The paper's identification from the estimates' autocorrelation (lag-1 bias-corrected
-    /// `alpha`, `sigma^2 = R_0 + mean(P)`); NaN fields when the window cannot support it.
-    pub fn acf_identify(&self, sensor: ErrorSource, k: u32, t: f64) -> AcfRecord {
-        let i = usize::from(sensor == ErrorSource::Gyro);
-        let (acf, pm) = (&self.acf[i], self.p_mean[i]);
-        acf::acf_record(acf, pm, self.dt, sensor, k, t)
-    }
 }
 
-/// Fills a parameter record's Cramér-Rao standard deviations (of `ln` of each value) from the
-/// adaptive filter's [`AdaptiveFilter::cr_sd`] `sd` of its identified `specs`, and its flags
-/// from [`AdaptiveFilter::flat`] (bit `i`: `specs[i]` not identifiable). A random walk's record
-/// carries `sqrt(q)`, so its `ln` standard deviation is half that of the identified `ln q`.
-fn add_crb<T: Real>(p: &mut ParamRecord, specs: &Specs, sd: Option<&[T; MAXP]>, flat: u8) {
-    for (i, spec) in specs.iter().enumerate().take(MAXP) {
-        if spec.sensor != p.sensor || spec.index != p.component {
-            continue;
-        }
-        let s = sd
-            .and_then(|sd| sd.get(i))
-            .map_or(f32::NAN, |s| s.as_f64() as f32);
-        let bit = if crate::adapt::params::has_coordinate(flat, i) {
-            match spec.kind {
-                Quantity::Tau => FLAT_TAU,
-                Quantity::Beta => FLAT_BETA,
-                Quantity::Sigma0 => 0,
-                _ => FLAT_SIGMA,
-            }
-        } else {
-            0
-        };
-        p.flat |= bit;
-        match spec.kind {
-            Quantity::Tau => p.sd_tau = s,
-            Quantity::Sigma | Quantity::Density => p.sd_sigma = s,
-            Quantity::Q => p.sd_sigma = 0.5 * s,
-            Quantity::Beta => p.sd_beta = s,
-            Quantity::Sigma0 => {}
-        }
-    }
-}
-
+#[cfg(test)]
+mod axes_tests;
 #[cfg(test)]
 mod tests;

@@ -3,7 +3,10 @@
 
 extern crate std;
 use super::*;
-use crate::telemetry::FLAG_NAMES;
+use crate::model::ErrorSource;
+use crate::telemetry::{
+    TelemetrySink, BAD_INPUT, BRIDGED, FLAG_NAMES, GATED_OUTLIER, MISSING, SKIPPED, TIME_JUMP,
+};
 use std::vec::Vec;
 
 #[derive(Default)]

@@ -17,7 +17,10 @@
 //! Precision: time stays `f64` (an `f32` has a 1 s spacing at 1e7 s); everything else is `f32`,
 //! which is what the single-precision firmware computes and halves the bytes on the wire.
 
+pub mod axes;
 pub mod params;
+
+pub use axes::{AxesRecord, AxesSink, IdentRecord};
 
 pub use params::{
     model_params, sensor_code, AcfRecord, ParamRecord, ACF_WIRE_TAG, FLAT_BETA, FLAT_SIGMA,
