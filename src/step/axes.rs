@@ -9,7 +9,7 @@ use crate::adapt::identifiable::IdentifiableModel;
 use crate::adapt::params::has_coordinate;
 use crate::filter::AxisStatus;
 use crate::telemetry::{
-    AxesRecord, AxesSink, IdentRecord, BAD_INPUT, BRIDGED, GATED_OUTLIER, MISSING,
+    status_flags, AxesRecord, AxesSink, IdentRecord, BAD_INPUT, BRIDGED, GATED_OUTLIER, MISSING,
     NOT_IDENTIFIABLE, PARAM_CLAMPED, P_REPAIRED, SENSOR_CHANGE, TIME_JUMP,
 };
 use crate::Real;
@@ -72,12 +72,7 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, con
                 innovation = fused.innovation;
                 variance = fused.variance;
                 for (a, st) in axis_flags.iter_mut().zip(fused.axes.iter()) {
-                    *a = match st {
-                        AxisStatus::Used => 0,
-                        AxisStatus::Missing => MISSING,
-                        AxisStatus::Gated => GATED_OUTLIER,
-                        AxisStatus::BadVariance => P_REPAIRED,
-                    };
+                    *a = status_flags(*st);
                 }
                 // A bad variance means `P` went wrong: the repair says so, not the axis.
                 flags |= axis_union(&axis_flags) & GATED_OUTLIER;
@@ -92,11 +87,11 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, con
                 let axes = st.step.bank.centre.iter().zip(st.step.bank.gated.iter());
                 for (k, (c, g)) in axes.enumerate() {
                     let finite = z.get(k).is_some_and(|v| v.is_finite());
-                    let (inn, flag) = match (c, g) {
-                        (Some(i), _) => (Some(i), 0),
-                        (None, Some(i)) => (Some(i), GATED_OUTLIER),
-                        (None, None) if finite => (None, P_REPAIRED),
-                        (None, None) => (None, MISSING),
+                    let (inn, status) = match (c, g) {
+                        (Some(i), _) => (Some(i), AxisStatus::Used),
+                        (None, Some(i)) => (Some(i), AxisStatus::Gated),
+                        (None, None) if finite => (None, AxisStatus::BadVariance),
+                        (None, None) => (None, AxisStatus::Missing),
                     };
                     if let (Some(MemberInnovation { nu, s }), Some(v), Some(w)) =
                         (inn, innovation.get_mut(k), variance.get_mut(k))
@@ -105,7 +100,7 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, con
                         *w = *s;
                     }
                     if let Some(af) = axis_flags.get_mut(k) {
-                        *af = flag;
+                        *af = status_flags(status);
                     }
                 }
                 flags |= axis_union(&axis_flags) & (GATED_OUTLIER | P_REPAIRED);

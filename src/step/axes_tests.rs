@@ -204,3 +204,63 @@ fn the_two_axis_step_survives_any_input() {
 fn skipped(out: &Collect) -> u32 {
     out.records.iter().filter(|r| r.has(SKIPPED)).count() as u32
 }
+
+/// The vector gate rejects a right observation with the same probability whatever its number
+/// of finite axes. With the one-axis gate at the 1 % point of chi-square(1) (6.63) and the
+/// second axis missing on a third of the ticks at random, each tick's rejection probability
+/// is `Q_m(q_m s)` for its `m` finite axes, `q_m` the chi-square(`m`) 1 % point, and the gate
+/// scale `s` before it (`s` moves with the
+/// NIS, so it is read before each tick). The number of gated ticks is a sum of
+/// independent Bernoulli variables (white innovations under the true model): the bound is 5 of
+/// its sd around the sum of the probabilities, both for the ticks with one axis and for those
+/// with two (measured 0.5 and 0.2 sd). A two-axis gate at `q_1` (the one-axis quantile)
+/// rejects 3.6 % instead of 1 %: 38 sd off (mutation tried).
+#[test]
+fn the_vector_gate_keeps_its_tail_for_any_number_of_axes() {
+    use rand::{Rng, SeedableRng};
+    let n = 30_000;
+    let z = observations(14, n);
+    let g = chi_square::quantile(1, 0.01);
+    let cfg = StepConfig {
+        gate: g,
+        ..StepConfig::default()
+    };
+    let mut nav = TwoAxes::from_model(TRUTH, cfg).unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(14);
+    // Per number of axes: expected rejections, their variance, the count.
+    let mut tally = [(0.0f64, 0.0f64, 0u32); 2];
+    for (k, zk) in z.iter().enumerate() {
+        let mut row = *zk;
+        if rng.gen_bool(1.0 / 3.0) {
+            row[1] = f64::NAN;
+        }
+        let m = if row[1].is_nan() { 1 } else { 2 };
+        // The intended tail, independent of the estimator's quantiles: the scale `s` from the
+        // one-axis threshold, and `Q_2(q_2 s) = exp(-q_2 s / 2) = 0.01^s` at `q_2 = -2 ln 0.01`.
+        let s = nav.gate_threshold_axes(1) / g;
+        let p = if m == 1 {
+            chi_square::survival(1, g * s)
+        } else {
+            0.01f64.powf(s)
+        };
+        let mut flags = 0;
+        nav.push_axes(k as f64, &row, &mut |r: &AxesRecord<2, 1>| flags = r.flags);
+        let t = &mut tally[m - 1];
+        t.0 += p;
+        t.1 += p * (1.0 - p);
+        t.2 += u32::from(flags & GATED_OUTLIER != 0);
+    }
+    for (m, (mean, var, count)) in tally.iter().enumerate() {
+        let d = (f64::from(*count) - mean).abs() / var.sqrt();
+        assert!(
+            d < 5.0,
+            "{} axes: {count} gated, {mean:.1} expected ({d:.1} sd)",
+            m + 1
+        );
+        assert!(
+            *mean > 50.0,
+            "{} axes: too few expected rejections ({mean})",
+            m + 1
+        );
+    }
+}

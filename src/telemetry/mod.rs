@@ -27,7 +27,7 @@ pub use params::{
     FLAT_TAU, PARAM_WIRE_FIELDS, PARAM_WIRE_TAG,
 };
 
-use crate::filter::{Estimates, UpdateStatus};
+use crate::filter::{AxisStatus, Estimates};
 use crate::Real;
 
 /// The observation was missing (NaN or infinite): the filter only predicted.
@@ -173,14 +173,16 @@ impl Record {
     }
 }
 
-/// The flags implied by what the filter did with the observation. A
-/// [`BadInnovationVariance`](UpdateStatus::BadInnovationVariance) sets none here: it means `P`
-/// went non-finite, and the repair that follows it sets [`P_REPAIRED`].
-pub const fn status_flags(status: UpdateStatus) -> u16 {
-    match status {
-        UpdateStatus::Updated | UpdateStatus::BadInnovationVariance => 0,
-        UpdateStatus::Missing => MISSING,
-        UpdateStatus::Gated => GATED_OUTLIER,
+/// The flags of one observation axis, from what the filter did with it (a scalar
+/// [`UpdateStatus`](crate::filter::UpdateStatus) or a vector observation's [`AxisStatus`]): [`MISSING`], [`GATED_OUTLIER`],
+/// and [`P_REPAIRED`] for a bad innovation variance (`P` went wrong; a tick's own flags take
+/// `P_REPAIRED` from the repair that follows, not from this).
+pub fn status_flags(status: impl Into<AxisStatus>) -> u16 {
+    match status.into() {
+        AxisStatus::Used => 0,
+        AxisStatus::Missing => MISSING,
+        AxisStatus::Gated => GATED_OUTLIER,
+        AxisStatus::BadVariance => P_REPAIRED,
     }
 }
 
@@ -245,6 +247,7 @@ impl TelemetrySink for DefmtSink {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::filter::UpdateStatus;
 
     #[test]
     fn flags_are_distinct_bits() {
@@ -271,5 +274,10 @@ mod tests {
         assert_eq!(status_flags(UpdateStatus::Updated), 0);
         assert_eq!(status_flags(UpdateStatus::Missing), MISSING);
         assert_eq!(status_flags(UpdateStatus::Gated), GATED_OUTLIER);
+        assert_eq!(
+            status_flags(UpdateStatus::BadInnovationVariance),
+            P_REPAIRED
+        );
+        assert_eq!(status_flags(AxisStatus::Gated), GATED_OUTLIER);
     }
 }
