@@ -74,7 +74,9 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, con
                 for (a, st) in axis_flags.iter_mut().zip(fused.axes.iter()) {
                     *a = status_flags(*st);
                 }
-                // A bad variance means `P` went wrong: the repair says so, not the axis.
+                // A bad variance means `P` went wrong: here the repair says so, not the axis
+                // (the one-channel firmware's flags, unchanged; the adaptive engine has always
+                // flagged the bad variance itself).
                 flags |= axis_union(&axis_flags) & GATED_OUTLIER;
                 if f.repair() {
                     flags |= P_REPAIRED;

@@ -37,6 +37,13 @@ fn the_two_axis_gate_has_the_tail_of_the_one_axis_gate() {
     let q2 = -2.0 * chi_square::survival(1, 30.0).ln();
     assert!((nav.gate_threshold_axes(2) - q2).abs() < 1e-9 * q2, "{q2}");
     assert!(nav.gate_threshold_axes(0).is_nan() && nav.gate_threshold_axes(3).is_nan());
+    // A gate whose tail underflows an f64 (Q_1(2000) ~ 1e-436) keeps q_2 = g, not an error.
+    let cfg = StepConfig {
+        gate: 2000.0,
+        ..StepConfig::default()
+    };
+    let nav = TwoAxes::from_model(TRUTH, cfg).unwrap();
+    assert_eq!(nav.gate_threshold_axes(2), 2000.0);
 }
 
 /// With the true model, the fixed engine's NIS per degree of freedom averages 1: the sum of the

@@ -15,7 +15,7 @@ use crate::telemetry::{
 use crate::Real;
 
 impl<T: Real> Estimator<T> {
-    /// A estimator starting from `model`.
+    /// An estimator starting from `model`.
     pub fn new(model: InsModel<T>, cfg: StepConfig<T>) -> Result<Self, StepError> {
         Self::from_model(model, cfg)
     }
