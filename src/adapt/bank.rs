@@ -39,7 +39,7 @@ use crate::adapt::identifiable::IdentifiableModel;
 pub use crate::adapt::information::{accumulate, Information, MemberInnovation, MEMBERS};
 use crate::adapt::params::{Specs, MAXP};
 use crate::adapt::AdaptError;
-use crate::filter::{joint, Innovation, Kalman, UpdateStatus};
+use crate::filter::{joint, AxisStatus, Innovation, Kalman, UpdateStatus};
 use crate::linalg::{is_positive_definite, to_vec, zeros, Arr};
 use crate::model::{InsModel, Scaling, NX};
 use crate::Real;
@@ -143,6 +143,21 @@ pub struct BankStep<T, const Z: usize = 1> {
     /// The observation failed the outlier gate on the centre and no member used it: the
     /// centre's (rejected) innovation on each finite axis (`None` on every axis when it passed).
     pub gated: [Option<MemberInnovation<T>>; Z],
+}
+
+impl<T: Copy, const Z: usize> BankStep<T, Z> {
+    /// Axis `k` of the step: the centre's innovation (used, or rejected by the gate) and what
+    /// happened to the axis, `finite` saying whether its observation was (no innovation and
+    /// a finite observation: the centre's variance was bad).
+    pub fn axis(&self, k: usize, finite: bool) -> (Option<MemberInnovation<T>>, AxisStatus) {
+        let centre = self.centre.get(k).copied().flatten();
+        match (centre, self.gated.get(k).copied().flatten()) {
+            (Some(i), _) => (Some(i), AxisStatus::Used),
+            (None, Some(i)) => (Some(i), AxisStatus::Gated),
+            (None, None) if finite => (None, AxisStatus::BadVariance),
+            (None, None) => (None, AxisStatus::Missing),
+        }
+    }
 }
 
 impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize> Bank<T, M, N, Z> {

@@ -51,7 +51,6 @@ pub mod window;
 use crate::filter::Estimates;
 use crate::model::{InsModel, ModelError, NX};
 use crate::Real;
-use bank::MemberInnovation;
 pub use config::AdaptConfig;
 use identifiable::IdentifiableModel;
 use identifier::{Identifier, IdentifierStep};
@@ -361,18 +360,12 @@ impl<T: Real> AdaptiveFilter<T> {
             changed,
         } = self.step_axes(&[z], g.as_ref().map(|f| f as &dyn Fn(usize) -> T));
         let nan = T::lit(f64::NAN);
-        let [centre] = step.bank.centre;
-        let [gated] = step.bank.gated;
-        let (innovation, variance, status) = match (centre, gated) {
-            (Some(MemberInnovation { nu, s }), _) => (nu, s, StepStatus::Updated),
-            (None, Some(MemberInnovation { nu, s })) => (nu, s, StepStatus::Gated),
-            (None, None) if z.is_finite() => (nan, nan, StepStatus::BadInnovationVariance),
-            (None, None) => (nan, nan, StepStatus::Missing),
-        };
+        let (inn, status) = step.bank.axis(0, z.is_finite());
+        let (innovation, variance) = inn.map_or((nan, nan), |i| (i.nu, i.s));
         StepReport {
             innovation,
             variance,
-            status,
+            status: status.into(),
             moved: step.moved,
             jumped: step.jumped,
             rejected: step.rejected,

@@ -2,19 +2,13 @@
 //! [`StepReport`]): the per-step telemetry the firmware logs and the host tools count, kept
 //! apart from the filter's state and its update.
 
-/// What one step did.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum StepStatus {
-    /// The observation was used by every bank member.
-    Updated,
-    /// The observation was missing (non-finite): prediction only.
-    Missing,
-    /// The centre filter had an invalid innovation variance (its state was repaired).
-    BadInnovationVariance,
-    /// The observation failed the outlier gate and no filter used it (prediction only).
-    Gated,
-}
+use crate::filter::UpdateStatus;
+
+/// What one step did: the kernel's [`UpdateStatus`], as the bank's centre saw the observation.
+/// `Updated`: used by every bank member; `Missing`: non-finite, prediction only; `Gated`: failed
+/// the outlier gate, used by no filter; `BadInnovationVariance`: the centre's variance was
+/// invalid (its state is repaired).
+pub type StepStatus = UpdateStatus;
 
 /// The result of one step.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -166,19 +166,7 @@ impl<T: Real, M: ErrorModel<T, N, Z>, const N: usize, const Z: usize> ErrorState
 
     /// Fuses the vector observation `z` (non-finite axes missing) after the vector gate
     /// `gate(m)` on the NIS of its `m` finite axes (`None`: no gate).
-    ///
-    /// One axis keeps the kernel's scalar test `nu^2 / S <= g(1)`, like the identification
-    /// bank: the same decision without a Cholesky factor, and bit for bit the one-channel
-    /// filter's ([`InsFilter`](crate::filter::InsFilter); the vector NIS of one axis,
-    /// `(nu / sqrt(S))^2`, can differ from it in the last bit).
     pub fn update(&mut self, z: &[T; Z], gate: Option<&dyn Fn(usize) -> T>) -> Fused<T, Z> {
-        if Z == 1 {
-            if let (Some(&z0), Some(h0), Some(&r0)) =
-                (z.first(), self.sys.H.first(), self.sys.R.first())
-            {
-                return scalar(&mut self.kf, z0, h0, r0, gate.map(|g| g(1)));
-            }
-        }
         fuse(&mut self.kf, z, &self.sys.H, &self.sys.R, gate)
     }
 
@@ -368,6 +356,14 @@ pub fn fuse<T: Real, const N: usize, const Z: usize>(
     R: &[T; Z],
     gate: Option<&dyn Fn(usize) -> T>,
 ) -> Fused<T, Z> {
+    // One axis keeps the kernel's scalar test `nu^2 / S <= g(1)`, like the identification
+    // bank: the same decision without a Cholesky factor, and bit for bit the one-channel
+    // filter's (the vector NIS of one axis, `(nu / sqrt(S))^2`, can differ in the last bit).
+    if Z == 1 {
+        if let (Some(&z0), Some(h0), Some(&r0)) = (z.first(), H.first(), R.first()) {
+            return scalar(kf, z0, h0, r0, gate.map(|g| g(1)));
+        }
+    }
     let j = joint(kf, z, H, R);
     let mut out = Fused {
         axes: [AxisStatus::Missing; Z],

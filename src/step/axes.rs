@@ -4,10 +4,8 @@
 
 use super::clock::Plan;
 use super::{Engine, Estimator};
-use crate::adapt::bank::MemberInnovation;
 use crate::adapt::identifiable::IdentifiableModel;
 use crate::adapt::params::has_coordinate;
-use crate::filter::AxisStatus;
 use crate::telemetry::{
     status_flags, AxesRecord, AxesSink, IdentRecord, BAD_INPUT, BRIDGED, GATED_OUTLIER, MISSING,
     NOT_IDENTIFIABLE, PARAM_CLAMPED, P_REPAIRED, SENSOR_CHANGE, TIME_JUMP,
@@ -86,24 +84,13 @@ impl<T: Real, M: IdentifiableModel<T, N, Z>, const N: usize, const Z: usize, con
             Engine::Adaptive(a) => {
                 let before = a.repairs();
                 let st = a.step_axes(z, Some(&gate));
-                let axes = st.step.bank.centre.iter().zip(st.step.bank.gated.iter());
-                for (k, (c, g)) in axes.enumerate() {
-                    let finite = z.get(k).is_some_and(|v| v.is_finite());
-                    let (inn, status) = match (c, g) {
-                        (Some(i), _) => (Some(i), AxisStatus::Used),
-                        (None, Some(i)) => (Some(i), AxisStatus::Gated),
-                        (None, None) if finite => (None, AxisStatus::BadVariance),
-                        (None, None) => (None, AxisStatus::Missing),
-                    };
-                    if let (Some(MemberInnovation { nu, s }), Some(v), Some(w)) =
-                        (inn, innovation.get_mut(k), variance.get_mut(k))
-                    {
-                        *v = *nu;
-                        *w = *s;
+                let axes = innovation.iter_mut().zip(variance.iter_mut());
+                for (k, ((v, w), (af, zk))) in axes.zip(axis_flags.iter_mut().zip(z)).enumerate() {
+                    let (inn, status) = st.step.bank.axis(k, zk.is_finite());
+                    if let Some(i) = inn {
+                        (*v, *w) = (i.nu, i.s);
                     }
-                    if let Some(af) = axis_flags.get_mut(k) {
-                        *af = status_flags(status);
-                    }
+                    *af = status_flags(status);
                 }
                 flags |= axis_union(&axis_flags) & (GATED_OUTLIER | P_REPAIRED);
                 if a.repairs() != before {
