@@ -335,10 +335,18 @@ fn frame_decoder_recovers_a_frame_after_noise() {
             let found = got
                 .iter()
                 .any(|(i, r)| *i == last && encode_frame(*r) == frame);
-            prop_assert!(found, "frame not recovered; got {:?}", got);
+            // The one exception: a cut copy completed by the frame's own first bytes (its
+            // missing tail equal to them: 1 in 256 when one byte is cut and the last one happens
+            // to be the sync byte) is a valid frame that ends inside this one, whose leading
+            // bytes it has consumed. Two overlapping frames never occur on a real line.
+            let copy = encode_frame(bad_row);
+            let start = bytes.len() - FRAME_LEN;
+            let overlapped = got
+                .iter()
+                .any(|(i, r)| *i >= start && *i < last && encode_frame(*r) == copy);
+            prop_assert!(found || overlapped, "frame not recovered; got {:?}", got);
             // Nothing else, except the damaged copy when it is intact after all (no byte changed
             // or the following bytes complete it).
-            let copy = encode_frame(bad_row);
             let spurious = got
                 .iter()
                 .filter(|(i, r)| *i != last && encode_frame(*r) != copy)
@@ -347,6 +355,33 @@ fn frame_decoder_recovers_a_frame_after_noise() {
             Ok(())
         },
     );
+}
+
+/// The exception of [`frame_decoder_recovers_a_frame_after_noise`], found by it in CI
+/// (2026-12-01): a copy cut one byte short whose last byte is the sync byte that starts the next
+/// frame. The decoder sees the copy whole at that byte and the next frame's header is gone with
+/// it; the frame after that comes out again.
+#[test]
+fn a_cut_copy_completed_by_the_next_frame_takes_its_first_byte() {
+    let bad = Row {
+        t: -8.872294705309457e-290,
+        z: 199096.78,
+    };
+    let row = Row { t: 0.0, z: 0.0 };
+    let copy = encode_frame(bad);
+    let frame = encode_frame(row);
+    assert_eq!(
+        copy[FRAME_LEN - 1],
+        frame[0],
+        "the case needs the copy's last byte = sync"
+    );
+    let mut bytes = copy[..FRAME_LEN - 1].to_vec();
+    bytes.extend_from_slice(&frame);
+    bytes.extend_from_slice(&frame);
+    let got = frames(&mut FrameDecoder::new(), &bytes).unwrap();
+    assert_eq!(got.first().map(|(i, _)| *i), Some(FRAME_LEN - 1));
+    assert_eq!(got.last().map(|(i, _)| *i), Some(bytes.len() - 1));
+    assert_eq!(got.len(), 2, "{got:?}");
 }
 
 /// The navigation replay's setup with arbitrary version-2 fields (the non-holonomic
