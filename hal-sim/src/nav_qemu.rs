@@ -27,13 +27,13 @@ use std::process::ExitStatus;
 
 use anyhow::{anyhow, bail, Context, Result};
 use defmt_decoder::{DecodeError, Table};
-use imu_ident::nav::replay::{encode, gnss_flags, GnssRecord, ImuRecord, Record};
+use imu_ident::nav::live::record_of;
+use imu_ident::nav::replay::{encode, ImuRecord, Record};
 use imu_ident::nav::NavSetup;
-use imu_ident::strapdown::Geodetic;
 use serde::Serialize;
 
 use crate::nav::setup::{start, FixPlanner};
-use crate::nav::NavArgs;
+use crate::nav::{live_fix, NavArgs};
 use crate::nav_io::{GnssFix, ImuSample};
 use crate::qemu::{field, run_qemu, tagged, Icount, QemuConfig, Stack};
 use crate::qemu::{ICOUNT_FIELDS, STACK_FIELDS};
@@ -82,7 +82,6 @@ pub fn replay_records(
     let mut fix_k = fixes.partition_point(|f| f.t < s.setup.t0);
     let mut out = Vec::with_capacity(imu.len() + fixes.len());
     let f32x3 = |v: [f64; 3]| v.map(|x| x as f32);
-    let nan3 = [f32::NAN; 3];
     for w in imu[s.k..].windows(2) {
         let b = &w[1];
         let dt = b.t - w[0].t;
@@ -97,33 +96,12 @@ pub fn replay_records(
         while fix_k < fixes.len() && fixes[fix_k].t <= b.t {
             let f = fixes[fix_k];
             fix_k += 1;
-            let plan = planner.plan(&f)?;
-            let mut flags = 0;
-            // A heading needs the velocity it comes from (the host sets both).
-            let heading = plan.heading.filter(|_| f.vel_ned.is_some());
-            for (on, bit) in [
-                (plan.withheld, gnss_flags::WITHHELD),
-                (heading.is_some(), gnss_flags::HEADING),
-                (plan.fuse, gnss_flags::FUSE),
-                (args.use_velocity, gnss_flags::VELOCITY),
-            ] {
-                if on {
-                    flags |= bit;
-                }
-            }
-            out.push(Record::Gnss(GnssRecord {
-                t: f.t,
-                pos: Geodetic {
-                    lat: f.lat_deg.to_radians(),
-                    lon: f.lon_deg.to_radians(),
-                    h: f.h,
-                },
-                vel: f.vel_ned.map_or(nan3, f32x3),
-                sd_pos: f.sd_pos_ned.map_or(nan3, f32x3),
-                sd_vel: f.sd_vel_ned.map_or(nan3, f32x3),
-                flags,
-                yaw: heading.unwrap_or(0.0),
-            }));
+            let plan = planner.plan(&f);
+            out.push(Record::Gnss(record_of(
+                &live_fix(&f),
+                &plan,
+                args.use_velocity,
+            )));
         }
     }
     Ok((s.setup, out))

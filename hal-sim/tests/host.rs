@@ -49,6 +49,8 @@ mod nav_identify_axes;
 mod nav_io_formats;
 #[path = "nav_io_real.rs"]
 mod nav_io_real;
+#[path = "nav_live.rs"]
+mod nav_live;
 #[path = "nav_real.rs"]
 mod nav_real;
 #[path = "nav_report.rs"]

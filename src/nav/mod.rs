@@ -10,11 +10,13 @@
 
 pub mod error_model;
 pub mod imu_model;
+pub mod live;
 pub mod navigator;
 pub mod online;
 pub mod replay;
 pub mod rest;
 pub mod run;
+pub mod start;
 
 pub use error_model::{nav_idx, NavInit, NavPoint, StrapdownErrorModel, NAV_Z};
 pub use imu_model::{AxisModel, ImuErrorModel, ImuSensor, MAX_AXIS_COMPONENTS};

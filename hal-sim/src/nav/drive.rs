@@ -184,7 +184,7 @@ impl<T: Real> NavLoop<T> {
 
     /// One fix: the planner's decisions, the heading, the fusion.
     fn fix(&mut self, f: &GnssFix) -> Result<EpochRecord> {
-        let plan = self.planner.plan(f)?;
+        let plan = self.planner.plan(f);
         if let (Some(yaw), Some(v)) = (plan.heading, f.vel_ned) {
             self.run
                 .set_heading(T::lit(yaw), Vector3::from(v).map(T::lit))

@@ -451,5 +451,20 @@ pub(crate) fn to_core_fix<T: Real>(f: &GnssFix, use_velocity: bool) -> CoreFix<T
     }
 }
 
+/// The fix `f` as the core's live loop takes it (angles in radians).
+pub fn live_fix(f: &GnssFix) -> imu_ident::nav::live::LiveFix {
+    imu_ident::nav::live::LiveFix {
+        t: f.t,
+        pos: Geodetic {
+            lat: f.lat_deg.to_radians(),
+            lon: f.lon_deg.to_radians(),
+            h: f.h,
+        },
+        vel: f.vel_ned,
+        sd_pos: f.sd_pos_ned,
+        sd_vel: f.sd_vel_ned,
+    }
+}
+
 /// `p` moved by the NED offset `d` [m]: the core's, which the firmware uses too.
 pub use imu_ident::nav::run::move_by;

@@ -8,9 +8,11 @@ use super::NavArgs;
 use crate::nav_io::outages::Outage;
 use crate::nav_io::{self, GnssFix, ImuSample};
 use anyhow::{bail, Context, Result};
+use imu_ident::nav::live::LiveConfig;
+pub use imu_ident::nav::start::FixPlan;
+use imu_ident::nav::start::{Alignment, FixPlanner as CorePlanner};
 use imu_ident::nav::{NavInit, NavSetup};
-use imu_ident::strapdown::{earth, heading_from_course, Geodetic, Increment, Leveller, Quat};
-use nalgebra::Vector3;
+use imu_ident::strapdown::Geodetic;
 
 /// Default GNSS standard deviations (position N, E, D [m], velocity N, E, D [m/s]) where a fix
 /// gives none.
@@ -45,60 +47,57 @@ pub fn start(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<Sta
         .outages
         .map(|o| o.schedule(t_first_fix, t_last_fix))
         .unwrap_or_default();
-    // Levelling and static gyro bias.
-    let t0 = imu[0].t;
-    let mut lev = Leveller::<f64>::new();
-    let mut sum_w = Vector3::zeros();
-    let mut n_w = 0usize;
-    let mut k = 1;
-    while k < imu.len() && imu[k].t <= t0 + args.align {
-        let dt = imu[k].t - imu[k - 1].t;
-        let s = &imu[k];
-        lev.add(
-            &Increment::from_rates(&Vector3::from(s.gyro), &Vector3::from(s.accel), dt),
-            dt,
-        );
-        sum_w += Vector3::from(s.gyro);
-        n_w += 1;
-        k += 1;
-    }
-    let (roll, pitch) = lev.level().map_err(|e| {
-        anyhow::anyhow!(
-            "{}: levelling over the first {} s: {e:?}",
-            args.imu.display(),
-            args.align
-        )
-    })?;
-    let k = k.min(imu.len() - 1);
+    // Levelling and static gyro bias: the core's window, which the live loop runs too. The
+    // run starts at the first sample past the window (the last one when none is).
+    let mut alignment = Alignment::new(args.align);
+    let k = imu
+        .iter()
+        .position(|s| alignment.sample(s.t, &s.gyro, &s.accel))
+        .unwrap_or(imu.len() - 1);
     let t_start = imu[k].t;
     let start_fix = fixes
         .iter()
         .min_by(|a, b| (a.t - t_start).abs().total_cmp(&(b.t - t_start).abs()))
         .copied()
         .context("no GNSS fix")?;
-    let yaw0 = args.yaw_deg.map(f64::to_radians).unwrap_or(0.0);
-    let q0 = Quat::from_euler(roll, pitch, yaw0);
-    let lever = Vector3::from(args.lever_arm);
     let ant = Geodetic {
         lat: start_fix.lat_deg.to_radians(),
         lon: start_fix.lon_deg.to_radians(),
         h: start_fix.h,
     };
-    let pos0 = super::move_by(&ant, &-(q0.dcm() * lever));
-    let gyro_bias = (args.static_gyro_bias && n_w > 0).then(|| {
-        // Mean rate at rest = bias + Earth rate; only the vertical part of the Earth rate is
-        // known before the heading (the horizontal part, <= 7.3e-5 rad/s, stays in the bias).
-        let c = q0.dcm();
-        let w_ie_n = earth::earth_rate_ned(pos0.lat);
-        let w_down_b = c.transpose() * Vector3::new(0.0, 0.0, w_ie_n.z);
-        (sum_w / n_w as f64 - w_down_b).into()
-    });
+    let yaw0 = args.yaw_deg.map(f64::to_radians);
+    let st = alignment
+        .start(&ant, yaw0, args.static_gyro_bias, &args.lever_arm)
+        .map_err(|e| {
+            anyhow::anyhow!(
+                "{}: levelling over the first {} s: {e:?}",
+                args.imu.display(),
+                args.align
+            )
+        })?;
     let setup = NavSetup {
         t0: t_start,
-        pos: pos0,
-        att: q0,
+        pos: st.pos,
+        att: st.att,
+        gyro_bias: st.gyro_bias,
+        ..settings(args)
+    };
+    Ok(Start { setup, k, outages })
+}
+
+/// The run's settings from `args`, at rest at the origin with a level attitude: what the
+/// start fills in ([`start`], [`LiveNav`](imu_ident::nav::live::LiveNav)) is left at that.
+pub fn settings(args: &NavArgs) -> NavSetup {
+    NavSetup {
+        t0: 0.0,
+        pos: Geodetic {
+            lat: 0.0,
+            lon: 0.0,
+            h: 0.0,
+        },
+        att: imu_ident::strapdown::Quat::identity(),
         vel: [0.0; 3],
-        gyro_bias,
+        gyro_bias: None,
         imu: args.model.clone(),
         init: NavInit {
             sd_att: args.init.sd_att,
@@ -120,31 +119,32 @@ pub fn start(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<Sta
         online: args.online(),
         // The planner's start (`FixPlanner::new`): a given yaw.
         heading_known: args.yaw_deg.is_some(),
-    };
-    Ok(Start { setup, k, outages })
+    }
 }
 
-/// What to do with one fix.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FixPlan {
-    /// Withheld by the outage schedule.
-    pub withheld: bool,
-    /// Set the heading to this yaw [rad] (with the fix's velocity) first.
-    pub heading: Option<f64>,
-    /// Fuse the fix.
-    pub fuse: bool,
+/// The live loop's configuration of a run with `args` (its outage schedule aside: a live
+/// run withholds nothing).
+pub fn live_config(args: &NavArgs) -> LiveConfig {
+    LiveConfig {
+        setup: settings(args),
+        align: args.align,
+        yaw: args.yaw_deg.map(f64::to_radians),
+        static_gyro_bias: args.static_gyro_bias,
+        yaw_speed: args.yaw_speed,
+        fix_interval: args.fix_interval,
+        use_velocity: args.use_velocity,
+        latency: 0.0,
+    }
 }
 
-/// The per-fix decisions of a run: the outage schedule, the heading from the GNSS course
-/// (until it is known, only static fixes are fused) and the shortest interval between fused
-/// fixes ([`NavArgs::fix_interval`]).
+/// The per-fix decisions of a run: the outage schedule over the core's planner
+/// ([`imu_ident::nav::start::FixPlanner`]: the heading from the GNSS course, until it is known
+/// only static fixes fused, and the shortest interval between fused fixes,
+/// [`NavArgs::fix_interval`]).
 #[derive(Debug, Clone)]
 pub struct FixPlanner {
     outages: Vec<Outage>,
-    heading_known: bool,
-    last_fused: f64,
-    yaw_speed: f64,
-    fix_interval: f64,
+    core: CorePlanner,
 }
 
 impl FixPlanner {
@@ -152,16 +152,13 @@ impl FixPlanner {
     pub fn new(args: &NavArgs, outages: Vec<Outage>) -> Self {
         Self {
             outages,
-            heading_known: args.yaw_deg.is_some(),
-            last_fused: f64::NEG_INFINITY,
-            yaw_speed: args.yaw_speed,
-            fix_interval: args.fix_interval,
+            core: CorePlanner::new(args.yaw_deg.is_some(), args.yaw_speed, args.fix_interval),
         }
     }
 
     /// The heading is known (given, or set from the course).
     pub fn heading_known(&self) -> bool {
-        self.heading_known
+        self.core.heading_known()
     }
 
     /// `t` [s] is inside a GNSS outage of the schedule.
@@ -170,32 +167,9 @@ impl FixPlanner {
     }
 
     /// The decisions for the next fix `f`.
-    pub fn plan(&mut self, f: &GnssFix) -> Result<FixPlan> {
-        let withheld = nav_io::outages::withheld(&self.outages, f.t);
-        let vel = f.vel_ned.map(Vector3::from);
-        let speed = vel.map(|v| v.xy().norm()).unwrap_or(0.0);
-        let mut heading = None;
-        if !self.heading_known && !withheld {
-            if let Some(v) = vel {
-                if speed >= self.yaw_speed {
-                    let yaw = heading_from_course(&v, self.yaw_speed)
-                        .map_err(|e| anyhow::anyhow!("heading: {e:?}"))?;
-                    heading = Some(yaw);
-                    self.heading_known = true;
-                }
-            }
-        }
-        // 20 ms of slack: fixes logged at a nominal rate jitter by a few milliseconds.
-        let due = f.t - self.last_fused >= self.fix_interval - 0.02;
-        let fuse = !withheld && due && (self.heading_known || speed < 0.2 * self.yaw_speed);
-        if fuse {
-            self.last_fused = f.t;
-        }
-        Ok(FixPlan {
-            withheld,
-            heading,
-            fuse,
-        })
+    pub fn plan(&mut self, f: &GnssFix) -> FixPlan {
+        let withheld = self.withheld_at(f.t);
+        self.core.plan(f.t, f.vel_ned, withheld)
     }
 }
 

@@ -1,0 +1,569 @@
+//! A navigation run fed live: IMU samples and GNSS fixes as they arrive, interleaved, with no
+//! host to prepare the start. [`LiveNav`] levels over the first seconds at rest
+//! ([`Alignment`]), places the run at the fix nearest the end of that window, decides each
+//! fix as the host does ([`FixPlanner`]) and drives the same loop as the replay
+//! ([`NavReplay`]). A log streamed through it in time order gives the host's replay records
+//! and so the host's run, bit for bit (`hal-sim/tests/nav_live.rs`).
+//!
+//! The order of a stream: the host takes a fix after the first IMU sample at or past its time.
+//! A fix that arrives before that sample waits in a small queue ([`PENDING`] fixes). A fix
+//! that arrives after it (a receiver's latency) is taken at once, after the samples it missed,
+//! unless the samples wait for it: with a latency budget ([`LiveConfig::latency`]) each sample
+//! is mechanised that long after it arrived, so every fix up to that late is taken in the
+//! host's order, at the price of a solution that much behind the newest sample (the delayed
+//! fusion horizon of PX4's EKF2, without its output predictor). Measured on a simulated drive
+//! with fixes 0.25 s late: up to 44 sigma off the host's run without a budget (the navigator
+//! moves a late fix's position back along the velocity, but compares its velocity with the
+//! newest one, and the fix is gated in turns), bit for bit with a 0.3-s budget
+//! (`hal-sim/tests/nav_live.rs`).
+//!
+//! The start is the fix nearest the end of the levelling window, before or after it; the
+//! samples after the window wait in a buffer of `B` samples until a fix after the window has
+//! come. When the buffer fills first, the nearest fix so far is taken; with none at all, the
+//! levelling starts again ([`LiveEvent::NoFix`]), as it does when the window was not at rest
+//! ([`LiveEvent::Realigning`]). Nothing here allocates or panics; every queue is bounded and
+//! reports what it dropped ([`LiveEvent::FixDropped`]).
+//!
+//! ```
+//! use imu_ident::nav::live::{LiveConfig, LiveEvent, LiveFix, LiveNav};
+//! use imu_ident::nav::NavSetup;
+//! use imu_ident::strapdown::Geodetic;
+//! # fn setup() -> NavSetup { imu_ident::nav::live::example_setup() }
+//! let cfg = LiveConfig::new(setup(), 2.0);
+//! let mut nav = LiveNav::<f64, 24>::new(cfg, LiveNav::<f64, 24>::no_observer);
+//! let ant = Geodetic { lat: 0.8, lon: 0.1, h: 50.0 };
+//! let (mut started, mut epochs) = (false, 0);
+//! let mut on = |e: LiveEvent<'_, f64>| match e {
+//!     LiveEvent::Started(_) => started = true,
+//!     LiveEvent::Fix { .. } => epochs += 1,
+//!     _ => {}
+//! };
+//! for k in 0..500u32 {
+//!     let t = 0.01 * f64::from(k);
+//!     nav.imu(t, [0.0; 3], [0.0, 0.0, -9.806], &mut on).unwrap();
+//!     if k % 100 == 50 {
+//!         let fix = LiveFix { t, pos: ant, vel: Some([0.0; 3]), sd_pos: None, sd_vel: None };
+//!         nav.gnss(&fix, &mut on).unwrap();
+//!     }
+//! }
+//! assert!(started && epochs == 3); // fixes at 2.5, 3.5 and 4.5 s, after the start at 2.01 s
+//! ```
+
+use super::navigator::NavObserver;
+use super::replay::{gnss_flags, GnssRecord, ImuRecord, NavSetup};
+use super::run::{Epoch, ImuStep, NavReplay};
+pub use super::start::{Alignment, FixPlan, FixPlanner, StartState};
+use super::{NavError, NAV_Z};
+use crate::filter::Fused;
+use crate::strapdown::{AlignError, Geodetic};
+use crate::Real;
+use heapless::Deque;
+
+/// Fixes waiting for the IMU sample that passes them.
+pub const PENDING: usize = 8;
+
+/// How a live run starts and decides its fixes (the host's `nav` options of the same names).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LiveConfig {
+    /// The run's settings: the model, the initial uncertainty, the observations, the
+    /// aiding. Its start state (`t0`, `pos`, `att`, `vel`, `gyro_bias`, `heading_known`) is
+    /// replaced by the alignment's.
+    pub setup: NavSetup,
+    /// The levelling window after the first sample, at rest [s] (`--align`).
+    pub align: f64,
+    /// The heading, when given [rad] (`--yaw`); else from the GNSS course.
+    pub yaw: Option<f64>,
+    /// Seed the gyro bias with the window's mean rate (not `--no-static-gyro-bias`).
+    pub static_gyro_bias: bool,
+    /// Speed at which the course gives the heading [m/s] (`--yaw-speed`).
+    pub yaw_speed: f64,
+    /// Shortest interval between fused fixes [s] (`--fix-interval`).
+    pub fix_interval: f64,
+    /// Fuse the fixes' velocities (`--use-velocity`).
+    pub use_velocity: bool,
+    /// The receiver's latency budget [s]: the IMU samples are mechanised this long after they
+    /// arrive, so that a fix that comes up to this late is still taken after the first
+    /// sample at or past its time, as the host takes it (module docs). The solution is then
+    /// this much behind the newest sample.
+    pub latency: f64,
+}
+
+impl LiveConfig {
+    /// The host's defaults (`hal-sim nav`) with the window `align` [s].
+    pub fn new(setup: NavSetup, align: f64) -> Self {
+        Self {
+            setup,
+            align,
+            yaw: None,
+            static_gyro_bias: true,
+            yaw_speed: 2.0,
+            fix_interval: 0.0,
+            use_velocity: true,
+            latency: 0.0,
+        }
+    }
+}
+
+/// A GNSS fix as it arrives (the host's GNSS CSV row, angles in radians).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LiveFix {
+    /// Time of validity [s], the IMU's time scale.
+    pub t: f64,
+    /// Antenna position.
+    pub pos: Geodetic,
+    /// NED velocity [m/s].
+    pub vel: Option<[f64; 3]>,
+    /// Position standard deviations N, E, D [m] (none: the setup's defaults).
+    pub sd_pos: Option<[f64; 3]>,
+    /// Velocity standard deviations [m/s] (none: the setup's defaults).
+    pub sd_vel: Option<[f64; 3]>,
+}
+
+/// Why a fix was not taken.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DropReason {
+    /// Its time is not after the previous fix's (or not a number).
+    NotIncreasing,
+    /// It is before the run's start.
+    BeforeStart,
+    /// The queue of fixes waiting for the IMU is full.
+    QueueFull,
+}
+
+/// What a call did, in order ([`LiveNav::imu`], [`LiveNav::gnss`]).
+#[derive(Debug)]
+pub enum LiveEvent<'a, T: Real> {
+    /// The run started from this setup (the alignment's start state in the configured one).
+    Started(&'a NavSetup),
+    /// The levelling failed (not at rest, or no sample): it starts again from the next sample.
+    Realigning(AlignError),
+    /// No fix came before the start's buffer filled: the levelling starts again.
+    NoFix,
+    /// A fix at this time was dropped.
+    FixDropped(f64, DropReason),
+    /// An IMU sample of the run (the record the replay would hold) and what it did.
+    Imu(&'a ImuRecord, &'a ImuStep<T>),
+    /// A fix of the run: its record (the decisions in its flags), the fusion when it was
+    /// fused, and the solution at its time.
+    Fix {
+        /// The fix as the replay would hold it.
+        record: &'a GnssRecord,
+        /// The fusion, when fused.
+        fused: Option<&'a Fused<T, NAV_Z>>,
+        /// The solution at the fix's time.
+        epoch: &'a Epoch<T>,
+    },
+}
+
+/// Attaches the run's observer (the online identification's bank) once the run is built.
+pub type Attach<T, const N: usize, O> = fn(&NavSetup, &NavReplay<T, N>) -> Result<O, NavError>;
+
+/// Where the start is.
+#[derive(Debug, Clone)]
+enum Phase<T: Real, const N: usize, O> {
+    /// Levelling.
+    Aligning,
+    /// The window ended at this time; waiting for the fix that places the run.
+    Placing(f64),
+    /// Running.
+    Running(NavReplay<T, N, O>),
+}
+
+/// A live navigation run (module docs); `B` IMU samples wait for the start's fix, and then
+/// for the latency budget ([`LiveConfig::latency`]).
+#[derive(Debug, Clone)]
+pub struct LiveNav<T: Real, const N: usize, O = (), const B: usize = 256> {
+    cfg: LiveConfig,
+    attach: Attach<T, N, O>,
+    phase: Phase<T, N, O>,
+    alignment: Alignment,
+    /// The last fix before the window's end.
+    before: Option<LiveFix>,
+    /// The samples after the window's end until the start, then the latency's delay line.
+    buffer: Deque<ImuRecord, B>,
+    pending: Deque<LiveFix, PENDING>,
+    planner: FixPlanner,
+    t_imu: f64,
+    t_fix: f64,
+}
+
+impl<T: Real, const N: usize, const B: usize> LiveNav<T, N, (), B> {
+    /// No observer.
+    pub fn no_observer(_: &NavSetup, _: &NavReplay<T, N>) -> Result<(), NavError> {
+        Ok(())
+    }
+}
+
+impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N, O, B> {
+    /// A run of `cfg` whose observer `attach` builds at the start.
+    pub fn new(cfg: LiveConfig, attach: Attach<T, N, O>) -> Self {
+        let planner = FixPlanner::new(cfg.yaw.is_some(), cfg.yaw_speed, cfg.fix_interval);
+        let alignment = Alignment::new(cfg.align);
+        Self {
+            cfg,
+            attach,
+            phase: Phase::Aligning,
+            alignment,
+            before: None,
+            buffer: Deque::new(),
+            pending: Deque::new(),
+            planner,
+            t_imu: f64::NAN,
+            t_fix: f64::NAN,
+        }
+    }
+
+    /// The run, once started.
+    pub fn run(&self) -> Option<&NavReplay<T, N, O>> {
+        match &self.phase {
+            Phase::Running(r) => Some(r),
+            _ => None,
+        }
+    }
+
+    /// The setup: the configured one until the start, then the run's.
+    pub fn setup(&self) -> &NavSetup {
+        &self.cfg.setup
+    }
+
+    /// The IMU sample at `t` [s]: mean rates `gyro` [rad/s] and specific force `accel`
+    /// [m/s^2], body FRD, over the interval since the previous sample. A time that does not
+    /// increase is refused ([`NavError::BadTime`]) and changes nothing.
+    pub fn imu(
+        &mut self,
+        t: f64,
+        gyro: [f64; 3],
+        accel: [f64; 3],
+        out: &mut impl FnMut(LiveEvent<'_, T>),
+    ) -> Result<(), NavError> {
+        if !(t > self.t_imu || (self.t_imu.is_nan() && t.is_finite())) {
+            return Err(NavError::BadTime);
+        }
+        let record = ImuRecord {
+            t,
+            gyro: gyro.map(|x| x as f32),
+            accel: accel.map(|x| x as f32),
+        };
+        self.t_imu = t;
+        match self.phase {
+            Phase::Aligning => {
+                if !self.alignment.sample(t, &gyro, &accel) {
+                    // Queued fixes this sample passed are before the window's end.
+                    while let Some(f) = self.pending.front().copied().filter(|f| f.t <= t) {
+                        self.before = Some(f);
+                        self.pending.pop_front();
+                    }
+                } else {
+                    self.phase = Phase::Placing(t);
+                    // Queued fixes before the window's end are candidates for the start.
+                    while let Some(f) = self.pending.front().copied().filter(|f| f.t <= t) {
+                        self.before = Some(f);
+                        if f.t < t {
+                            self.pending.pop_front();
+                        } else {
+                            break;
+                        }
+                    }
+                    self.try_place(out)?;
+                }
+            }
+            Phase::Placing(_) => {
+                if self.buffer.push_back(record).is_err() {
+                    return self.buffer_full(record, out);
+                }
+            }
+            Phase::Running(_) => {
+                if let Err(record) = self.buffer.push_back(record) {
+                    // A delay line longer than the buffer: the oldest sample goes now.
+                    if let Some(r) = self.buffer.pop_front() {
+                        self.run_sample(&r, out)?;
+                    }
+                    let _ = self.buffer.push_back(record);
+                }
+                self.drain(out)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The fix `f`.
+    pub fn gnss(
+        &mut self,
+        f: &LiveFix,
+        out: &mut impl FnMut(LiveEvent<'_, T>),
+    ) -> Result<(), NavError> {
+        if !(f.t > self.t_fix || (self.t_fix.is_nan() && f.t.is_finite())) {
+            out(LiveEvent::FixDropped(f.t, DropReason::NotIncreasing));
+            return Ok(());
+        }
+        self.t_fix = f.t;
+        match &mut self.phase {
+            Phase::Aligning if f.t <= self.t_imu => self.before = Some(*f),
+            Phase::Aligning => self.queue(f, out),
+            Phase::Placing(t_start) => {
+                let t_start = *t_start;
+                if f.t <= t_start {
+                    self.before = Some(*f);
+                }
+                if f.t >= t_start {
+                    self.queue(f, out);
+                }
+                self.try_place(out)?;
+            }
+            Phase::Running(run) => {
+                if f.t < self.cfg.setup.t0 {
+                    out(LiveEvent::FixDropped(f.t, DropReason::BeforeStart));
+                } else if f.t <= run.time() && self.pending.is_empty() {
+                    let (cfg, planner) = (&self.cfg, &mut self.planner);
+                    take_fix(run, cfg, planner, f, out)?;
+                } else {
+                    self.queue(f, out);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn queue(&mut self, f: &LiveFix, out: &mut impl FnMut(LiveEvent<'_, T>)) {
+        if self.pending.push_back(*f).is_err() {
+            out(LiveEvent::FixDropped(f.t, DropReason::QueueFull));
+        }
+    }
+
+    /// Places the run once a fix after the window's end has come: at the nearer of it and
+    /// the last fix before (the earlier on a tie, as the batch start's `min_by`).
+    fn try_place(&mut self, out: &mut impl FnMut(LiveEvent<'_, T>)) -> Result<(), NavError> {
+        let Phase::Placing(t_start) = self.phase else {
+            return Ok(());
+        };
+        let Some(after) = self.pending.iter().find(|f| f.t > t_start).copied() else {
+            return Ok(());
+        };
+        // The batch start's order: `total_cmp` of the distances, the first on a tie.
+        let dist = |f: &LiveFix| (f.t - t_start).abs();
+        let fix = match self.before {
+            Some(b) if dist(&after).total_cmp(&dist(&b)).is_ge() => b,
+            _ => after,
+        };
+        self.place(t_start, &fix, out)
+    }
+
+    /// The start's buffer is full at `record`: the nearest fix so far places the run, or
+    /// the levelling starts again.
+    fn buffer_full(
+        &mut self,
+        record: ImuRecord,
+        out: &mut impl FnMut(LiveEvent<'_, T>),
+    ) -> Result<(), NavError> {
+        let Phase::Placing(t_start) = self.phase else {
+            return Ok(());
+        };
+        match self.before {
+            Some(b) => {
+                self.place(t_start, &b, out)?;
+                if let Phase::Running(_) = self.phase {
+                    if let Err(r) = self.buffer.push_back(record) {
+                        self.run_sample(&r, out)?;
+                    }
+                    self.drain(out)?;
+                }
+                Ok(())
+            }
+            None => {
+                out(LiveEvent::NoFix);
+                self.realign();
+                Ok(())
+            }
+        }
+    }
+
+    fn realign(&mut self) {
+        self.phase = Phase::Aligning;
+        self.alignment = Alignment::new(self.cfg.align);
+        self.before = None;
+        self.buffer.clear();
+        self.pending.clear();
+    }
+
+    /// Starts the run at `t_start` from the antenna position of `fix`, then runs the buffered
+    /// samples and the fixes they pass.
+    fn place(
+        &mut self,
+        t_start: f64,
+        fix: &LiveFix,
+        out: &mut impl FnMut(LiveEvent<'_, T>),
+    ) -> Result<(), NavError> {
+        let c = &self.cfg;
+        let lever = c.setup.lever_arm;
+        let st = match self
+            .alignment
+            .start(&fix.pos, c.yaw, c.static_gyro_bias, &lever)
+        {
+            Ok(st) => st,
+            Err(e) => {
+                out(LiveEvent::Realigning(e));
+                self.realign();
+                return Ok(());
+            }
+        };
+        let setup = &mut self.cfg.setup;
+        setup.t0 = t_start;
+        setup.pos = st.pos;
+        setup.att = st.att;
+        setup.vel = [0.0; 3];
+        setup.gyro_bias = st.gyro_bias;
+        setup.heading_known = self.cfg.yaw.is_some();
+        let plain = NavReplay::<T, N>::new(setup)?;
+        let obs = (self.attach)(setup, &plain)?;
+        self.phase = Phase::Running(plain.with_observer(obs));
+        out(LiveEvent::Started(&self.cfg.setup));
+        // Fixes before the start are not the run's (the batch run starts at the first fix
+        // at or after `t0`).
+        while self.pending.front().is_some_and(|f| f.t < t_start) {
+            self.pending.pop_front();
+        }
+        self.drain(out)
+    }
+
+    /// The end of the stream (a log's end, or before a shutdown): the samples still waiting
+    /// for the latency budget are mechanised, each followed by the queued fixes it passes.
+    pub fn flush(&mut self, out: &mut impl FnMut(LiveEvent<'_, T>)) -> Result<(), NavError> {
+        match self.phase {
+            Phase::Running(_) => self.drain_to(f64::INFINITY, out),
+            _ => Ok(()),
+        }
+    }
+
+    /// Mechanises the buffered samples older than the latency budget, each followed by the
+    /// queued fixes it passes.
+    fn drain(&mut self, out: &mut impl FnMut(LiveEvent<'_, T>)) -> Result<(), NavError> {
+        self.drain_to(self.t_imu - self.cfg.latency, out)
+    }
+
+    /// Mechanises the buffered samples at or before `limit` [s].
+    fn drain_to(
+        &mut self,
+        limit: f64,
+        out: &mut impl FnMut(LiveEvent<'_, T>),
+    ) -> Result<(), NavError> {
+        while let Some(r) = self.buffer.front().copied().filter(|r| r.t <= limit) {
+            self.buffer.pop_front();
+            self.run_sample(&r, out)?;
+        }
+        Ok(())
+    }
+
+    /// One sample through the run, then the queued fixes it passes.
+    fn run_sample(
+        &mut self,
+        record: &ImuRecord,
+        out: &mut impl FnMut(LiveEvent<'_, T>),
+    ) -> Result<(), NavError> {
+        let Phase::Running(run) = &mut self.phase else {
+            return Ok(());
+        };
+        let step = run.imu(record)?;
+        out(LiveEvent::Imu(record, &step));
+        while let Some(f) = self.pending.front().copied().filter(|f| f.t <= record.t) {
+            self.pending.pop_front();
+            take_fix(run, &self.cfg, &mut self.planner, &f, out)?;
+        }
+        Ok(())
+    }
+}
+
+/// One fix through the run: the planner's decisions as the replay's flags, the fusion, the
+/// solution at its time (`hal_sim::nav_qemu::replay_records` writes the same record).
+fn take_fix<T: Real, const N: usize, O: NavObserver<T, N>>(
+    run: &mut NavReplay<T, N, O>,
+    cfg: &LiveConfig,
+    planner: &mut FixPlanner,
+    f: &LiveFix,
+    out: &mut impl FnMut(LiveEvent<'_, T>),
+) -> Result<(), NavError> {
+    let plan = planner.plan(f.t, f.vel, false);
+    let record = record_of(f, &plan, cfg.use_velocity);
+    let fused = run.gnss(&record)?;
+    let epoch = run.epoch(&record, fused.as_ref());
+    out(LiveEvent::Fix {
+        record: &record,
+        fused: fused.as_ref(),
+        epoch: &epoch,
+    });
+    Ok(())
+}
+
+/// The replay record of the fix `f` with the decisions `plan`.
+pub fn record_of(f: &LiveFix, plan: &FixPlan, use_velocity: bool) -> GnssRecord {
+    let f32x3 = |v: [f64; 3]| v.map(|x| x as f32);
+    let nan3 = [f32::NAN; 3];
+    // A heading needs the velocity it comes from.
+    let heading = plan.heading.filter(|_| f.vel.is_some());
+    let mut flags = 0;
+    for (on, bit) in [
+        (plan.withheld, gnss_flags::WITHHELD),
+        (heading.is_some(), gnss_flags::HEADING),
+        (plan.fuse, gnss_flags::FUSE),
+        (use_velocity, gnss_flags::VELOCITY),
+    ] {
+        if on {
+            flags |= bit;
+        }
+    }
+    GnssRecord {
+        t: f.t,
+        pos: f.pos,
+        vel: f.vel.map_or(nan3, f32x3),
+        sd_pos: f.sd_pos.map_or(nan3, f32x3),
+        sd_vel: f.sd_vel.map_or(nan3, f32x3),
+        flags,
+        yaw: heading.unwrap_or(0.0),
+    }
+}
+
+/// A setup for the examples: a MEMS-like white noise on every axis, no aiding.
+#[doc(hidden)]
+pub fn example_setup() -> NavSetup {
+    use super::{AxisModel, ImuErrorModel, NavInit};
+    use crate::model::{Component, WhiteNoise};
+    let axis = |density: f64| {
+        let mut a = AxisModel::new();
+        let _ = a.push(Component::White(WhiteNoise { density }));
+        a
+    };
+    NavSetup {
+        t0: 0.0,
+        pos: Geodetic {
+            lat: 0.0,
+            lon: 0.0,
+            h: 0.0,
+        },
+        att: crate::strapdown::Quat::identity(),
+        vel: [0.0; 3],
+        gyro_bias: None,
+        imu: ImuErrorModel {
+            gyro: core::array::from_fn(|_| axis(1e-4)),
+            accel: core::array::from_fn(|_| axis(1e-2)),
+        },
+        init: NavInit {
+            sd_att: nalgebra::Vector3::repeat(0.01),
+            sd_vel: 0.1,
+            sd_pos: 3.0,
+        },
+        lever_arm: [0.0; 3],
+        obs_sd: [0.5, 0.5, 1.0, 0.1, 0.1, 0.2],
+        step: 1.0,
+        gate: None,
+        max_imu_gap: 0.1,
+        max_rejections: 3,
+        sd_factor: [1.0; 2],
+        heading_sd: 0.035,
+        scale_factor_sd: None,
+        nhc_sd: None,
+        nhc_lever: [0.0; 3],
+        zupt: None,
+        online: None,
+        heading_known: false,
+    }
+}
