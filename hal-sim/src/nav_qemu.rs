@@ -11,6 +11,10 @@
 //! [`crate::qemu::run_qemu`] and the defmt frames are parsed structurally like the estimator
 //! firmware's ([`crate::qemu`]).
 //!
+//! A live replay ([`encode_live_replay`]) carries the raw stream instead, every sample from the
+//! first and every fix undecided, with the live rules in its setup: the firmware's live loop
+//! (`imu_ident::nav::live`) starts the run and decides the fixes itself.
+//!
 //! ```no_run
 //! # fn demo(args: &hal_sim::nav::NavArgs) -> anyhow::Result<()> {
 //! use hal_sim::nav_io::{read_gnss_csv, read_imu_csv};
@@ -32,7 +36,7 @@ use imu_ident::nav::replay::{encode, ImuRecord, Record};
 use imu_ident::nav::NavSetup;
 use serde::Serialize;
 
-use crate::nav::setup::{start, FixPlanner};
+use crate::nav::setup::{start, FixPlan, FixPlanner};
 use crate::nav::{live_fix, NavArgs};
 use crate::nav_io::{GnssFix, ImuSample};
 use crate::qemu::{field, run_qemu, tagged, Icount, QemuConfig, Stack};
@@ -105,6 +109,60 @@ pub fn replay_records(
         }
     }
     Ok((s.setup, out))
+}
+
+/// The setup and records of a live run with `args` on `imu` and `fixes`: the settings with
+/// the live rules ([`NavSetup::live`]), then every sample from the first and every fix, each
+/// after the first sample at or past its time, unflagged: the raw stream a navigation
+/// computer receives, which the firmware's live loop (`imu_ident::nav::live`) starts and
+/// decides by itself. The IMU time shift is applied; the outage schedule is not (a live run
+/// withholds nothing).
+pub fn live_records(
+    args: &NavArgs,
+    imu: &[ImuSample],
+    fixes: &[GnssFix],
+) -> Result<(NavSetup, Vec<Record>)> {
+    let shifted = crate::nav::setup::shifted_imu(args, imu);
+    let setup = NavSetup {
+        live: Some(crate::nav::setup::live_config(args)),
+        ..crate::nav::setup::settings(args)
+    };
+    let raw = FixPlan {
+        withheld: false,
+        heading: None,
+        fuse: false,
+    };
+    let mut out = Vec::with_capacity(shifted.len() + fixes.len());
+    let mut fix_k = 0;
+    for (i, s) in shifted.iter().enumerate() {
+        let increasing = i == 0 || s.t > shifted[i - 1].t;
+        if !increasing {
+            bail!("IMU time does not increase at t = {}", s.t);
+        }
+        out.push(Record::Imu(ImuRecord {
+            t: s.t,
+            gyro: s.gyro.map(|x| x as f32),
+            accel: s.accel.map(|x| x as f32),
+        }));
+        while fix_k < fixes.len() && fixes[fix_k].t <= s.t {
+            out.push(Record::Gnss(record_of(
+                &live_fix(&fixes[fix_k]),
+                &raw,
+                false,
+            )));
+            fix_k += 1;
+        }
+    }
+    Ok((setup, out))
+}
+
+/// The live replay file of a run with `args` on `imu` and `fixes` ([`live_records`]).
+pub fn encode_live_replay(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<Vec<u8>> {
+    let (setup, records) = live_records(args, imu, fixes)?;
+    let mut out = Vec::new();
+    encode(&setup, &records, |b| out.extend_from_slice(b))
+        .map_err(|e| anyhow!("encoding the live navigation replay: {e}"))?;
+    Ok(out)
 }
 
 /// The replay file of a run with `args` on `imu` and `fixes`.

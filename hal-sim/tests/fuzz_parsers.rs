@@ -423,6 +423,7 @@ fn nav_replay(nhc: (u64, [u64; 3], bool), n: usize) -> Vec<u8> {
         zupt: None,
         online: None,
         heading_known,
+        live: None,
     };
     let records: Vec<Record> = (0..n)
         .map(|k| {

@@ -6,7 +6,7 @@
 //! recovers from a window that was not at rest and from a receiver that is silent, without a
 //! panic on any input.
 
-use hal_sim::nav::setup::live_config;
+use hal_sim::nav::setup::{live_config, settings};
 use hal_sim::nav::{live_fix, run_with, NavArgs};
 use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, GnssFix, ImuSample};
 use hal_sim::nav_qemu::replay_records;
@@ -53,11 +53,11 @@ fn drive(dir: &std::path::Path, seed: u64, yaw: bool, nhc: bool) -> NavArgs {
 
 /// What a live run produced.
 #[derive(Default)]
-struct Live {
+pub(crate) struct Live {
     setup: Option<NavSetup>,
     records: Vec<Record>,
     /// Epoch time and position (lat, lon, h) bits, velocity and position sigmas.
-    epochs: Vec<Epoch<f32>>,
+    pub(crate) epochs: Vec<Epoch<f32>>,
     gated: usize,
     starts: usize,
     realigned: usize,
@@ -93,7 +93,8 @@ fn stream(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix], delay: f64, late
         latency,
         ..live_config(args)
     };
-    let mut nav = LiveNav::<f32, NAV_N>::new(cfg, LiveNav::<f32, NAV_N>::no_observer);
+    let mut nav =
+        LiveNav::<f32, NAV_N>::new(settings(args), cfg, LiveNav::<f32, NAV_N>::no_observer);
     let mut live = Live::default();
     let mut k = 0;
     for s in imu {
@@ -130,13 +131,22 @@ fn load(args: &NavArgs) -> (Vec<ImuSample>, Vec<GnssFix>) {
 /// The replay's bytes and the host run's epochs against the live run's, bit for bit. The
 /// fixes come early (up to 0.7 s before the IMU reaches them: they wait in the queue) or just
 /// in time, or late within the latency budget: the records and the run are the same.
-fn live_is_the_replay(args: &NavArgs, delay: f64, latency: f64) -> Live {
+pub(crate) fn live_is_the_replay(args: &NavArgs, delay: f64, latency: f64) -> Live {
     let (imu, fixes) = load(args);
     let (setup, records) = replay_records(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let live = stream(args, &imu, &fixes, delay, latency);
     assert_eq!((live.starts, live.realigned, live.no_fix), (1, 0, 0));
     assert!(live.dropped.is_empty(), "{:?}", live.dropped);
-    let live_setup = live.setup.clone().unwrap_or_else(|| panic!("no start"));
+    let mut live_setup = live.setup.clone().unwrap_or_else(|| panic!("no start"));
+    // The live run's setup carries its rules; the replay's start is the host's.
+    assert_eq!(
+        live_setup.live,
+        Some(LiveConfig {
+            latency,
+            ..live_config(args)
+        })
+    );
+    live_setup.live = None;
     if live.records.len() != records.len() {
         let first = live
             .records
@@ -277,7 +287,9 @@ const G: [f64; 3] = [0.0, 0.0, -9.806];
 
 /// A window that was not at rest (2 g for the first 3 s) is levelled again from the next
 /// sample, and the run starts after the next window; a receiver silent for longer than the
-/// start's buffer (256 samples) restarts the levelling, and the run starts once fixes come.
+/// start's buffer (256 samples) restarts the levelling, and the run starts once fixes come;
+/// with a fix before the window's end and none after, the full buffer places the run there and
+/// its samples run in their order.
 #[test]
 fn the_start_recovers_from_motion_and_from_a_silent_receiver() {
     let args = rest_args();
@@ -307,6 +319,36 @@ fn the_start_recovers_from_motion_and_from_a_silent_receiver() {
         .epochs
         .iter()
         .all(|e| (e.pos.h - 300.0).abs() < 3.0 * f64::from(e.sd_pos[2])));
+
+    // Fixes until 1.5 s, then none until 9.5 s: the buffer fills (4.57 s) and the last fix
+    // before the window's end (1.5 s) places the run; the samples run in their order.
+    let imu = at_rest(0.0, 15.0, G);
+    let fixes: Vec<GnssFix> = [0.5, 1.5]
+        .into_iter()
+        .chain((9..15).map(|k| 0.5 + f64::from(k)))
+        .map(fix_at)
+        .collect();
+    let live = stream(&args, &imu, &fixes, 0.0, 0.0);
+    assert_eq!((live.no_fix, live.starts), (0, 1));
+    let t0 = live.setup.as_ref().map_or(f64::NAN, |s| s.t0);
+    assert!((t0 - 2.01).abs() < 1e-9, "t0 = {t0}");
+    let times: Vec<f64> = live
+        .records
+        .iter()
+        .filter_map(|r| match r {
+            Record::Imu(r) => Some(r.t),
+            Record::Gnss(_) => None,
+        })
+        .collect();
+    assert_eq!(times.len(), 1500 - 202);
+    assert!(
+        times.windows(2).all(|w| w[0] < w[1]),
+        "samples out of order"
+    );
+    assert!(live
+        .epochs
+        .iter()
+        .all(|e| (e.pos.h - 300.0).abs() < 3.0 * f64::from(e.sd_pos[2])));
 }
 
 /// Seeded hostile streams (non-finite and huge values, times that stand still or go back,
@@ -317,11 +359,12 @@ fn the_start_recovers_from_motion_and_from_a_silent_receiver() {
 fn hostile_live_streams_never_panic() {
     use rand::{Rng, SeedableRng};
     let args = rest_args();
-    let cfg = live_config(&args);
+    let (setup, cfg) = (settings(&args), live_config(&args));
     let hostile = [f64::NAN, f64::INFINITY, -f64::INFINITY, 1e30, -1e30, 0.0];
     for seed in 0..40u64 {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let mut nav = LiveNav::<f32, NAV_N>::new(cfg.clone(), LiveNav::<f32, NAV_N>::no_observer);
+        let mut nav =
+            LiveNav::<f32, NAV_N>::new(setup.clone(), cfg, LiveNav::<f32, NAV_N>::no_observer);
         let mut live = Live::default();
         let (mut t, mut tf) = (0.0, 0.0);
         let (mut fixes_sent, mut refused) = (0usize, 0usize);

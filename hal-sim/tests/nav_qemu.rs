@@ -32,8 +32,8 @@ use std::path::PathBuf;
 use hal_sim::nav::{run_with, NavArgs, NavRun};
 use hal_sim::nav_io::{read_gnss_csv, read_imu_csv};
 use hal_sim::nav_qemu::{
-    compare_online, encode_replay, run_nav_firmware, run_nav_firmware_bytes, NavEpoch,
-    NavFirmwareRun, NAV_ELF_ENV,
+    compare_online, encode_live_replay, encode_replay, run_nav_firmware, run_nav_firmware_bytes,
+    NavEpoch, NavFirmwareRun, NAV_ELF_ENV,
 };
 use hal_sim::qemu::QemuConfig;
 use imu_ident::nav::online::FIRMWARE_BANK;
@@ -597,4 +597,99 @@ fn drive_args_static(dir: &std::path::Path) -> NavArgs {
             0.0,
         )
     }
+}
+
+/// The live loop on the firmware (`imu_ident::nav::live`): the raw stream of the constraint's
+/// drive in a live replay (every sample from the first, every fix unflagged, no outage
+/// schedule), from which the firmware levels, places the run at its fix, takes the heading
+/// from the course and decides every fix itself. Against the host's run of the same log,
+/// which levels on the `f64` samples and decides on `f64` velocities where the live replay
+/// holds them rounded to `f32`: the replay firmware's bars, 1e-3 sigma against host `f32`
+/// and 0.05 sigma against host `f64`.
+#[test]
+fn qemu_firmware_live_start_matches_the_host_navigator() {
+    let Some(elf) = firmware_elf() else { return };
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let (fw, _) = live_under_qemu(
+        &elf,
+        &NavArgs {
+            outages: None,
+            ..drive_nhc(dir.path())
+        },
+    );
+    let heading = fw.epochs.iter().any(|e| e.flags & gnss_flags::HEADING != 0);
+    assert!(heading, "no fix set the heading");
+}
+
+/// [`qemu_firmware_live_start_matches_the_host_navigator`] with the online identification's
+/// bank, which the live loop starts when it places the run (inside the record loop, so the
+/// stack of that call holds the navigator's construction and the bank's start): it fits the
+/// F405, and takes the host's decisions (the host's comparison of `firmware.json`).
+#[test]
+fn qemu_firmware_live_start_with_the_online_identification_matches_the_host() {
+    let Some(elf) = firmware_elf() else { return };
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let (fw, h32) = live_under_qemu(
+        &elf,
+        &NavArgs {
+            outages: None,
+            ..drive_online(dir.path())
+        },
+    );
+    let log = h32.adapt.as_ref().unwrap_or_else(|| panic!("no adapt log"));
+    let online = compare_online(&fw.online, log);
+    eprintln!("live online identification against the host: {online:?}");
+    assert!(
+        !log.searches.is_empty() && fw.online.len() == log.coordinates.len() * log.searches.len()
+    );
+    // The bound of the replay's comparison (1e-4 decade); the live start's inputs are the
+    // replay's plus the window's samples and the heading's velocity rounded to f32.
+    assert!(
+        online.worst_factor_diff_decades <= 1e-4 && online.flags_differ == 0,
+        "{online:?}"
+    );
+}
+
+/// Runs the live replay of `args` under QEMU; checks it fits the F405 and its positions and
+/// sigmas against the host's `f32` (1e-3 sigma) and `f64` (0.05 sigma) runs.
+fn live_under_qemu(elf: &std::path::Path, args: &NavArgs) -> (NavFirmwareRun, NavRun) {
+    let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));
+    let fixes = read_gnss_csv(&args.gnss).unwrap_or_else(|e| panic!("{e:#}"));
+    let bytes = encode_live_replay(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let fw = run_nav_firmware_bytes(elf, &bytes, &QemuConfig::default())
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    assert!(
+        fw.success(),
+        "firmware failed: {:?}\nmessages: {:?}\nstderr: {}",
+        fw.status,
+        fw.messages,
+        fw.stderr
+    );
+    let h32 = run_with::<f32>(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let h64 = run_with::<f64>(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let (pos32, sd32) = compare(&fw.epochs, &h32);
+    let (pos64, sd64) = compare(&fw.epochs, &h64);
+    eprintln!(
+        "live QEMU ({} epochs): firmware vs host f32: worst position {pos32:.2e} sigma, worst \
+         sigma {sd32:.2e} (relative); vs host f64: {pos64:.2e} sigma, sigma {sd64:.2e}",
+        fw.epochs.len()
+    );
+    for c in &fw.icount {
+        eprintln!(
+            "icount {}: n {} mean {} worst {} (at {})",
+            c.class, c.n, c.mean, c.worst, c.worst_k
+        );
+    }
+    for s in &fw.stack {
+        eprintln!(
+            "stack {}: high water {} B, statics {} B",
+            s.phase,
+            s.high_water,
+            s.statics_end - 0x2000_0000
+        );
+    }
+    fits_the_f405(&fw);
+    assert!(pos32 < 1e-3 && sd32 < 1e-3, "{pos32} {sd32}");
+    assert!(pos64 < 0.05 && sd64 < 0.05, "{pos64} {sd64}");
+    (fw, h32)
 }

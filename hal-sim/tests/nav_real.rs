@@ -36,6 +36,10 @@
 //!   With the non-holonomic constraint on both it is within the drive's bar, 7.15 m: 2.73 m
 //!   against 6.60 m hand-inflated.
 //!
+//! - the drive streamed through the live loop (`imu_ident::nav::live`: the start and every
+//!   fix decided by the core, as on a navigation computer), fixes early or late within the
+//!   latency budget, is the host's run bit for bit (no outage schedule).
+//!
 //! The identification with the constraint's factor in the search (`--identify --nhc`, ~50 s)
 //! is the ignored test `real_drive_identifies_the_constraint_sd`.
 
@@ -383,4 +387,25 @@ fn real_drive_bank_with_flat_coordinates_waiting_is_no_worse_than_hand_inflated(
         with_nhc <= fixed_nhc && with_nhc <= 7.15,
         "bank {with_nhc} m, hand-inflated {fixed_nhc} m, with the constraint"
     );
+}
+
+/// The drive streamed through the live loop (`imu_ident::nav::live`) as a navigation computer
+/// receives it: 100-Hz samples and 4-Hz fixes interleaved, the fixes 0.1 s early, then 0.2 s
+/// late within a 0.25-s latency budget. The live loop levels, places the run and decides every
+/// fix itself; the run is the host's, bit for bit (no outage schedule: a live run withholds
+/// nothing).
+#[test]
+fn real_drive_streamed_live_is_the_host_run_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let Some((args, _, _)) = drive(dir.path()) else {
+        return;
+    };
+    let args = NavArgs {
+        outages: None,
+        ..args
+    };
+    for (delay, latency) in [(-0.1, 0.0), (0.2, 0.25)] {
+        let live = crate::nav_live::live_is_the_replay(&args, delay, latency);
+        assert!(live.epochs.len() > 2000, "{} epochs", live.epochs.len());
+    }
 }

@@ -7,6 +7,11 @@
 //! the library's ([`imu_ident::nav::run`]), shared with the host driver; this file reads the
 //! bytes over semihosting, times the calls with SysTick and sends the frames.
 //!
+//! A live replay (its setup has [`NavSetup::live`]: the raw stream, written by
+//! `hal_sim::nav_qemu::encode_live_replay`) runs through the live loop instead
+//! ([`imu_ident::nav::live::LiveNav`]): the firmware levels, places the run at its fix and
+//! decides every fix itself, as a navigation computer fed by its sensors would.
+//!
 //! - Input: the file named by the first semihosting argument after the program name (default
 //!   `nav.bin`), relative to QEMU's working directory.
 //! - Output (defmt on semihosting stdout): `nav` per GNSS epoch (time, position f64 rad/m,
@@ -50,8 +55,10 @@ mod firmware {
     use cortex_m::peripheral::SYST;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS};
+    use imu_ident::nav::live::{LiveEvent, LiveFix, LiveNav};
     use imu_ident::nav::replay::{Decoder, Event, NavReplayError, Record};
-    use imu_ident::nav::{NavError, NavReplay, NavSetup, OnlineIdent, NAV_N};
+    use imu_ident::nav::run::ImuStep;
+    use imu_ident::nav::{Epoch, NavError, NavReplay, NavSetup, OnlineIdent, NAV_N};
 
     /// File read when QEMU passes no argument.
     const DEFAULT_LOG: &CStr = c"nav.bin";
@@ -64,6 +71,50 @@ mod firmware {
     type Bank = OnlineIdent<f32, NAV_N, BANK>;
 
     type Run = NavReplay<f32, NAV_N, Option<&'static mut Bank>>;
+
+    /// IMU samples the live start holds until its fix (1.28 s at 100 Hz).
+    const LIVE_BUFFER: usize = 128;
+
+    type Live = LiveNav<f32, NAV_N, Option<&'static mut Bank>, LIVE_BUFFER>;
+
+    /// What the log is: a replay of the host's start and decisions, or the raw stream of a
+    /// live run ([`imu_ident::nav::live`]: the firmware levels, places the run and decides
+    /// each fix itself). One static holds either (no heap to box the larger into).
+    #[allow(clippy::large_enum_variant)]
+    enum Mode {
+        Replay(Run),
+        Live(Live),
+    }
+
+    /// The run of [`Mode`], once built.
+    enum Nav {
+        Replay(&'static mut Run),
+        Live(&'static mut Live),
+    }
+
+    /// What the record calls did, counted per class of call.
+    #[derive(Default)]
+    struct Tally {
+        imu: Counts,
+        step: Counts,
+        nhc: Counts,
+        fuse: Counts,
+        n_imu: u32,
+        epochs: u32,
+    }
+
+    impl Tally {
+        /// Counts a sample's call by what it did.
+        fn sample(&mut self, done: &ImuStep<f32>, instr: u32) {
+            let class = match (done.stepped, done.nhc.is_some()) {
+                (_, true) => &mut self.nhc,
+                (true, false) => &mut self.step,
+                (false, false) => &mut self.imu,
+            };
+            class.add(instr, self.n_imu);
+            self.n_imu = self.n_imu.wrapping_add(1);
+        }
+    }
 
     /// Why a replay failed.
     #[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
@@ -84,9 +135,9 @@ mod firmware {
         }
     }
 
-    /// The run (navigator, filter, model: about 10 KB) lives in a static, written once the
-    /// setup has been read.
-    static mut RUN: MaybeUninit<Run> = MaybeUninit::uninit();
+    /// The run (navigator, filter, model: about 10 KB; with the live start's buffer, about
+    /// 13 KB) lives in a static, written once the setup has been read.
+    static mut MODE: MaybeUninit<Mode> = MaybeUninit::uninit();
 
     /// The online identification's bank (about 59 KB), in the core-coupled memory
     /// (`memory/ccmram.x`: the F405's 128 KiB SRAM holds the other statics and the stack).
@@ -111,16 +162,26 @@ mod firmware {
         semihost::exit(status)
     }
 
-    /// Builds the run in [`RUN`] (its own frame: the temporaries of the navigator's
-    /// construction are not part of the record loop's stack).
+    /// Builds the run in [`MODE`] (its own frame: the temporaries of the navigator's
+    /// construction are not part of the record loop's stack). A live replay builds the live
+    /// loop, which builds the navigator when it has placed the run.
     #[inline(never)]
-    fn init(setup: &NavSetup) -> Result<&'static mut Run, FirmwareError> {
+    fn init(setup: &NavSetup) -> Result<Nav, FirmwareError> {
+        // SAFETY: called once, before any other reference to MODE exists.
+        let slot = unsafe { &mut *core::ptr::addr_of_mut!(MODE) };
+        if let Some(cfg) = setup.live {
+            let live = Live::new(setup.clone(), cfg, start_bank);
+            return match slot.write(Mode::Live(live)) {
+                Mode::Live(l) => Ok(Nav::Live(l)),
+                Mode::Replay(_) => Err(FirmwareError::NoSetup),
+            };
+        }
         let plain = NavReplay::<f32, NAV_N>::new(setup).map_err(FirmwareError::Nav)?;
-        let bank = start_bank(setup, &plain)?;
-        let run = plain.with_observer(bank);
-        // SAFETY: called once, before any other reference to RUN exists.
-        let slot = unsafe { &mut *core::ptr::addr_of_mut!(RUN) };
-        Ok(slot.write(run))
+        let bank = start_bank(setup, &plain).map_err(FirmwareError::Nav)?;
+        match slot.write(Mode::Replay(plain.with_observer(bank))) {
+            Mode::Replay(r) => Ok(Nav::Replay(r)),
+            Mode::Live(_) => Err(FirmwareError::NoSetup),
+        }
     }
 
     /// Decisions the online identification's bank has taken (0 without a bank).
@@ -151,12 +212,13 @@ mod firmware {
     }
 
     /// Starts the online identification's bank in [`BANK_STATE`] when the setup asks for it
-    /// (its own frame: the shadows' construction is not part of `init`'s).
+    /// (its own frame: the shadows' construction is not part of `init`'s). Called once: by
+    /// `init` for a replay, by the live loop when it places the run.
     #[inline(never)]
     fn start_bank(
         setup: &NavSetup,
         plain: &NavReplay<f32, NAV_N>,
-    ) -> Result<Option<&'static mut Bank>, FirmwareError> {
+    ) -> Result<Option<&'static mut Bank>, NavError> {
         let Some(cfg) = setup.online else {
             return Ok(None);
         };
@@ -164,8 +226,102 @@ mod firmware {
         let slot = unsafe { &mut *core::ptr::addr_of_mut!(BANK_STATE) };
         let bank = slot.write(Bank::BLANK);
         bank.start(cfg, plain.navigator(), setup.t0)
-            .map_err(|e| FirmwareError::Nav(NavError::Model(e)))?;
+            .map_err(NavError::Model)?;
         Ok(Some(bank))
+    }
+
+    /// The solution at a GNSS epoch, as telemetry.
+    fn send_epoch(e: &Epoch<f32>) {
+        let [vn, ve, vd] = e.vel;
+        let [sn, se, sd] = e.sd_pos;
+        defmt::info!(
+            "nav t={=f64} lat={=f64} lon={=f64} h={=f64} vn={=f32} ve={=f32} vd={=f32} sdn={=f32} sde={=f32} sdd={=f32} flags={=u8}",
+            e.t, e.pos.lat, e.pos.lon, e.pos.h, vn, ve, vd, sn, se, sd, e.flags
+        );
+    }
+
+    /// One record of a replay through the run.
+    fn replay_record(run: &mut Run, r: &Record, tally: &mut Tally) -> Result<(), FirmwareError> {
+        match r {
+            Record::Imu(r) => {
+                let decisions = decisions_of(run);
+                let t0 = SYST::get_current();
+                let done = run.imu(r).map_err(FirmwareError::Nav)?;
+                let t1 = SYST::get_current();
+                if decisions_of(run) != decisions {
+                    report_decision(run, r.t);
+                }
+                tally.sample(&done, semihost::instructions(t0, t1));
+            }
+            Record::Gnss(r) => {
+                let t0 = SYST::get_current();
+                let fused = run.gnss(r).map_err(FirmwareError::Nav)?;
+                let t1 = SYST::get_current();
+                if fused.is_some() {
+                    tally.fuse.add(semihost::instructions(t0, t1), tally.epochs);
+                }
+                send_epoch(&run.epoch(r, fused.as_ref()));
+                tally.epochs = tally.epochs.wrapping_add(1);
+            }
+        }
+        Ok(())
+    }
+
+    /// What one call of the live loop did (its epochs are sent after the call, outside the
+    /// instruction count; more than fit are sent at once).
+    #[derive(Default)]
+    struct LiveCall {
+        samples: u32,
+        last: Option<ImuStep<f32>>,
+        fused: bool,
+        epochs: heapless::Vec<Epoch<f32>, 8>,
+    }
+
+    /// One record of a live replay through the live loop: a sample, or a fix decoded as the
+    /// receiver would give it. A call that ran one sample is counted as the replay's; the
+    /// calls that start the run (the buffered samples) are not counted.
+    fn live_record(live: &mut Live, r: &Record, tally: &mut Tally) -> Result<(), FirmwareError> {
+        let decisions = live.run().map_or(0, decisions_of);
+        let mut call = LiveCall::default();
+        let mut on = |e: LiveEvent<'_, f32>| match e {
+            LiveEvent::Imu(_, done) => {
+                call.samples += 1;
+                call.last = Some(*done);
+            }
+            LiveEvent::Fix { fused, epoch, .. } => {
+                call.fused |= fused.is_some();
+                if call.epochs.push(*epoch).is_err() {
+                    send_epoch(epoch);
+                }
+            }
+            LiveEvent::Started(s) => defmt::info!("live start t0={=f64}", s.t0),
+            LiveEvent::Realigning(_) => defmt::warn!("live: levelling again (not at rest)"),
+            LiveEvent::NoFix => defmt::warn!("live: levelling again (no fix)"),
+            LiveEvent::FixDropped(t, _) => defmt::warn!("live: fix at {=f64} dropped", t),
+        };
+        let t0 = SYST::get_current();
+        match r {
+            Record::Imu(s) => live.imu(s.t, s.gyro.map(f64::from), s.accel.map(f64::from), &mut on),
+            Record::Gnss(g) => live.gnss(&LiveFix::from_record(g), &mut on),
+        }
+        .map_err(FirmwareError::Nav)?;
+        let t1 = SYST::get_current();
+        let instr = semihost::instructions(t0, t1);
+        match (r, call.samples, &call.last) {
+            (Record::Imu(_), 1, Some(done)) => tally.sample(done, instr),
+            (Record::Gnss(_), 0, _) if call.fused => tally.fuse.add(instr, tally.epochs),
+            _ => {}
+        }
+        for e in &call.epochs {
+            send_epoch(e);
+        }
+        tally.epochs = tally.epochs.wrapping_add(call.epochs.len() as u32);
+        if let Some(run) = live.run() {
+            if decisions_of(run) != decisions {
+                report_decision(run, run.time());
+            }
+        }
+        Ok(())
     }
 
     #[inline(never)]
@@ -176,14 +332,8 @@ mod firmware {
         let _syst = semihost::timer();
         let mut decoder = Decoder::new();
         let mut buf = [0u8; CHUNK];
-        let mut nav: Option<&'static mut Run> = None;
-        let (mut imu, mut step, mut nhc, mut fuse) = (
-            Counts::default(),
-            Counts::default(),
-            Counts::default(),
-            Counts::default(),
-        );
-        let (mut n_imu, mut epochs) = (0u32, 0u32);
+        let mut nav: Option<Nav> = None;
+        let mut tally = Tally::default();
         loop {
             let n = file.read(&mut buf)?;
             let Some(chunk) = buf.get(..n).filter(|c| !c.is_empty()) else {
@@ -199,49 +349,29 @@ mod firmware {
                         semihost::report_stack("init");
                         semihost::paint_stack();
                     }
-                    Some(Event::Record(Record::Imu(r))) => {
-                        let run = nav.as_deref_mut().ok_or(FirmwareError::NoSetup)?;
-                        let decisions = decisions_of(run);
-                        let t0 = SYST::get_current();
-                        let done = run.imu(&r).map_err(FirmwareError::Nav)?;
-                        let t1 = SYST::get_current();
-                        if decisions_of(run) != decisions {
-                            report_decision(run, r.t);
-                        }
-                        let class = match (done.stepped, done.nhc.is_some()) {
-                            (_, true) => &mut nhc,
-                            (true, false) => &mut step,
-                            (false, false) => &mut imu,
-                        };
-                        class.add(semihost::instructions(t0, t1), n_imu);
-                        n_imu = n_imu.wrapping_add(1);
-                    }
-                    Some(Event::Record(Record::Gnss(r))) => {
-                        let run = nav.as_deref_mut().ok_or(FirmwareError::NoSetup)?;
-                        let t0 = SYST::get_current();
-                        let fused = run.gnss(&r).map_err(FirmwareError::Nav)?;
-                        let t1 = SYST::get_current();
-                        if fused.is_some() {
-                            fuse.add(semihost::instructions(t0, t1), epochs);
-                        }
-                        let e = run.epoch(&r, fused.as_ref());
-                        let [vn, ve, vd] = e.vel;
-                        let [sn, se, sd] = e.sd_pos;
-                        defmt::info!(
-                            "nav t={=f64} lat={=f64} lon={=f64} h={=f64} vn={=f32} ve={=f32} vd={=f32} sdn={=f32} sde={=f32} sdd={=f32} flags={=u8}",
-                            e.t, e.pos.lat, e.pos.lon, e.pos.h, vn, ve, vd, sn, se, sd, e.flags
-                        );
-                        epochs = epochs.wrapping_add(1);
-                    }
+                    Some(Event::Record(r)) => match nav.as_mut().ok_or(FirmwareError::NoSetup)? {
+                        Nav::Replay(run) => replay_record(run, &r, &mut tally)?,
+                        Nav::Live(live) => live_record(live, &r, &mut tally)?,
+                    },
                 }
             }
         }
-        imu.log("imu");
-        step.log("step");
-        nhc.log("nhc");
-        fuse.log("gnss");
+        // A live run's samples still in its latency budget at the log's end.
+        if let Some(Nav::Live(live)) = nav.as_mut() {
+            let mut on = |e: LiveEvent<'_, f32>| {
+                if let LiveEvent::Fix { epoch, .. } = e {
+                    send_epoch(epoch);
+                    tally.epochs = tally.epochs.wrapping_add(1);
+                }
+            };
+            live.flush(&mut on).map_err(FirmwareError::Nav)?;
+        }
+        tally.imu.log("imu");
+        tally.step.log("step");
+        tally.nhc.log("nhc");
+        tally.fuse.log("gnss");
         let records = decoder.finish().map_err(FirmwareError::Log)?;
-        Ok((records, epochs))
+        Ok((records, tally.epochs))
     }
 
     #[cfg(not(feature = "prove-no-panic"))]

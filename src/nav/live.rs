@@ -29,8 +29,8 @@
 //! use imu_ident::nav::NavSetup;
 //! use imu_ident::strapdown::Geodetic;
 //! # fn setup() -> NavSetup { imu_ident::nav::live::example_setup() }
-//! let cfg = LiveConfig::new(setup(), 2.0);
-//! let mut nav = LiveNav::<f64, 24>::new(cfg, LiveNav::<f64, 24>::no_observer);
+//! let cfg = LiveConfig::new(2.0);
+//! let mut nav = LiveNav::<f64, 24>::new(setup(), cfg, LiveNav::<f64, 24>::no_observer);
 //! let ant = Geodetic { lat: 0.8, lon: 0.1, h: 50.0 };
 //! let (mut started, mut epochs) = (false, 0);
 //! let mut on = |e: LiveEvent<'_, f64>| match e {
@@ -62,13 +62,10 @@ use heapless::Deque;
 /// Fixes waiting for the IMU sample that passes them.
 pub const PENDING: usize = 8;
 
-/// How a live run starts and decides its fixes (the host's `nav` options of the same names).
-#[derive(Debug, Clone, PartialEq)]
+/// How a live run starts and decides its fixes (the host's `nav` options of the same names;
+/// carried by a live replay, [`NavSetup::live`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LiveConfig {
-    /// The run's settings: the model, the initial uncertainty, the observations, the
-    /// aiding. Its start state (`t0`, `pos`, `att`, `vel`, `gyro_bias`, `heading_known`) is
-    /// replaced by the alignment's.
-    pub setup: NavSetup,
     /// The levelling window after the first sample, at rest [s] (`--align`).
     pub align: f64,
     /// The heading, when given [rad] (`--yaw`); else from the GNSS course.
@@ -90,9 +87,8 @@ pub struct LiveConfig {
 
 impl LiveConfig {
     /// The host's defaults (`hal-sim nav`) with the window `align` [s].
-    pub fn new(setup: NavSetup, align: f64) -> Self {
+    pub fn new(align: f64) -> Self {
         Self {
-            setup,
             align,
             yaw: None,
             static_gyro_bias: true,
@@ -117,6 +113,21 @@ pub struct LiveFix {
     pub sd_pos: Option<[f64; 3]>,
     /// Velocity standard deviations [m/s] (none: the setup's defaults).
     pub sd_vel: Option<[f64; 3]>,
+}
+
+impl LiveFix {
+    /// The fix of a replay record (its flags and yaw are not read: the live run decides
+    /// them); a vector with a component that is not finite is none.
+    pub fn from_record(r: &GnssRecord) -> Self {
+        let v = |a: [f32; 3]| a.iter().all(|x| x.is_finite()).then(|| a.map(f64::from));
+        Self {
+            t: r.t,
+            pos: r.pos,
+            vel: v(r.vel),
+            sd_pos: v(r.sd_pos),
+            sd_vel: v(r.sd_vel),
+        }
+    }
 }
 
 /// Why a fix was not taken.
@@ -175,6 +186,8 @@ enum Phase<T: Real, const N: usize, O> {
 #[derive(Debug, Clone)]
 pub struct LiveNav<T: Real, const N: usize, O = (), const B: usize = 256> {
     cfg: LiveConfig,
+    /// The run's settings; the start state once started.
+    setup: NavSetup,
     attach: Attach<T, N, O>,
     phase: Phase<T, N, O>,
     alignment: Alignment,
@@ -196,12 +209,20 @@ impl<T: Real, const N: usize, const B: usize> LiveNav<T, N, (), B> {
 }
 
 impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N, O, B> {
-    /// A run of `cfg` whose observer `attach` builds at the start.
-    pub fn new(cfg: LiveConfig, attach: Attach<T, N, O>) -> Self {
+    /// A run with the settings `setup` (the model, the initial uncertainty, the
+    /// observations, the aiding; its start state, `t0`, `pos`, `att`, `vel`, `gyro_bias` and
+    /// `heading_known`, is the alignment's), started by the rules `cfg`, whose observer
+    /// `attach` builds at the start.
+    pub fn new(setup: NavSetup, cfg: LiveConfig, attach: Attach<T, N, O>) -> Self {
+        let setup = NavSetup {
+            live: Some(cfg),
+            ..setup
+        };
         let planner = FixPlanner::new(cfg.yaw.is_some(), cfg.yaw_speed, cfg.fix_interval);
         let alignment = Alignment::new(cfg.align);
         Self {
             cfg,
+            setup,
             attach,
             phase: Phase::Aligning,
             alignment,
@@ -224,7 +245,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
 
     /// The setup: the configured one until the start, then the run's.
     pub fn setup(&self) -> &NavSetup {
-        &self.cfg.setup
+        &self.setup
     }
 
     /// The IMU sample at `t` [s]: mean rates `gyro` [rad/s] and specific force `accel`
@@ -273,16 +294,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
                     return self.buffer_full(record, out);
                 }
             }
-            Phase::Running(_) => {
-                if let Err(record) = self.buffer.push_back(record) {
-                    // A delay line longer than the buffer: the oldest sample goes now.
-                    if let Some(r) = self.buffer.pop_front() {
-                        self.run_sample(&r, out)?;
-                    }
-                    let _ = self.buffer.push_back(record);
-                }
-                self.drain(out)?;
-            }
+            Phase::Running(_) => self.delay(record, out)?,
         }
         Ok(())
     }
@@ -299,7 +311,8 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
         }
         self.t_fix = f.t;
         match &mut self.phase {
-            Phase::Aligning if f.t <= self.t_imu => self.before = Some(*f),
+            // Before the first sample, or passed by the samples: before the window's end.
+            Phase::Aligning if f.t <= self.t_imu || self.t_imu.is_nan() => self.before = Some(*f),
             Phase::Aligning => self.queue(f, out),
             Phase::Placing(t_start) => {
                 let t_start = *t_start;
@@ -312,7 +325,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
                 self.try_place(out)?;
             }
             Phase::Running(run) => {
-                if f.t < self.cfg.setup.t0 {
+                if f.t < self.setup.t0 {
                     out(LiveEvent::FixDropped(f.t, DropReason::BeforeStart));
                 } else if f.t <= run.time() && self.pending.is_empty() {
                     let (cfg, planner) = (&self.cfg, &mut self.planner);
@@ -346,7 +359,8 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
             Some(b) if dist(&after).total_cmp(&dist(&b)).is_ge() => b,
             _ => after,
         };
-        self.place(t_start, &fix, out)
+        self.place(t_start, &fix, out)?;
+        self.drain(out)
     }
 
     /// The start's buffer is full at `record`: the nearest fix so far places the run, or
@@ -362,13 +376,8 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
         match self.before {
             Some(b) => {
                 self.place(t_start, &b, out)?;
-                if let Phase::Running(_) = self.phase {
-                    if let Err(r) = self.buffer.push_back(record) {
-                        self.run_sample(&r, out)?;
-                    }
-                    self.drain(out)?;
-                }
-                Ok(())
+                self.drain(out)?;
+                self.delay(record, out)
             }
             None => {
                 out(LiveEvent::NoFix);
@@ -386,8 +395,13 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
         self.pending.clear();
     }
 
-    /// Starts the run at `t_start` from the antenna position of `fix`, then runs the buffered
-    /// samples and the fixes they pass.
+    /// Starts the run at `t_start` from the antenna position of `fix`; the caller then runs
+    /// the buffered samples ([`drain`](Self::drain)). Never inlined, and the samples are not
+    /// run from here: the navigator's construction holds large temporaries (the run, the run
+    /// with its observer), and in the caller's frame, or under the filter steps of the
+    /// buffered samples, they would sit on the stack of every later call (measured on the
+    /// firmware with the bank: 117 500 B of stack, against 110 000 B for the replay's run).
+    #[inline(never)]
     fn place(
         &mut self,
         t_start: f64,
@@ -395,7 +409,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
         out: &mut impl FnMut(LiveEvent<'_, T>),
     ) -> Result<(), NavError> {
         let c = &self.cfg;
-        let lever = c.setup.lever_arm;
+        let lever = self.setup.lever_arm;
         let st = match self
             .alignment
             .start(&fix.pos, c.yaw, c.static_gyro_bias, &lever)
@@ -407,7 +421,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
                 return Ok(());
             }
         };
-        let setup = &mut self.cfg.setup;
+        let setup = &mut self.setup;
         setup.t0 = t_start;
         setup.pos = st.pos;
         setup.att = st.att;
@@ -417,11 +431,30 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
         let plain = NavReplay::<T, N>::new(setup)?;
         let obs = (self.attach)(setup, &plain)?;
         self.phase = Phase::Running(plain.with_observer(obs));
-        out(LiveEvent::Started(&self.cfg.setup));
+        out(LiveEvent::Started(&self.setup));
         // Fixes before the start are not the run's (the batch run starts at the first fix
         // at or after `t0`).
         while self.pending.front().is_some_and(|f| f.t < t_start) {
             self.pending.pop_front();
+        }
+        Ok(())
+    }
+
+    /// A sample of the running run into the latency's delay line, then the samples due.
+    fn delay(
+        &mut self,
+        record: ImuRecord,
+        out: &mut impl FnMut(LiveEvent<'_, T>),
+    ) -> Result<(), NavError> {
+        if !matches!(self.phase, Phase::Running(_)) {
+            return Ok(());
+        }
+        if let Err(record) = self.buffer.push_back(record) {
+            // A delay line longer than the buffer: the oldest sample goes now.
+            if let Some(r) = self.buffer.pop_front() {
+                self.run_sample(&r, out)?;
+            }
+            let _ = self.buffer.push_back(record);
         }
         self.drain(out)
     }
@@ -565,5 +598,6 @@ pub fn example_setup() -> NavSetup {
         zupt: None,
         online: None,
         heading_known: false,
+        live: None,
     }
 }

@@ -3,11 +3,11 @@
 //! the order the host driver processes them. The loop that consumes it is
 //! [`NavReplay`](super::run::NavReplay).
 //!
-//! # Format (version 8, all integers and floats little-endian)
+//! # Format (version 9, all integers and floats little-endian)
 //!
 //! ```text
 //! header     magic "IMUN" | version u16 = 8 | reserved u16 = 0 | record count u32      12 bytes
-//! setup      53 f64, in this order:                                                   432 bytes
+//! setup      58 f64, in this order:                                                   473 bytes
 //!              t0 [s] | lat, lon [rad], h [m] | q_b^n w, x, y, z | v N, E, D [m/s]
 //!              | gyro bias x, y, z [rad/s] (NaN: none) | lever arm x, y, z [m, body FRD]
 //!              | sd_att N, E, D [rad] | sd_vel [m/s] | sd_pos [m] | obs_sd x 6
@@ -18,8 +18,10 @@
 //!              | online identification: first decision [s] (NaN: none) | interval [s]
 //!              | offset, smallest offset, bound [decades] | least gain [nats] | fixes
 //!              | memory [s] (infinite: none) | exit z (0: none)
+//!              | live start: window [s] (NaN: not live) | yaw [rad] (NaN: from the course)
+//!              | yaw speed [m/s] | fix interval [s] | latency budget [s]
 //!            then max_rejections u8 | components per axis u8 x 6 (gyro x, y, z, accel x, y, z)
-//!            | setup flags u8
+//!            | setup flags u8 | live flags u8
 //! components per component, axes in the order above: kind u8 | a, b, c f64             25 bytes
 //!            (the model file's component encoding, `model::wire`: the kind table's code and
 //!            quantities in file order, padded with zeros)
@@ -52,7 +54,9 @@
 //! ([`OnlineConfig::memory`], an eighth value, infinite for none); version 6 its GNSS factors
 //! ([`OnlineConfig::gnss_sd`], a fifth flag); version 7 the flat coordinates' wait
 //! ([`OnlineConfig::flat_waits`], a sixth); version 8 the test for leaving the grid
-//! ([`OnlineConfig::exit_z`], a ninth value). Older
+//! ([`OnlineConfig::exit_z`], a ninth value); version 9 the live start ([`LiveConfig`], five
+//! values and the live flags byte, [`live_flags`]: a firmware that starts the run itself, from
+//! the raw stream, as [`LiveNav`](crate::nav::live::LiveNav) does). Older
 //! replays are rejected ([`NavReplayError::BadVersion`]), not read with the new aiding off:
 //! the replay is an intermediate file that `hal_sim::nav_qemu` writes afresh for every run, so there is nothing to migrate, and one layout keeps the
 //! firmware's decoder to one panic-free path.
@@ -71,6 +75,7 @@
 //! known at the end: a consumer must call [`Decoder::finish`].
 
 use super::imu_model::ImuErrorModel;
+pub use super::live::LiveConfig;
 use super::online::OnlineConfig;
 use super::rest::Zupt;
 use super::NavInit;
@@ -79,15 +84,16 @@ use crate::strapdown::{Geodetic, Quat};
 
 /// First four bytes.
 pub const MAGIC: [u8; 4] = *b"IMUN";
-/// Format version (8: the online identification's test for leaving the grid; 7: its flat
-/// coordinates wait; 6: its GNSS factors; module docs).
-pub const VERSION: u16 = 8;
+/// Format version (9: the live start; 8: the online identification's test for leaving the
+/// grid; 7: its flat coordinates wait; 6: its GNSS factors; module docs).
+pub const VERSION: u16 = 9;
 /// Header length.
 pub const HEADER_LEN: usize = 12;
-/// Setup block length (53 `f64`, then `max_rejections`, six counts and the setup flags).
-pub const SETUP_LEN: usize = SETUP_F64 * 8 + 8;
+/// Setup block length (58 `f64`, then `max_rejections`, six counts, the setup flags and the
+/// live flags).
+pub const SETUP_LEN: usize = SETUP_F64 * 8 + 9;
 /// `f64` fields of the setup block.
-const SETUP_F64: usize = 53;
+const SETUP_F64: usize = 58;
 /// One component.
 pub const COMPONENT_LEN: usize = 25;
 /// IMU record payload (after the tag).
@@ -100,6 +106,18 @@ pub const TRAILER_LEN: usize = 4;
 pub const TAG_IMU: u8 = 1;
 /// GNSS record tag.
 pub const TAG_GNSS: u8 = 2;
+
+/// Bits of the live flags byte ([`LiveConfig`]).
+pub mod live_flags {
+    /// The gyro bias is seeded from the levelling window
+    /// ([`LiveConfig::static_gyro_bias`](super::LiveConfig::static_gyro_bias)).
+    pub const STATIC_GYRO_BIAS: u8 = 1;
+    /// The fixes' velocities are fused
+    /// ([`LiveConfig::use_velocity`](super::LiveConfig::use_velocity)).
+    pub const USE_VELOCITY: u8 = 2;
+    /// Every defined bit.
+    pub const ALL: u8 = STATIC_GYRO_BIAS | USE_VELOCITY;
+}
 
 /// Bits of the setup flags byte.
 pub mod setup_flags {
@@ -208,6 +226,10 @@ pub struct NavSetup {
     /// The heading is known from the start (given), not first set by a fix flagged
     /// [`gnss_flags::HEADING`]: the constraint waits for a known heading.
     pub heading_known: bool,
+    /// A live replay ([`crate::nav::live`]): the records are the raw stream from the first
+    /// sample (fixes unflagged), and the start (`t0`, `pos`, `att`, `vel`, `gyro_bias`,
+    /// `heading_known`) is the live loop's, with these rules.
+    pub live: Option<LiveConfig>,
 }
 
 /// One IMU sample (mean rates over the interval ending at `t`).
@@ -344,7 +366,16 @@ pub fn encode(
             o.exit_z,
         ]
     });
-    let parts: [&[f64]; 16] = [
+    let live = s.live.map_or([f64::NAN; 5], |l| {
+        [
+            l.align,
+            l.yaw.unwrap_or(f64::NAN),
+            l.yaw_speed,
+            l.fix_interval,
+            l.latency,
+        ]
+    });
+    let parts: [&[f64]; 17] = [
         &[s.t0, s.pos.lat, s.pos.lon, s.pos.h],
         &[q.w, q.x, q.y, q.z],
         &s.vel,
@@ -361,6 +392,7 @@ pub fn encode(
         &s.nhc_lever,
         &zupt,
         &online,
+        &live,
     ];
     for v in parts.iter().flat_map(|p| p.iter()) {
         put(&v.to_le_bytes());
@@ -394,6 +426,13 @@ pub fn encode(
             s.online.is_some_and(|o| o.flat_waits),
             setup_flags::ONLINE_FLAT_WAITS,
         )]);
+    put(&[flag(
+        s.live.is_some_and(|l| l.static_gyro_bias),
+        live_flags::STATIC_GYRO_BIAS,
+    ) | flag(
+        s.live.is_some_and(|l| l.use_velocity),
+        live_flags::USE_VELOCITY,
+    )]);
     for c in axes(&s.imu).into_iter().flat_map(|a| a.iter()) {
         let kind = c.kind();
         put(&[kind.code()]);

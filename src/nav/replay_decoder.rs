@@ -2,9 +2,9 @@
 //! state machine that returns an error, never panics, for any input.
 
 use super::{
-    gnss_flags, setup_flags, Event, GnssRecord, ImuRecord, NavReplayError, NavSetup, Record,
-    COMPONENT_LEN, GNSS_LEN, HEADER_LEN, IMU_LEN, MAGIC, SETUP_LEN, TAG_GNSS, TAG_IMU, TRAILER_LEN,
-    VERSION,
+    gnss_flags, live_flags, setup_flags, Event, GnssRecord, ImuRecord, NavReplayError, NavSetup,
+    Record, COMPONENT_LEN, GNSS_LEN, HEADER_LEN, IMU_LEN, MAGIC, SETUP_LEN, TAG_GNSS, TAG_IMU,
+    TRAILER_LEN, VERSION,
 };
 use crate::crc::Crc32;
 use crate::model::ComponentKind;
@@ -111,6 +111,7 @@ impl Decoder {
                 zupt: None,
                 online: None,
                 heading_known: false,
+                live: None,
             },
         }
     }
@@ -242,9 +243,20 @@ impl Decoder {
             speed_max: z[3],
         });
         let o = [(); 9].map(|()| r.f64());
+        let l = [(); 5].map(|()| r.f64());
         s.max_rejections = r.u8();
         let counts: [u8; 6] = r.take();
         let flags = r.u8();
+        let lf = r.u8();
+        s.live = (!l[0].is_nan()).then_some(crate::nav::live::LiveConfig {
+            align: l[0],
+            yaw: (!l[1].is_nan()).then_some(l[1]),
+            static_gyro_bias: lf & live_flags::STATIC_GYRO_BIAS != 0,
+            yaw_speed: l[2],
+            fix_interval: l[3],
+            use_velocity: lf & live_flags::USE_VELOCITY != 0,
+            latency: l[4],
+        });
         s.heading_known = flags & setup_flags::HEADING_KNOWN != 0;
         // The fix count is a small whole number on the wire (f64 like the rest of the block).
         let fixes = o[6];
@@ -271,7 +283,7 @@ impl Decoder {
         });
         s.imu = ImuErrorModel::default();
         let too_many = counts.iter().any(|&c| usize::from(c) > MAX_AXIS_COMPONENTS);
-        if too_many || flags & !setup_flags::ALL != 0 {
+        if too_many || flags & !setup_flags::ALL != 0 || lf & !live_flags::ALL != 0 {
             return self.fail(NavReplayError::BadField);
         }
         self.left = counts;

@@ -72,6 +72,15 @@ fn setup() -> NavSetup {
             exit_z: 1.5,
         }),
         heading_known: true,
+        live: Some(crate::nav::live::LiveConfig {
+            align: 50.0,
+            yaw: Some(0.4),
+            static_gyro_bias: false,
+            yaw_speed: 3.0,
+            fix_interval: 0.5,
+            use_velocity: true,
+            latency: 0.25,
+        }),
     }
 }
 
@@ -201,32 +210,35 @@ fn header_errors_are_specific() {
     bad[0] = b'X';
     assert_eq!(decoded(&bad), Err(NavReplayError::BadMagic));
     let mut bad = good.clone();
-    bad[4] = 9;
-    assert_eq!(decoded(&bad), Err(NavReplayError::BadVersion(9)));
+    bad[4] = 10;
+    assert_eq!(decoded(&bad), Err(NavReplayError::BadVersion(10)));
     let mut bad = good.clone();
-    bad[HEADER_LEN + SETUP_LEN - 7] = 9; // gyro x: 9 components
+    bad[HEADER_LEN + SETUP_LEN - 8] = 9; // gyro x: 9 components
+    assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
+    let mut bad = good.clone();
+    bad[HEADER_LEN + SETUP_LEN - 2] = 128; // an undefined setup flag
     assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
     let mut bad = good;
-    bad[HEADER_LEN + SETUP_LEN - 1] = 128; // an undefined setup flag
+    bad[HEADER_LEN + SETUP_LEN - 1] = 4; // an undefined live flag
     assert_eq!(decoded(&bad), Err(NavReplayError::BadField));
 }
 
-/// Version-1 to version-7 replays (shorter setups: no constraint, zero-velocity update or
+/// Version-1 to version-8 replays (shorter setups: no constraint, zero-velocity update or
 /// online identification; the online identification without its memory or GNSS factors;
 /// version 6 without the flat coordinates' flag, version 7 without the test for leaving the
-/// grid)
+/// grid, version 8 without the live start)
 /// are refused at their header with the version they have, before their setup could be
 /// misread; the message says which one is read.
 #[test]
 fn older_versions_are_refused_with_their_number() {
-    for v in [1u16, 2, 3, 4, 5, 6, 7] {
+    for v in [1u16, 2, 3, 4, 5, 6, 7, 8] {
         let mut old = encoded(&setup(), &records(2));
         old[4..6].copy_from_slice(&v.to_le_bytes());
         let e = decoded(&old).err();
         assert_eq!(e, Some(NavReplayError::BadVersion(v)));
         let msg = std::format!("{}", NavReplayError::BadVersion(v));
         assert!(
-            msg.contains(&std::format!("version {v}")) && msg.contains("version 8"),
+            msg.contains(&std::format!("version {v}")) && msg.contains("version 9"),
             "{msg}"
         );
         let mut dec = Decoder::new();
@@ -236,17 +248,18 @@ fn older_versions_are_refused_with_their_number() {
 }
 
 /// Every setup field lands at its documented offset: the constraint's sd and lever arm, the
-/// zero-velocity update's sd and bounds, then the online identification's nine values are
-/// the last seventeen `f64` of the block, the setup flags its last byte.
+/// zero-velocity update's sd and bounds, the online identification's nine values, then the
+/// live start's five values are the last twenty-two `f64` of the block; the setup flags and
+/// the live flags its last two bytes.
 #[test]
-fn version_8_fields_are_at_their_documented_offsets() {
+fn version_9_fields_are_at_their_documented_offsets() {
     let s = setup();
     let bytes = encoded(&s, &[]);
     let f64_at = |k: usize| {
         let o = HEADER_LEN + 8 * k;
         f64::from_le_bytes(bytes[o..o + 8].try_into().unwrap_or([0; 8]))
     };
-    assert_eq!(SETUP_LEN, 53 * 8 + 8);
+    assert_eq!(SETUP_LEN, 58 * 8 + 9);
     assert_eq!(f64_at(36), 0.05);
     assert_eq!([f64_at(37), f64_at(38), f64_at(39)], s.nhc_lever);
     assert_eq!(
@@ -258,7 +271,12 @@ fn version_8_fields_are_at_their_documented_offsets() {
         [300.0, 900.0, 0.25, 0.03125, 1.5, 2.0, 30.0, 1800.0, 1.5]
     );
     assert_eq!(
-        bytes[HEADER_LEN + SETUP_LEN - 1],
+        (53..58).map(f64_at).collect::<Vec<_>>(),
+        [50.0, 0.4, 3.0, 0.5, 0.25]
+    );
+    assert_eq!(bytes[HEADER_LEN + SETUP_LEN - 1], live_flags::USE_VELOCITY);
+    assert_eq!(
+        bytes[HEADER_LEN + SETUP_LEN - 2],
         setup_flags::HEADING_KNOWN
             | setup_flags::ONLINE_PER_AXIS
             | setup_flags::ONLINE_TAUS
@@ -269,8 +287,9 @@ fn version_8_fields_are_at_their_documented_offsets() {
     off.nhc_sd = None;
     off.zupt = None;
     off.online = None;
+    off.live = None;
     let bytes = encoded(&off, &[]);
-    for k in [36, 40, 44] {
+    for k in [36, 40, 44, 53] {
         let o = HEADER_LEN + 8 * k;
         assert!(f64::from_le_bytes(bytes[o..o + 8].try_into().unwrap_or([0; 8])).is_nan());
     }

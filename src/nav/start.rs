@@ -176,12 +176,10 @@ impl FixPlanner {
         let speed = vel.map(|v| v.xy().norm()).unwrap_or(0.0);
         let mut heading = None;
         if !self.heading_known && !withheld {
-            if let Some(v) = vel {
-                // A speed at or over `yaw_speed` is finite, so the course exists.
-                if let (true, Ok(yaw)) = (
-                    speed >= self.yaw_speed,
-                    heading_from_course(&v, self.yaw_speed),
-                ) {
+            if let Some(v) = vel.filter(|_| speed >= self.yaw_speed) {
+                // A horizontal speed at or over `yaw_speed` is finite; a vertical velocity
+                // that is not leaves the heading unknown.
+                if let Ok(yaw) = heading_from_course(&v, self.yaw_speed) {
                     heading = Some(yaw);
                     self.heading_known = true;
                 }

@@ -119,14 +119,14 @@ pub fn settings(args: &NavArgs) -> NavSetup {
         online: args.online(),
         // The planner's start (`FixPlanner::new`): a given yaw.
         heading_known: args.yaw_deg.is_some(),
+        live: None,
     }
 }
 
-/// The live loop's configuration of a run with `args` (its outage schedule aside: a live
-/// run withholds nothing).
+/// The live loop's rules for a run with `args` (its outage schedule aside: a live run
+/// withholds nothing); the settings are [`settings`].
 pub fn live_config(args: &NavArgs) -> LiveConfig {
     LiveConfig {
-        setup: settings(args),
         align: args.align,
         yaw: args.yaw_deg.map(f64::to_radians),
         static_gyro_bias: args.static_gyro_bias,
