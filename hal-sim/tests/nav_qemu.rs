@@ -616,6 +616,7 @@ fn qemu_firmware_live_start_matches_the_host_navigator() {
             outages: None,
             ..drive_nhc(dir.path())
         },
+        1e-3,
     );
     let heading = fw.epochs.iter().any(|e| e.flags & gnss_flags::HEADING != 0);
     assert!(heading, "no fix set the heading");
@@ -635,6 +636,7 @@ fn qemu_firmware_live_start_with_the_online_identification_matches_the_host() {
             outages: None,
             ..drive_online(dir.path())
         },
+        1e-3,
     );
     let log = h32.adapt.as_ref().unwrap_or_else(|| panic!("no adapt log"));
     let online = compare_online(&fw.online, log);
@@ -651,8 +653,8 @@ fn qemu_firmware_live_start_with_the_online_identification_matches_the_host() {
 }
 
 /// Runs the live replay of `args` under QEMU; checks it fits the F405 and its positions and
-/// sigmas against the host's `f32` (1e-3 sigma) and `f64` (0.05 sigma) runs.
-fn live_under_qemu(elf: &std::path::Path, args: &NavArgs) -> (NavFirmwareRun, NavRun) {
+/// sigmas against the host's `f32` (`bar32` sigma) and `f64` (0.05 sigma) runs.
+fn live_under_qemu(elf: &std::path::Path, args: &NavArgs, bar32: f64) -> (NavFirmwareRun, NavRun) {
     let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));
     let fixes = read_gnss_csv(&args.gnss).unwrap_or_else(|e| panic!("{e:#}"));
     let bytes = encode_live_replay(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
@@ -689,7 +691,35 @@ fn live_under_qemu(elf: &std::path::Path, args: &NavArgs) -> (NavFirmwareRun, Na
         );
     }
     fits_the_f405(&fw);
-    assert!(pos32 < 1e-3 && sd32 < 1e-3, "{pos32} {sd32}");
+    assert!(pos32 < bar32 && sd32 < bar32, "{pos32} {sd32}");
     assert!(pos64 < 0.05 && sd64 < 0.05, "{pos64} {sd64}");
     (fw, h32)
+}
+
+/// The real drive (`../shared/data/real/rtklib-drive-0708`; skipped with a message when the
+/// data are missing, failed under `CI=true`) as a live replay: 9 min of a roof-mounted MEMS
+/// IMU at 100 Hz and 4-Hz RTK fixes, the run levelled, placed and decided by the firmware
+/// itself. Against the host's run of the same log (datasheet model, no outage schedule): 0.05
+/// sigma against `f64`, the f32 core's bar; against `f32`, 1e-2 sigma: on this drive the
+/// platforms' last-bit `libm` differences grow over four fusions a second, and the replay
+/// firmware itself is 6.5e-3 sigma from the host's `f32` run (BENCHMARKS.md "Every fix fused";
+/// the live firmware 2.1e-3, "Live input").
+#[test]
+fn qemu_firmware_live_on_the_real_drive_matches_the_host() {
+    let Some(elf) = firmware_elf() else { return };
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let Some((args, _, _)) =
+        hal_sim::nav::real::drive_0708(dir.path()).unwrap_or_else(|e| panic!("{e:#}"))
+    else {
+        return;
+    };
+    let (fw, _) = live_under_qemu(
+        &elf,
+        &NavArgs {
+            outages: None,
+            ..args
+        },
+        1e-2,
+    );
+    assert!(fw.epochs.len() > 2000, "{} epochs", fw.epochs.len());
 }

@@ -44,9 +44,6 @@
 //! is the ignored test `real_drive_identifies_the_constraint_sd`.
 
 use hal_sim::nav::{identify, run_with, NavArgs};
-use hal_sim::nav_io::drive::{import, DriveImport};
-use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, OutageSpec};
-use hal_sim::shared_data::{present, real_dir};
 
 /// Standard deviation of the body lateral and vertical velocity of the drive's body origin
 /// [m/s]: identified on this log by `hal-sim nav --identify --nhc SD` (the constraint's factor
@@ -55,43 +52,8 @@ const NHC_SD: f64 = 0.05;
 
 /// The drive imported into `dir`, read: (args with the datasheet model and the outage test,
 /// IMU samples, fixes), or `None` (printed) when the data are missing.
-fn drive(
-    dir: &std::path::Path,
-) -> Option<(
-    NavArgs,
-    Vec<hal_sim::nav_io::ImuSample>,
-    Vec<hal_sim::nav_io::GnssFix>,
-)> {
-    let d = real_dir().join("rtklib-drive-0708");
-    let (imu, tag, pos) = (
-        d.join("imu_1934.csv"),
-        d.join("imu_1934.csv.tag"),
-        d.join("gnss_1934_sf.pos"),
-    );
-    if !present(&[&imu, &tag, &pos]) {
-        return None;
-    }
-    let meta = import(&DriveImport::drive_0708(imu, tag, pos, dir.to_path_buf()))
-        .unwrap_or_else(|e| panic!("{e:#}"));
-    let samples = read_imu_csv(&dir.join("imu.csv")).unwrap_or_else(|e| panic!("{e:#}"));
-    let fixes = read_gnss_csv(&dir.join("gnss.csv")).unwrap_or_else(|e| panic!("{e:#}"));
-    let args = NavArgs {
-        outages: Some(
-            "40,15,45,30"
-                .parse::<OutageSpec>()
-                .unwrap_or_else(|e| panic!("{e:#}")),
-        ),
-        lever_arm: meta.antenna_from_imu,
-        // The body origin from the IMU (the IMU is 0.65 m above it).
-        nhc_lever: meta.import.imu_lever.map(|x| 0.0 - x),
-        ..NavArgs::new(
-            dir.join("imu.csv"),
-            dir.join("gnss.csv"),
-            hal_sim::nav::model::load("drive-datasheet").unwrap_or_else(|e| panic!("{e:#}")),
-            "drive-datasheet",
-        )
-    };
-    Some((args, samples, fixes))
+fn drive(dir: &std::path::Path) -> Option<hal_sim::nav::real::Drive> {
+    hal_sim::nav::real::drive_0708(dir).unwrap_or_else(|e| panic!("{e:#}"))
 }
 
 #[test]

@@ -23,6 +23,7 @@ pub mod interval;
 pub mod model;
 pub mod pattern;
 pub mod plot;
+pub mod real;
 pub mod records;
 pub mod report;
 pub mod setup;
