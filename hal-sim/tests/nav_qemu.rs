@@ -356,27 +356,8 @@ fn parity_under_qemu(elf: &std::path::Path, args: &NavArgs) -> (NavFirmwareRun, 
         h32.epochs.len()
     );
 
-    let (pos32, sd32) = compare(&fw.epochs, &h32);
-    let (pos64, sd64) = compare(&fw.epochs, &h64);
-    eprintln!(
-        "nav QEMU ({qemu_s:.1} s wall, {} epochs): firmware vs host f32: worst position {pos32:.2e} \
-         sigma, worst sigma {sd32:.2e} (relative); vs host f64: {pos64:.2e} sigma, sigma {sd64:.2e}",
-        fw.epochs.len()
-    );
-    for c in &fw.icount {
-        eprintln!(
-            "icount {}: n {} mean {} worst {} (at {})",
-            c.class, c.n, c.mean, c.worst, c.worst_k
-        );
-    }
-    for s in &fw.stack {
-        eprintln!(
-            "stack {}: high water {} B, statics {} B",
-            s.phase,
-            s.high_water,
-            s.statics_end - 0x2000_0000
-        );
-    }
+    let (pos32, sd32, pos64, _) =
+        report(&format!("nav QEMU ({qemu_s:.1} s wall)"), &fw, &h32, &h64);
     assert!(pos32 <= 1e-3, "firmware vs host f32: {pos32} sigma");
     assert!(
         sd32 <= 1e-3,
@@ -669,27 +650,7 @@ fn live_under_qemu(elf: &std::path::Path, args: &NavArgs, bar32: f64) -> (NavFir
     );
     let h32 = run_with::<f32>(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let h64 = run_with::<f64>(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
-    let (pos32, sd32) = compare(&fw.epochs, &h32);
-    let (pos64, sd64) = compare(&fw.epochs, &h64);
-    eprintln!(
-        "live QEMU ({} epochs): firmware vs host f32: worst position {pos32:.2e} sigma, worst \
-         sigma {sd32:.2e} (relative); vs host f64: {pos64:.2e} sigma, sigma {sd64:.2e}",
-        fw.epochs.len()
-    );
-    for c in &fw.icount {
-        eprintln!(
-            "icount {}: n {} mean {} worst {} (at {})",
-            c.class, c.n, c.mean, c.worst, c.worst_k
-        );
-    }
-    for s in &fw.stack {
-        eprintln!(
-            "stack {}: high water {} B, statics {} B",
-            s.phase,
-            s.high_water,
-            s.statics_end - 0x2000_0000
-        );
-    }
+    let (pos32, sd32, pos64, sd64) = report("live QEMU", &fw, &h32, &h64);
     fits_the_f405(&fw);
     assert!(pos32 < bar32 && sd32 < bar32, "{pos32} {sd32}");
     assert!(pos64 < 0.05 && sd64 < 0.05, "{pos64} {sd64}");
@@ -722,4 +683,32 @@ fn qemu_firmware_live_on_the_real_drive_matches_the_host() {
         1e-2,
     );
     assert!(fw.epochs.len() > 2000, "{} epochs", fw.epochs.len());
+}
+
+/// Prints the firmware run `fw` against the host's `f32` and `f64` runs (worst position and
+/// relative sigma differences, as [`compare`]), its instruction counts and stack marks, and
+/// returns the four differences.
+fn report(label: &str, fw: &NavFirmwareRun, h32: &NavRun, h64: &NavRun) -> (f64, f64, f64, f64) {
+    let (pos32, sd32) = compare(&fw.epochs, h32);
+    let (pos64, sd64) = compare(&fw.epochs, h64);
+    eprintln!(
+        "{label} ({} epochs): firmware vs host f32: worst position {pos32:.2e} sigma, worst \
+         sigma {sd32:.2e} (relative); vs host f64: {pos64:.2e} sigma, sigma {sd64:.2e}",
+        fw.epochs.len()
+    );
+    for c in &fw.icount {
+        eprintln!(
+            "icount {}: n {} mean {} worst {} (at {})",
+            c.class, c.n, c.mean, c.worst, c.worst_k
+        );
+    }
+    for s in &fw.stack {
+        eprintln!(
+            "stack {}: high water {} B, statics {} B",
+            s.phase,
+            s.high_water,
+            s.statics_end - 0x2000_0000
+        );
+    }
+    (pos32, sd32, pos64, sd64)
 }

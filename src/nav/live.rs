@@ -565,39 +565,15 @@ pub fn example_setup() -> NavSetup {
         let _ = a.push(Component::White(WhiteNoise { density }));
         a
     };
-    NavSetup {
-        t0: 0.0,
-        pos: Geodetic {
-            lat: 0.0,
-            lon: 0.0,
-            h: 0.0,
-        },
-        att: crate::strapdown::Quat::identity(),
-        vel: [0.0; 3],
-        gyro_bias: None,
-        imu: ImuErrorModel {
+    NavSetup::new(
+        ImuErrorModel {
             gyro: core::array::from_fn(|_| axis(1e-4)),
             accel: core::array::from_fn(|_| axis(1e-2)),
         },
-        init: NavInit {
+        NavInit {
             sd_att: nalgebra::Vector3::repeat(0.01),
             sd_vel: 0.1,
             sd_pos: 3.0,
         },
-        lever_arm: [0.0; 3],
-        obs_sd: [0.5, 0.5, 1.0, 0.1, 0.1, 0.2],
-        step: 1.0,
-        gate: None,
-        max_imu_gap: 0.1,
-        max_rejections: 3,
-        sd_factor: [1.0; 2],
-        heading_sd: 0.035,
-        scale_factor_sd: None,
-        nhc_sd: None,
-        nhc_lever: [0.0; 3],
-        zupt: None,
-        online: None,
-        heading_known: false,
-        live: None,
-    }
+    )
 }

@@ -232,6 +232,49 @@ pub struct NavSetup {
     pub live: Option<LiveConfig>,
 }
 
+/// Default GNSS standard deviations (position N, E, D [m], velocity N, E, D [m/s]) where a fix
+/// gives none (`hal-sim nav`'s).
+pub const DEFAULT_OBS_SD: [f64; 6] = [0.5, 0.5, 1.0, 0.1, 0.1, 0.2];
+/// Standard deviation of a heading taken from the GNSS course [deg].
+pub const DEFAULT_HEADING_SD_DEG: f64 = 2.0;
+/// Longest IMU interval taken as one step [s].
+pub const DEFAULT_MAX_IMU_GAP: f64 = 0.1;
+/// Consecutive gated fixes before one is fused ungated.
+pub const DEFAULT_MAX_REJECTIONS: u8 = 3;
+
+impl NavSetup {
+    /// A run with the noise model `imu` and the initial uncertainty `init`, at rest at the
+    /// origin with a level attitude (the start a live run or the host's alignment fills in),
+    /// with the defaults of `hal-sim nav` for the rest: a 1-s step, no gate, no aiding but
+    /// the fixes, the default deviations ([`DEFAULT_OBS_SD`]).
+    pub fn new(imu: ImuErrorModel<f64>, init: NavInit<f64>) -> Self {
+        Self {
+            t0: 0.0,
+            pos: Geodetic::default(),
+            att: Quat::identity(),
+            vel: [0.0; 3],
+            gyro_bias: None,
+            imu,
+            init,
+            lever_arm: [0.0; 3],
+            obs_sd: DEFAULT_OBS_SD,
+            step: 1.0,
+            gate: None,
+            max_imu_gap: DEFAULT_MAX_IMU_GAP,
+            max_rejections: DEFAULT_MAX_REJECTIONS,
+            sd_factor: [1.0; 2],
+            heading_sd: DEFAULT_HEADING_SD_DEG.to_radians(),
+            scale_factor_sd: None,
+            nhc_sd: None,
+            nhc_lever: [0.0; 3],
+            zupt: None,
+            online: None,
+            heading_known: false,
+            live: None,
+        }
+    }
+}
+
 /// One IMU sample (mean rates over the interval ending at `t`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ImuRecord {

@@ -85,34 +85,14 @@ impl Decoder {
             count: 0,
             seen: 0,
             left: [0; 6],
-            setup: NavSetup {
-                t0: 0.0,
-                pos: Geodetic::default(),
-                att: Quat::identity(),
-                vel: [0.0; 3],
-                gyro_bias: None,
-                imu: ImuErrorModel::default(),
-                init: NavInit {
+            setup: NavSetup::new(
+                ImuErrorModel::default(),
+                NavInit {
                     sd_att: Vector3::zeros(),
                     sd_vel: 0.0,
                     sd_pos: 0.0,
                 },
-                lever_arm: [0.0; 3],
-                obs_sd: [0.0; 6],
-                step: 1.0,
-                gate: None,
-                max_imu_gap: 0.0,
-                max_rejections: 0,
-                sd_factor: [1.0; 2],
-                heading_sd: 0.0,
-                scale_factor_sd: None,
-                nhc_sd: None,
-                nhc_lever: [0.0; 3],
-                zupt: None,
-                online: None,
-                heading_known: false,
-                live: None,
-            },
+            ),
         }
     }
 

@@ -14,15 +14,10 @@ use imu_ident::nav::start::{Alignment, FixPlanner as CorePlanner};
 use imu_ident::nav::{NavInit, NavSetup};
 use imu_ident::strapdown::Geodetic;
 
-/// Default GNSS standard deviations (position N, E, D [m], velocity N, E, D [m/s]) where a fix
-/// gives none.
-pub const OBS_SD: [f64; 6] = [0.5, 0.5, 1.0, 0.1, 0.1, 0.2];
-/// Standard deviation of a heading taken from the GNSS course [deg].
-pub const HEADING_SD_DEG: f64 = 2.0;
-/// Longest IMU interval taken as one step [s].
-pub const MAX_IMU_GAP: f64 = 0.1;
-/// Consecutive gated fixes before one is fused ungated.
-pub const MAX_REJECTIONS: u8 = 3;
+pub use imu_ident::nav::replay::{
+    DEFAULT_HEADING_SD_DEG as HEADING_SD_DEG, DEFAULT_MAX_IMU_GAP as MAX_IMU_GAP,
+    DEFAULT_MAX_REJECTIONS as MAX_REJECTIONS, DEFAULT_OBS_SD as OBS_SD,
+};
 
 /// Where a run starts.
 #[derive(Debug, Clone)]
@@ -89,21 +84,6 @@ pub fn start(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<Sta
 /// start fills in ([`start`], [`LiveNav`](imu_ident::nav::live::LiveNav)) is left at that.
 pub fn settings(args: &NavArgs) -> NavSetup {
     NavSetup {
-        t0: 0.0,
-        pos: Geodetic {
-            lat: 0.0,
-            lon: 0.0,
-            h: 0.0,
-        },
-        att: imu_ident::strapdown::Quat::identity(),
-        vel: [0.0; 3],
-        gyro_bias: None,
-        imu: args.model.clone(),
-        init: NavInit {
-            sd_att: args.init.sd_att,
-            sd_vel: args.init.sd_vel,
-            sd_pos: args.init.sd_pos,
-        },
         lever_arm: args.lever_arm,
         obs_sd: OBS_SD,
         step: args.step,
@@ -119,7 +99,14 @@ pub fn settings(args: &NavArgs) -> NavSetup {
         online: args.online(),
         // The planner's start (`FixPlanner::new`): a given yaw.
         heading_known: args.yaw_deg.is_some(),
-        live: None,
+        ..NavSetup::new(
+            args.model.clone(),
+            NavInit {
+                sd_att: args.init.sd_att,
+                sd_vel: args.init.sd_vel,
+                sd_pos: args.init.sd_pos,
+            },
+        )
     }
 }
 
