@@ -351,6 +351,75 @@ fn the_start_recovers_from_motion_and_from_a_silent_receiver() {
         .all(|e| (e.pos.h - 300.0).abs() < 3.0 * f64::from(e.sd_pos[2])));
 }
 
+/// One corrupted time stamp costs one sample or one fix, not the run: a sample at +Inf, one at
+/// 1e30 and one 5 s ahead in the middle of a run are refused, and so are fixes at 1e30, NaN
+/// and 30 s ahead; the epochs go on to the end. A first sample at 1e30 restarts the
+/// levelling when the next one goes back.
+#[test]
+fn a_corrupted_time_stamp_does_not_stop_the_live_run() {
+    let args = rest_args();
+    let mut imu = at_rest(0.0, 20.0, G);
+    imu[1000].t = f64::INFINITY;
+    imu[1200].t = 1e30;
+    imu[1400].t += 5.0;
+    let mut fixes: Vec<GnssFix> = (0..20).map(|k| fix_at(0.5 + f64::from(k))).collect();
+    fixes[10].t = 1e30;
+    fixes[12].t = f64::NAN;
+    fixes[14].t += 30.0;
+    let mut nav = LiveNav::<f32, NAV_N>::new(
+        settings(&args),
+        live_config(&args),
+        LiveNav::<f32, NAV_N>::no_observer,
+    );
+    let mut live = Live::default();
+    let mut refused = 0;
+    let mut k = 0;
+    for (i, s) in imu.iter().enumerate() {
+        // The fixes in the order of their true times (the corrupted ones among them).
+        while k < fixes.len() && 0.5 + k as f64 <= 0.01 * i as f64 {
+            nav.gnss(&live_fix(&fixes[k]), &mut |e| live.take(e))
+                .unwrap_or_else(|e| panic!("{e:?}"));
+            k += 1;
+        }
+        if nav
+            .imu(s.t, s.gyro, s.accel, &mut |e| live.take(e))
+            .is_err()
+        {
+            refused += 1;
+        }
+    }
+    assert_eq!(refused, 3);
+    let ahead = live
+        .dropped
+        .iter()
+        .filter(|(_, why)| *why == DropReason::Ahead)
+        .count();
+    assert_eq!(ahead, 3, "{:?}", live.dropped);
+    // Fixes at 2.5 ... 19.5 s after the start at 2.01 s, less the three corrupted ones; the
+    // last, at 19.5 s, is passed by the sample at 19.5 s.
+    assert_eq!(live.epochs.len(), 18 - 3);
+    assert!(live.epochs.last().is_some_and(|e| e.t == 19.5));
+
+    let mut nav = LiveNav::<f32, NAV_N>::new(
+        settings(&args),
+        live_config(&args),
+        LiveNav::<f32, NAV_N>::no_observer,
+    );
+    let mut live = Live::default();
+    nav.imu(1e30, [0.0; 3], G, &mut |e| live.take(e))
+        .unwrap_or_else(|e| panic!("{e:?}"));
+    for s in &at_rest(0.0, 5.0, G) {
+        nav.imu(s.t, s.gyro, s.accel, &mut |e| live.take(e))
+            .unwrap_or_else(|e| panic!("{e:?}"));
+        if (s.t * 100.0).round() as i64 % 100 == 50 {
+            nav.gnss(&live_fix(&fix_at(s.t)), &mut |e| live.take(e))
+                .unwrap_or_else(|e| panic!("{e:?}"));
+        }
+    }
+    assert_eq!((live.realigned, live.starts), (1, 1));
+    assert!(live.setup.is_some_and(|s| (s.t0 - 2.01).abs() < 1e-9));
+}
+
 /// Seeded hostile streams (non-finite and huge values, times that stand still or go back,
 /// fixes before the start and bursts that fill the queue) through the live loop: never a
 /// panic; refused samples are `BadTime` and change nothing; every fix is either taken, queued

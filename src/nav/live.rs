@@ -22,7 +22,8 @@
 //! come. When the buffer fills first, the nearest fix so far is taken; with none at all, the
 //! levelling starts again ([`LiveEvent::NoFix`]), as it does when the window was not at rest
 //! ([`LiveEvent::Realigning`]). Nothing here allocates or panics; every queue is bounded and
-//! reports what it dropped ([`LiveEvent::FixDropped`]).
+//! reports what it dropped ([`LiveEvent::FixDropped`]). A corrupted time stamp costs one
+//! sample or one fix, not the run ([`MAX_IMU_JUMP`], [`MAX_FIX_LEAD`]).
 //!
 //! ```
 //! use imu_ident::nav::live::{LiveConfig, LiveEvent, LiveFix, LiveNav};
@@ -61,6 +62,16 @@ use heapless::Deque;
 
 /// Fixes waiting for the IMU sample that passes them.
 pub const PENDING: usize = 8;
+
+/// A sample further ahead of the previous one than this [s] is suspect: refused, and taken
+/// only when the next sample follows it within this (a real gap: the sensor restarted).
+/// One corrupted time stamp then costs one sample, not the run (every later sample would be
+/// "backwards").
+pub const MAX_IMU_JUMP: f64 = 1.0;
+
+/// A fix further ahead of the newest sample than this [s] is dropped
+/// ([`DropReason::Ahead`]): a corrupted time would otherwise head the queue for ever.
+pub const MAX_FIX_LEAD: f64 = 2.0;
 
 /// How a live run starts and decides its fixes (the host's `nav` options of the same names;
 /// carried by a live replay, [`NavSetup::live`]).
@@ -138,6 +149,8 @@ pub enum DropReason {
     NotIncreasing,
     /// It is before the run's start.
     BeforeStart,
+    /// Its time is not finite, or more than [`MAX_FIX_LEAD`] ahead of the newest sample.
+    Ahead,
     /// The queue of fixes waiting for the IMU is full.
     QueueFull,
 }
@@ -199,6 +212,8 @@ pub struct LiveNav<T: Real, const N: usize, O = (), const B: usize = 256> {
     planner: FixPlanner,
     t_imu: f64,
     t_fix: f64,
+    /// A sample time refused as a jump, which the next sample may confirm.
+    suspect: f64,
 }
 
 impl<T: Real, const N: usize, const B: usize> LiveNav<T, N, (), B> {
@@ -232,6 +247,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
             planner,
             t_imu: f64::NAN,
             t_fix: f64::NAN,
+            suspect: f64::NAN,
         }
     }
 
@@ -249,8 +265,10 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
     }
 
     /// The IMU sample at `t` [s]: mean rates `gyro` [rad/s] and specific force `accel`
-    /// [m/s^2], body FRD, over the interval since the previous sample. A time that does not
-    /// increase is refused ([`NavError::BadTime`]) and changes nothing.
+    /// [m/s^2], body FRD, over the interval since the previous sample. A time that is not
+    /// finite or does not increase, or a jump of more than [`MAX_IMU_JUMP`] that the next
+    /// sample has not confirmed, is refused ([`NavError::BadTime`]) and changes nothing;
+    /// while levelling, a time that goes back starts the levelling again from it.
     pub fn imu(
         &mut self,
         t: f64,
@@ -258,9 +276,23 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
         accel: [f64; 3],
         out: &mut impl FnMut(LiveEvent<'_, T>),
     ) -> Result<(), NavError> {
-        if !(t > self.t_imu || (self.t_imu.is_nan() && t.is_finite())) {
+        if t.is_finite() && t <= self.t_imu && matches!(self.phase, Phase::Aligning) {
+            // Time went back while levelling (a corrupted first stamp, a restarted clock):
+            // nothing is running yet, so the levelling starts again from this sample.
+            out(LiveEvent::Realigning(AlignError::NoData));
+            self.realign();
+            self.t_imu = f64::NAN;
+        }
+        let first = self.t_imu.is_nan();
+        if !(t.is_finite() && (first || t > self.t_imu)) {
             return Err(NavError::BadTime);
         }
+        let confirmed = t > self.suspect && t - self.suspect <= MAX_IMU_JUMP;
+        if !first && t - self.t_imu > MAX_IMU_JUMP && !confirmed {
+            self.suspect = t;
+            return Err(NavError::BadTime);
+        }
+        self.suspect = f64::NAN;
         let record = ImuRecord {
             t,
             gyro: gyro.map(|x| x as f32),
@@ -305,14 +337,27 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
         f: &LiveFix,
         out: &mut impl FnMut(LiveEvent<'_, T>),
     ) -> Result<(), NavError> {
-        if !(f.t > self.t_fix || (self.t_fix.is_nan() && f.t.is_finite())) {
+        let plausible = f.t.is_finite() && f.t <= self.t_imu + MAX_FIX_LEAD;
+        if !self.t_imu.is_nan() && !plausible {
+            out(LiveEvent::FixDropped(f.t, DropReason::Ahead));
+            return Ok(());
+        }
+        if self.t_imu.is_nan() {
+            // Before the first sample: a candidate for the start, nothing more (its time is
+            // not yet checked against the samples', so it does not set the fixes' order).
+            if f.t.is_finite() && self.before.map_or(true, |b| f.t > b.t) {
+                self.before = Some(*f);
+            }
+            return Ok(());
+        }
+        if !(f.t > self.t_fix || self.t_fix.is_nan()) {
             out(LiveEvent::FixDropped(f.t, DropReason::NotIncreasing));
             return Ok(());
         }
         self.t_fix = f.t;
         match &mut self.phase {
-            // Before the first sample, or passed by the samples: before the window's end.
-            Phase::Aligning if f.t <= self.t_imu || self.t_imu.is_nan() => self.before = Some(*f),
+            // Passed by the samples: before the window's end.
+            Phase::Aligning if f.t <= self.t_imu => self.before = Some(*f),
             Phase::Aligning => self.queue(f, out),
             Phase::Placing(t_start) => {
                 let t_start = *t_start;
