@@ -154,7 +154,8 @@ pub(crate) fn live_is_the_replay(args: &NavArgs, delay: f64, latency: f64) -> Li
             .zip(&records)
             .position(|(a, b)| encoded(&live_setup, &[*a]) != encoded(&live_setup, &[*b]));
         panic!(
-            "delay {delay}: {} live records against {}; first difference at {first:?}: {:?} against {:?}",
+            "delay {delay}: {} live records against {}; first difference at {first:?}: \
+             {:?} against {:?}",
             live.records.len(),
             records.len(),
             first.map(|i| live.records[i]),

@@ -27,9 +27,12 @@
 //!
 //! ```
 //! use imu_ident::nav::live::{LiveConfig, LiveEvent, LiveFix, LiveNav};
-//! use imu_ident::nav::NavSetup;
+//! use imu_ident::nav::{ImuErrorModel, NavInit, NavSetup};
 //! use imu_ident::strapdown::Geodetic;
-//! # fn setup() -> NavSetup { imu_ident::nav::live::example_setup() }
+//! use nalgebra::Vector3;
+//! // The noise model aside (none here), the defaults of `hal-sim nav`.
+//! let init = NavInit { sd_att: Vector3::repeat(0.01), sd_vel: 0.1, sd_pos: 3.0 };
+//! let setup = || NavSetup::new(ImuErrorModel::default(), init);
 //! let cfg = LiveConfig::new(2.0);
 //! let mut nav = LiveNav::<f64, 24>::new(setup(), cfg, LiveNav::<f64, 24>::no_observer);
 //! let ant = Geodetic { lat: 0.8, lon: 0.1, h: 50.0 };
@@ -598,27 +601,4 @@ pub fn record_of(f: &LiveFix, plan: &FixPlan, use_velocity: bool) -> GnssRecord 
         flags,
         yaw: heading.unwrap_or(0.0),
     }
-}
-
-/// A setup for the examples: a MEMS-like white noise on every axis, no aiding.
-#[doc(hidden)]
-pub fn example_setup() -> NavSetup {
-    use super::{AxisModel, ImuErrorModel, NavInit};
-    use crate::model::{Component, WhiteNoise};
-    let axis = |density: f64| {
-        let mut a = AxisModel::new();
-        let _ = a.push(Component::White(WhiteNoise { density }));
-        a
-    };
-    NavSetup::new(
-        ImuErrorModel {
-            gyro: core::array::from_fn(|_| axis(1e-4)),
-            accel: core::array::from_fn(|_| axis(1e-2)),
-        },
-        NavInit {
-            sd_att: nalgebra::Vector3::repeat(0.01),
-            sd_vel: 0.1,
-            sd_pos: 3.0,
-        },
-    )
 }
