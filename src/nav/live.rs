@@ -304,23 +304,18 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
         self.t_imu = t;
         match self.phase {
             Phase::Aligning => {
-                if !self.alignment.sample(t, &gyro, &accel) {
-                    // Queued fixes this sample passed are before the window's end.
-                    while let Some(f) = self.pending.front().copied().filter(|f| f.t <= t) {
-                        self.before = Some(f);
-                        self.pending.pop_front();
+                let ended = self.alignment.sample(t, &gyro, &accel);
+                // Queued fixes this sample passed are candidates for the start; one at the
+                // window's end (`t` is the run's `t0`) is also the run's first epoch: it stays.
+                while let Some(f) = self.pending.front().copied().filter(|f| f.t <= t) {
+                    self.before = Some(f);
+                    if ended && f.t == t {
+                        break;
                     }
-                } else {
+                    self.pending.pop_front();
+                }
+                if ended {
                     self.phase = Phase::Placing(t);
-                    // Queued fixes before the window's end are candidates for the start.
-                    while let Some(f) = self.pending.front().copied().filter(|f| f.t <= t) {
-                        self.before = Some(f);
-                        if f.t < t {
-                            self.pending.pop_front();
-                        } else {
-                            break;
-                        }
-                    }
                     self.try_place(out)?;
                 }
             }
@@ -496,6 +491,10 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
     ) -> Result<(), NavError> {
         if !matches!(self.phase, Phase::Running(_)) {
             return Ok(());
+        }
+        if self.buffer.is_empty() && record.t <= self.t_imu - self.cfg.latency {
+            // Nothing waits and the sample is due (no budget): run it, not through the line.
+            return self.run_sample(&record, out);
         }
         if let Err(record) = self.buffer.push_back(record) {
             // A delay line longer than the buffer: the oldest sample goes now.
