@@ -45,7 +45,7 @@ pub enum Command {
         /// IMU CSV (t,gx,gy,gz,ax,ay,az; s, rad/s FRD, m/s^2).
         #[arg(long)]
         imu: PathBuf,
-        /// GNSS CSV, or an RTKLIB .pos file.
+        /// GNSS CSV, an RTKLIB .pos file or a u-blox .ubx log (by its extension).
         #[arg(long)]
         gnss: PathBuf,
         /// Noise model: an IMU model TOML, or drive-datasheet / drive-inflated.

@@ -50,6 +50,8 @@ pub const NAV_BUILD_COMMAND: &str = "cargo build --release -p imu-ident --target
 pub const NAV_ELF_ENV: &str = "IMU_IDENT_NAV_FIRMWARE_ELF";
 /// Name of the replay inside QEMU's working directory.
 const REPLAY_NAME: &str = "nav.bin";
+/// The serial wire's file name in QEMU's working directory.
+const WIRE_NAME: &str = "wire.bin";
 /// Fields of the firmware's per-epoch frame.
 /// The fields of a firmware `online` frame (one coordinate at one decision of the bank).
 const ONLINE_FIELDS: [&str; 5] = ["t", "i", "x", "sd", "ok"];
@@ -238,7 +240,40 @@ pub fn run_nav_firmware_bytes(
     replay: &[u8],
     cfg: &QemuConfig,
 ) -> Result<NavFirmwareRun> {
-    let out = run_qemu(elf, NAV_BIN, &[(REPLAY_NAME, replay)], cfg)?;
+    run_nav_files(elf, &[(REPLAY_NAME, replay)], cfg)
+}
+
+/// The serial wire of a run with `args` on `imu` and `fixes` (the IMU shifted as the run
+/// shifts it; [`crate::nav_io::ubx::serial_stream`], each fix on the wire `delay` s after its
+/// time).
+pub fn wire_of(
+    args: &NavArgs,
+    imu: &[ImuSample],
+    fixes: &[GnssFix],
+    delay: f64,
+) -> Result<Vec<u8>> {
+    crate::nav_io::ubx::serial_stream(&crate::nav::setup::shifted_imu(args, imu), fixes, delay)
+}
+
+/// Runs the firmware on a serial wire (`wire`, as [`wire_of`] writes it) with the live setup
+/// of `args`: a live replay with no records, then the wire's bytes through the core's
+/// decoders.
+pub fn run_nav_firmware_wire(
+    elf: &Path,
+    args: &NavArgs,
+    wire: &[u8],
+    cfg: &QemuConfig,
+) -> Result<NavFirmwareRun> {
+    let (setup, _) = live_records(args, &[], &[])?;
+    let mut replay = Vec::new();
+    encode(&setup, &[], |b| replay.extend_from_slice(b))
+        .map_err(|e| anyhow!("encoding the live setup: {e}"))?;
+    run_nav_files(elf, &[(REPLAY_NAME, &replay), (WIRE_NAME, wire)], cfg)
+}
+
+/// Runs the firmware with `files` as its arguments.
+fn run_nav_files(elf: &Path, files: &[(&str, &[u8])], cfg: &QemuConfig) -> Result<NavFirmwareRun> {
+    let out = run_qemu(elf, NAV_BIN, files, cfg)?;
     let mut run = decode_nav(&out.elf_bytes, &out.stdout)
         .with_context(|| format!("decoding the output of {}", elf.display()))?;
     run.status = out.status;

@@ -59,6 +59,8 @@ mod nav_report;
 mod nav_seeds;
 #[path = "nav_sim.rs"]
 mod nav_sim;
+#[path = "nav_wire.rs"]
+mod nav_wire;
 #[path = "nav_zupt.rs"]
 mod nav_zupt;
 #[path = "replay_consistency.rs"]

@@ -25,7 +25,7 @@ fn mems() -> ImuErrorModel<f64> {
 /// outage schedule (a live run withholds nothing), lever arm, the gyro bias seeded from the
 /// 50-s window; the heading given when `yaw` (else from the course), the constraint on too when
 /// `nhc`.
-fn drive(dir: &std::path::Path, seed: u64, yaw: bool, nhc: bool) -> NavArgs {
+pub(crate) fn drive(dir: &std::path::Path, seed: u64, yaw: bool, nhc: bool) -> NavArgs {
     hal_sim::trajectory::write::simulate_drive_files(1.0 / 6.0, 100.0, seed, vec![], dir)
         .unwrap_or_else(|e| panic!("{e:#}"));
     let truth =
@@ -66,7 +66,12 @@ pub(crate) struct Live {
 }
 
 impl Live {
-    fn take(&mut self, e: LiveEvent<'_, f32>) {
+    /// Starts and dropped fixes.
+    pub(crate) fn starts_and_drops(&self) -> (usize, usize) {
+        (self.starts, self.dropped.len())
+    }
+
+    pub(crate) fn take(&mut self, e: LiveEvent<'_, f32>) {
         match e {
             LiveEvent::Started(s) => {
                 self.starts += 1;
@@ -122,7 +127,7 @@ fn encoded(setup: &NavSetup, records: &[Record]) -> Vec<u8> {
     out
 }
 
-fn load(args: &NavArgs) -> (Vec<ImuSample>, Vec<GnssFix>) {
+pub(crate) fn load(args: &NavArgs) -> (Vec<ImuSample>, Vec<GnssFix>) {
     let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));
     let fixes = read_gnss_csv(&args.gnss).unwrap_or_else(|e| panic!("{e:#}"));
     (imu, fixes)
@@ -167,8 +172,14 @@ pub(crate) fn live_is_the_replay(args: &NavArgs, delay: f64, latency: f64) -> Li
         "the live run's replay differs from the host's"
     );
     let host = run_with::<f32>(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
-    assert_eq!(live.epochs.len(), host.epochs.len());
-    for (e, h) in live.epochs.iter().zip(&host.epochs) {
+    assert_same_epochs(&live.epochs, &host);
+    live
+}
+
+/// A live run's epochs are the host run's, bit for bit.
+pub(crate) fn assert_same_epochs(live: &[Epoch<f32>], host: &hal_sim::nav::NavRun) {
+    assert_eq!(live.len(), host.epochs.len());
+    for (e, h) in live.iter().zip(&host.epochs) {
         let (t, p, v, sd) = (e.t, [e.pos.lat, e.pos.lon, e.pos.h], e.vel, e.sd_pos);
         assert_eq!(t.to_bits(), h.t.to_bits());
         assert_eq!(
@@ -179,7 +190,6 @@ pub(crate) fn live_is_the_replay(args: &NavArgs, delay: f64, latency: f64) -> Li
         assert_eq!(v.map(f64::from), h.vel, "t = {t}");
         assert_eq!(sd.map(f64::from), h.sd_pos, "t = {t}");
     }
-    live
 }
 
 #[test]

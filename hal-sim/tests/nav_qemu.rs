@@ -29,6 +29,9 @@
 
 use std::path::PathBuf;
 
+#[path = "nav_qemu_wire.rs"]
+mod wire;
+
 use hal_sim::nav::{run_with, NavArgs, NavRun};
 use hal_sim::nav_io::{read_gnss_csv, read_imu_csv};
 use hal_sim::nav_qemu::{

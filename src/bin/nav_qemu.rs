@@ -12,6 +12,13 @@
 //! ([`imu_ident::nav::live::LiveNav`]): the firmware levels, places the run at its fix and
 //! decides every fix itself, as a navigation computer fed by its sensors would.
 //!
+//! With a second file (a second argument), the live replay gives only the setup and the
+//! second file is the serial wire ([`imu_ident::nav::serial`]: IMU sample frames and a u-blox
+//! receiver's `NAV-TIMEGPS` / `NAV-PVT` messages, written by `hal_sim::nav_io::ubx`): its
+//! bytes go through the core's decoders into the live loop, as a board's ports would feed
+//! them. The decoders' refusals are reported at the end (`wire`), and `icount wire` counts
+//! the decoding of each full 256-byte read.
+//!
 //! - Input: the file named by the first semihosting argument after the program name (default
 //!   `nav.bin`), relative to QEMU's working directory.
 //! - Output (defmt on semihosting stdout): `nav` per GNSS epoch (time, position f64 rad/m,
@@ -55,15 +62,21 @@ mod firmware {
     use cortex_m::peripheral::SYST;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS};
+    use imu_ident::nav::imu_frame::ImuSample;
     use imu_ident::nav::live::{LiveEvent, LiveFix, LiveNav};
     use imu_ident::nav::replay::{Decoder, Event, NavReplayError, Record};
     use imu_ident::nav::run::ImuStep;
+    use imu_ident::nav::serial::{feed, NavInput, NavWire};
     use imu_ident::nav::{Epoch, NavError, NavReplay, NavSetup, OnlineIdent, NAV_N};
 
     /// File read when QEMU passes no argument.
     const DEFAULT_LOG: &CStr = c"nav.bin";
+    /// No second argument: no serial wire file.
+    const NO_WIRE: &CStr = c"";
     /// Read size: the decoder takes any chunking, so this only trades RAM for host calls.
     const CHUNK: usize = 512;
+    /// Read size of a serial wire file: its inputs are queued per read (see `read_wire`).
+    const WIRE_CHUNK: usize = 256;
 
     /// Shadow filters of the online identification (the core's count for the firmware).
     const BANK: usize = imu_ident::nav::online::FIRMWARE_BANK;
@@ -99,8 +112,11 @@ mod firmware {
         step: Counts,
         nhc: Counts,
         fuse: Counts,
+        /// Decoding a full chunk of a serial wire file.
+        wire: Counts,
         n_imu: u32,
         epochs: u32,
+        chunks: u32,
     }
 
     impl Tally {
@@ -127,6 +143,8 @@ mod firmware {
         NoSetup,
         /// The navigator refused the setup or a record.
         Nav(NavError),
+        /// A serial wire file with a setup that is not a live one.
+        NotLive,
     }
 
     impl From<HostError> for FirmwareError {
@@ -277,10 +295,22 @@ mod firmware {
         epochs: heapless::Vec<Epoch<f32>, 8>,
     }
 
-    /// One record of a live replay through the live loop: a sample, or a fix decoded as the
-    /// receiver would give it. A call that ran one sample is counted as the replay's; the
-    /// calls that start the run (the buffered samples) are not counted.
-    fn live_record(live: &mut Live, r: &Record, tally: &mut Tally) -> Result<(), FirmwareError> {
+    /// A live replay's record as the wire would deliver it.
+    fn input_of(r: &Record) -> NavInput {
+        match r {
+            Record::Imu(s) => NavInput::Imu(ImuSample {
+                t: s.t,
+                gyro: s.gyro,
+                accel: s.accel,
+            }),
+            Record::Gnss(g) => NavInput::Fix(LiveFix::from_record(g)),
+        }
+    }
+
+    /// One input through the live loop: a sample, or a fix decoded as the receiver would give
+    /// it. A call that ran one sample is counted as the replay's; the calls that start the run
+    /// (the buffered samples) are not counted.
+    fn live_input(live: &mut Live, r: &NavInput, tally: &mut Tally) -> Result<(), FirmwareError> {
         let decisions = live.run().map_or(0, decisions_of);
         let mut call = LiveCall::default();
         let mut on = |e: LiveEvent<'_, f32>| match e {
@@ -300,16 +330,12 @@ mod firmware {
             LiveEvent::FixDropped(t, _) => defmt::warn!("live: fix at {=f64} dropped", t),
         };
         let t0 = SYST::get_current();
-        match r {
-            Record::Imu(s) => live.imu(s.t, s.gyro.map(f64::from), s.accel.map(f64::from), &mut on),
-            Record::Gnss(g) => live.gnss(&LiveFix::from_record(g), &mut on),
-        }
-        .map_err(FirmwareError::Nav)?;
+        feed(live, r, &mut on).map_err(FirmwareError::Nav)?;
         let t1 = SYST::get_current();
         let instr = semihost::instructions(t0, t1);
         match (r, call.samples, &call.last) {
-            (Record::Imu(_), 1, Some(done)) => tally.sample(done, instr),
-            (Record::Gnss(_), 0, _) if call.fused => tally.fuse.add(instr, tally.epochs),
+            (NavInput::Imu(_), 1, Some(done)) => tally.sample(done, instr),
+            (NavInput::Fix(_), 0, _) if call.fused => tally.fuse.add(instr, tally.epochs),
             _ => {}
         }
         for e in &call.epochs {
@@ -351,10 +377,18 @@ mod firmware {
                     }
                     Some(Event::Record(r)) => match nav.as_mut().ok_or(FirmwareError::NoSetup)? {
                         Nav::Replay(run) => replay_record(run, &r, &mut tally)?,
-                        Nav::Live(live) => live_record(live, &r, &mut tally)?,
+                        Nav::Live(live) => live_input(live, &input_of(&r), &mut tally)?,
                     },
                 }
             }
+        }
+        let mut wire_name = [0u8; semihost::CMDLINE_LEN];
+        let wire_path = semihost::arg(1, &mut wire_name, NO_WIRE)?;
+        if !wire_path.is_empty() {
+            let Some(Nav::Live(live)) = nav.as_mut() else {
+                return Err(FirmwareError::NotLive);
+            };
+            read_wire(wire_path, live, &mut tally)?;
         }
         // A live run's samples still in its latency budget at the log's end.
         if let Some(Nav::Live(live)) = nav.as_mut() {
@@ -372,6 +406,58 @@ mod firmware {
         tally.fuse.log("gnss");
         let records = decoder.finish().map_err(FirmwareError::Log)?;
         Ok((records, tally.epochs))
+    }
+
+    /// The serial wire file at `path` through the core's decoders into the live loop.
+    fn read_wire(path: &CStr, live: &mut Live, tally: &mut Tally) -> Result<(), FirmwareError> {
+        let mut file = HostFile::open(path)?;
+        let mut wire = NavWire::new(None);
+        let mut buf = [0u8; WIRE_CHUNK];
+        loop {
+            let n = file.read(&mut buf)?;
+            let Some(chunk) = buf.get(..n).filter(|c| !c.is_empty()) else {
+                break;
+            };
+            // The chunk decoded first (timed: `icount wire`, per chunk of WIRE_CHUNK bytes),
+            // then its inputs in order. A 38-byte frame per sample and 124 bytes per fix: at
+            // most 7 samples and 3 fixes end in 256 bytes; a fuller queue is drained as it
+            // fills. (Small: this frame is under the live loop's deepest stack.)
+            let mut inputs = heapless::Vec::<NavInput, 10>::new();
+            let mut spill: Result<(), FirmwareError> = Ok(());
+            let t0 = SYST::get_current();
+            for &byte in chunk {
+                wire.push(byte, &mut |i| {
+                    if let Err(i) = inputs.push(i) {
+                        spill = spill.and_then(|()| {
+                            for q in &inputs {
+                                live_input(live, q, tally)?;
+                            }
+                            inputs.clear();
+                            live_input(live, &i, tally)
+                        });
+                    }
+                });
+            }
+            let t1 = SYST::get_current();
+            spill?;
+            if n == WIRE_CHUNK {
+                tally.wire.add(semihost::instructions(t0, t1), tally.chunks);
+                tally.chunks = tally.chunks.wrapping_add(1);
+            }
+            for i in &inputs {
+                live_input(live, i, tally)?;
+            }
+        }
+        tally.wire.log("wire");
+        let c = wire.counts();
+        defmt::info!(
+            "wire imu_rejected={=u32} ubx_rejected={=u32} no_fix={=u32} no_week={=u32}",
+            c.imu_rejected,
+            c.ubx_rejected,
+            c.no_fix,
+            c.no_week
+        );
+        Ok(())
     }
 
     #[cfg(not(feature = "prove-no-panic"))]

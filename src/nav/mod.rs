@@ -9,6 +9,7 @@
 //! default).
 
 pub mod error_model;
+pub mod imu_frame;
 pub mod imu_model;
 pub mod live;
 pub mod navigator;
@@ -16,7 +17,9 @@ pub mod online;
 pub mod replay;
 pub mod rest;
 pub mod run;
+pub mod serial;
 pub mod start;
+pub mod ubx;
 
 pub use error_model::{nav_idx, NavInit, NavPoint, StrapdownErrorModel, NAV_Z};
 pub use imu_model::{AxisModel, ImuErrorModel, ImuSensor, MAX_AXIS_COMPONENTS};

@@ -14,6 +14,7 @@ pub mod outages;
 pub mod rtklib_pos;
 mod table;
 pub mod truth_csv;
+pub mod ubx;
 
 pub use gnss_csv::{read_gnss_csv, write_gnss_csv, GnssFix};
 pub use imu_csv::{read_imu_csv, write_imu_csv, ImuSample};
@@ -24,14 +25,27 @@ pub use truth_csv::{read_truth_csv, write_truth_csv, TruthRow};
 use anyhow::Result;
 use std::path::Path;
 
-/// Reads GNSS fixes from a GNSS CSV, or from an RTKLIB `.pos` file (by extension `.pos`),
-/// keeping the `.pos` epochs with quality `1 <= Q <= max_q` (1 fix, 2 float, ... 5 single).
+/// Reads GNSS fixes from a GNSS CSV, from an RTKLIB `.pos` file (by extension `.pos`),
+/// keeping the epochs with quality `1 <= Q <= max_q` (1 fix, 2 float, ... 5 single), or from a
+/// u-blox UBX log (`.ubx`: [`ubx::read_ubx`]; what it left out is noted on stderr).
 pub fn read_gnss_any(path: &Path, max_q: u8) -> Result<Vec<GnssFix>> {
-    let is_pos = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("pos"));
-    if is_pos {
+    let ext = |x: &str| path.extension().is_some_and(|e| e.eq_ignore_ascii_case(x));
+    if ext("pos") {
         Ok(read_pos(path)?.fixes(max_q))
+    } else if ext("ubx") {
+        let (fixes, c) = ubx::read_ubx(path, None)?;
+        if c != Default::default() {
+            eprintln!(
+                "note: {}: {} fixes; left out {} solutions without a 3D fix, {} before the GPS \
+                 week, {} messages with a bad checksum or length",
+                path.display(),
+                fixes.len(),
+                c.no_fix,
+                c.no_week,
+                c.ubx_rejected
+            );
+        }
+        Ok(fixes)
     } else {
         read_gnss_csv(path)
     }

@@ -1,0 +1,170 @@
+//! The navigator's serial wire on the host (`imu_ident::nav::serial`): a log written as IMU
+//! frames and a u-blox receiver's `NAV-TIMEGPS` / `NAV-PVT` messages
+//! (`hal_sim::nav_io::ubx::serial_stream`), read back through the core's decoders into a live
+//! run, is the host run on what the wire carried, bit for bit; a `.ubx` file gives `nav` the
+//! same fixes; a noisy line costs the frames it corrupts and nothing else.
+//!
+//! The wire quantises a fix to `NAV-PVT`'s units (1e-7 deg, 1 mm, 1 mm/s, 1 ms): the host run
+//! compared is the one on the fixes as decoded, so the comparison is exact; the quantisation
+//! itself is bounded here to half a unit.
+
+use crate::nav_live::{assert_same_epochs, drive, load, Live};
+use hal_sim::nav::run_with;
+use hal_sim::nav::setup::{live_config, settings};
+use hal_sim::nav_io::ubx::{ubx_fixes, wire_inputs};
+use hal_sim::nav_io::{read_gnss_any, ImuSample};
+use hal_sim::nav_qemu::wire_of;
+use imu_ident::nav::live::LiveNav;
+use imu_ident::nav::serial::{feed, NavInput, WireCounts};
+use imu_ident::nav::NAV_N;
+
+/// A live `f32` run of `args`' setup on `inputs`.
+fn live_run(args: &hal_sim::nav::NavArgs, inputs: &[NavInput]) -> Live {
+    let mut nav = LiveNav::<f32, NAV_N>::new(
+        settings(args),
+        live_config(args),
+        LiveNav::<f32, NAV_N>::no_observer,
+    );
+    let mut live = Live::default();
+    for i in inputs {
+        // A refused input (a corrupted time) is the live loop's to report; it goes on.
+        let _ = feed(&mut nav, i, &mut |e| live.take(e));
+    }
+    nav.flush(&mut |e| live.take(e))
+        .unwrap_or_else(|e| panic!("flush: {e:?}"));
+    live
+}
+
+#[test]
+fn a_log_over_the_serial_wire_is_the_host_run_on_what_the_wire_carried() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    // Heading from the course and the constraint: the live run decides everything itself.
+    let args = drive(dir.path(), 16, false, true);
+    let (imu, fixes) = load(&args);
+    // The samples as the wire carries them, in single precision (the levelling window averages
+    // them in f64, so the host run on the f64 samples starts a few ulps away).
+    let as_sent: Vec<_> = imu
+        .iter()
+        .map(|s| ImuSample {
+            gyro: s.gyro.map(|x| f64::from(x as f32)),
+            accel: s.accel.map(|x| f64::from(x as f32)),
+            ..*s
+        })
+        .collect();
+    // On time, and half a second ahead of the IMU (the fixes wait in the live queue).
+    for delay in [0.0, -0.5] {
+        let wire = wire_of(&args, &imu, &fixes, delay).unwrap_or_else(|e| panic!("{e:#}"));
+        let (inputs, counts) = wire_inputs(&wire, None);
+        assert_eq!(counts, WireCounts::default());
+        let (carried, _) = ubx_fixes(&wire, None);
+        assert_eq!(carried.len(), fixes.len());
+        assert_eq!(inputs.len(), imu.len() + fixes.len());
+        for (c, f) in carried.iter().zip(&fixes) {
+            // Half a unit of NAV-PVT (and the f64 rounding of the sums).
+            assert!((c.t - f.t).abs() <= 0.5e-3 + 1e-6, "t {} {}", c.t, f.t);
+            assert!(
+                (c.lat_deg - f.lat_deg).abs() <= 0.5e-7 + 1e-12,
+                "t = {}",
+                f.t
+            );
+            assert!(
+                (c.lon_deg - f.lon_deg).abs() <= 0.5e-7 + 1e-12,
+                "t = {}",
+                f.t
+            );
+            assert!((c.h - f.h).abs() <= 0.5e-3 + 1e-9, "t = {}", f.t);
+            let (cv, fv) = (c.vel_ned.unwrap_or_default(), f.vel_ned.unwrap_or_default());
+            assert!(cv
+                .iter()
+                .zip(fv)
+                .all(|(a, b)| (a - b).abs() <= 0.5e-3 + 1e-9));
+        }
+        let live = live_run(&args, &inputs);
+        assert_eq!(live.starts_and_drops(), (1, 0));
+        let host = run_with::<f32>(&args, &as_sent, &carried).unwrap_or_else(|e| panic!("{e:#}"));
+        assert_same_epochs(&live.epochs, &host);
+        assert!(live.epochs.len() > 300, "{} epochs", live.epochs.len());
+    }
+    // The same fixes from a `.ubx` file (a receiver's log: the wire without the IMU frames).
+    let wire = wire_of(&args, &[], &fixes, 0.0).unwrap_or_else(|e| panic!("{e:#}"));
+    let path = dir.path().join("gnss.ubx");
+    std::fs::write(&path, &wire).unwrap_or_else(|e| panic!("{e}"));
+    let from_file = read_gnss_any(&path, 1).unwrap_or_else(|e| panic!("{e:#}"));
+    assert_eq!(from_file, ubx_fixes(&wire, None).0);
+}
+
+/// Where each input ends on a wire, and how long its frame or message is.
+fn item_spans(wire: &[u8]) -> Vec<(usize, usize, NavInput)> {
+    let mut w = imu_ident::nav::serial::NavWire::new(None);
+    let mut ubx = imu_ident::nav::ubx::UbxDecoder::new();
+    let mut out = Vec::new();
+    for (i, &b) in wire.iter().enumerate() {
+        w.push(b, &mut |input| {
+            let len = match input {
+                NavInput::Imu(_) => 38,
+                NavInput::Fix(_) => 100,
+            };
+            out.push((i + 1 - len, i + 1, input));
+        });
+        // The week messages, as spans with no input (a fix needs one intact before it).
+        if let Some(imu_ident::nav::ubx::UbxMessage::NavTimeGps { .. }) = ubx.push(b) {
+            out.push((i + 1 - 24, i + 1, NavInput::Imu(Default::default())));
+        }
+    }
+    out
+}
+
+/// A noisy line: seeded bursts of random bytes overwrite parts of the wire. Every sample and
+/// fix whose bytes were not hit is read (a fix also needs an intact week message before it);
+/// every other is refused and counted; the run goes on with what arrived.
+#[test]
+fn a_noisy_line_costs_the_frames_it_hits() {
+    use rand::{Rng, SeedableRng};
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let args = drive(dir.path(), 16, true, false);
+    let (imu, fixes) = load(&args);
+    let clean = wire_of(&args, &imu, &fixes, 0.0).unwrap_or_else(|e| panic!("{e:#}"));
+    let spans = item_spans(&clean);
+    for seed in 0..4u64 {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(65_600 + seed);
+        let mut wire = clean.clone();
+        let mut hit = vec![false; wire.len()];
+        // 200 bursts of 1-40 bytes: about 0.05 % of the bytes.
+        for _ in 0..200 {
+            let at = rng.gen_range(0..wire.len() - 40);
+            let len = rng.gen_range(1..=40);
+            for k in at..at + len {
+                wire[k] = rng.gen();
+                hit[k] = true;
+            }
+        }
+        let intact = |sp: &(usize, usize, NavInput)| !hit[sp.0..sp.1].contains(&true);
+        let mut week = false;
+        let mut expected = Vec::new();
+        for sp in &spans {
+            match sp.2 {
+                NavInput::Imu(s) if s.t == 0.0 => week |= intact(sp),
+                NavInput::Fix(_) if !week => {}
+                _ if intact(sp) => expected.push(sp.2),
+                _ => {}
+            }
+        }
+        let (inputs, counts) = wire_inputs(&wire, None);
+        assert_eq!(inputs, expected, "seed {}", 65_600 + seed);
+        assert!(counts.imu_rejected + counts.ubx_rejected > 0, "{counts:?}");
+        let live = live_run(&args, &inputs);
+        assert_eq!(live.starts_and_drops().0, 1);
+        let n_fix = inputs
+            .iter()
+            .filter(|i| matches!(i, NavInput::Fix(_)))
+            .count();
+        eprintln!(
+            "seed {}: {} of {} samples, {n_fix} of {} fixes, {counts:?}, {} epochs",
+            65_600 + seed,
+            inputs.len() - n_fix,
+            imu.len(),
+            fixes.len(),
+            live.epochs.len()
+        );
+    }
+}

@@ -1,0 +1,228 @@
+//! The navigator's wire: IMU sample frames ([`imu_frame`](super::imu_frame)) and a u-blox
+//! receiver's UBX messages ([`ubx`](super::ubx)) read from serial ports into the inputs of a
+//! [`LiveNav`]. The hardware edge of a navigation computer, as [`crate::edge`] is the
+//! one-channel step's: [`SerialNav`] reads any `embedded_io::Read + ReadReady` port without
+//! blocking, a bounded number of bytes per poll.
+//!
+//! One decoder of each kind reads every byte ([`NavWire`]), so the IMU and the receiver may
+//! share a line or have one each (a [`SerialNav`] per port). A stream's order is its order on
+//! the wire: a fix is given to the navigator when its message ends, as a receiver's latency
+//! makes it. `hal-sim`'s `serial_stream` writes a log in this form, and the emulated board runs
+//! it (`imu-ident-nav-qemu` with a second file).
+//!
+//! ```
+//! use imu_ident::nav::imu_frame::{encode_imu_frame, ImuSample};
+//! use imu_ident::nav::serial::{NavInput, NavWire};
+//! use imu_ident::nav::ubx::{encode_nav_pvt, encode_nav_timegps, NavPvt};
+//! let pvt = NavPvt { itow_ms: 1_000, fix_type: 3, flags: 1, ..NavPvt::default() };
+//! let s = ImuSample { t: 2374.0 * 604_800.0 + 0.99, ..ImuSample::default() };
+//! let mut wire = NavWire::new(None);
+//! let (mut samples, mut fixes) = (0, 0);
+//! let bytes = encode_imu_frame(&s).into_iter()
+//!     .chain(encode_nav_timegps(1_000, 2374))
+//!     .chain(encode_nav_pvt(&pvt));
+//! for b in bytes {
+//!     wire.push(b, &mut |input| match input {
+//!         NavInput::Imu(_) => samples += 1,
+//!         NavInput::Fix(f) => { fixes += 1; assert_eq!(f.t, 2374.0 * 604_800.0 + 1.0) }
+//!     });
+//! }
+//! assert_eq!((samples, fixes), (1, 1));
+//! ```
+
+use super::imu_frame::{ImuFrameDecoder, ImuSample};
+use super::live::{LiveEvent, LiveFix, LiveNav};
+use super::navigator::NavObserver;
+use super::ubx::UbxFixes;
+use super::NavError;
+use crate::Real;
+
+/// One input of a live run, as the wire delivers it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum NavInput {
+    /// An IMU sample.
+    Imu(ImuSample),
+    /// A GNSS fix.
+    Fix(LiveFix),
+}
+
+/// What a wire refused so far.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct WireCounts {
+    /// IMU frames with a bad CRC.
+    pub imu_rejected: u32,
+    /// UBX messages with a bad checksum or length.
+    pub ubx_rejected: u32,
+    /// Solutions that were not a good 3D fix.
+    pub no_fix: u32,
+    /// Solutions before the GPS week was known.
+    pub no_week: u32,
+}
+
+/// Both decoders, fed every byte.
+#[derive(Debug, Clone)]
+pub struct NavWire {
+    imu: ImuFrameDecoder,
+    gnss: UbxFixes,
+}
+
+impl NavWire {
+    /// A wire whose GPS week at the start is `week` when known (else a `NAV-TIMEGPS` gives it).
+    pub const fn new(week: Option<u16>) -> Self {
+        Self {
+            imu: ImuFrameDecoder::new(),
+            gnss: UbxFixes::new(week),
+        }
+    }
+
+    /// Takes one byte; gives `out` the sample or fix it completes.
+    pub fn push(&mut self, b: u8, out: &mut impl FnMut(NavInput)) {
+        if let Some(s) = self.imu.push(b) {
+            out(NavInput::Imu(s));
+        }
+        if let Some(f) = self.gnss.push(b) {
+            out(NavInput::Fix(f.live()));
+        }
+    }
+
+    /// What the decoders refused so far.
+    pub fn counts(&self) -> WireCounts {
+        let drops = self.gnss.drops();
+        WireCounts {
+            imu_rejected: self.imu.rejected(),
+            ubx_rejected: self.gnss.decoder().rejected(),
+            no_fix: drops.no_fix,
+            no_week: drops.no_week,
+        }
+    }
+}
+
+/// A [`NavWire`] on a serial port.
+#[derive(Debug)]
+pub struct SerialNav<R> {
+    rx: R,
+    wire: NavWire,
+}
+
+impl<R: embedded_io::Read + embedded_io::ReadReady> SerialNav<R> {
+    /// Reads from `rx`; `week` as for [`NavWire::new`].
+    pub fn new(rx: R, week: Option<u16>) -> Self {
+        Self {
+            rx,
+            wire: NavWire::new(week),
+        }
+    }
+
+    /// The decoders' counts.
+    pub fn counts(&self) -> WireCounts {
+        self.wire.counts()
+    }
+
+    /// Reads what the port has ready, at most `max_bytes` (bounds the work of one call; the
+    /// rest waits for the next), and gives `out` every input completed. Returns the bytes
+    /// read. Never blocks.
+    pub fn poll(
+        &mut self,
+        max_bytes: usize,
+        out: &mut impl FnMut(NavInput),
+    ) -> Result<usize, R::Error> {
+        let mut chunk = [0u8; 64];
+        let mut read = 0usize;
+        while read < max_bytes && self.rx.read_ready()? {
+            let want = (max_bytes - read).min(chunk.len());
+            let Some(buf) = chunk.get_mut(..want) else {
+                break;
+            };
+            let n = self.rx.read(buf)?;
+            if n == 0 {
+                break;
+            }
+            read = read.saturating_add(n);
+            for &b in buf.iter().take(n) {
+                self.wire.push(b, out);
+            }
+        }
+        Ok(read)
+    }
+}
+
+/// Gives a live run one input: [`LiveNav::imu`] for a sample, [`LiveNav::gnss`] for a fix.
+pub fn feed<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize>(
+    nav: &mut LiveNav<T, N, O, B>,
+    input: &NavInput,
+    out: &mut impl FnMut(LiveEvent<'_, T>),
+) -> Result<(), NavError> {
+    match input {
+        NavInput::Imu(s) => nav.imu(s.t, s.gyro.map(f64::from), s.accel.map(f64::from), out),
+        NavInput::Fix(f) => nav.gnss(f, out),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::nav::imu_frame::encode_imu_frame;
+    use core::convert::Infallible;
+
+    /// A port that has `ready` bytes of `data` at a time.
+    struct Port<'a> {
+        data: &'a [u8],
+        ready: usize,
+    }
+
+    impl embedded_io::ErrorType for Port<'_> {
+        type Error = Infallible;
+    }
+
+    impl embedded_io::ReadReady for Port<'_> {
+        fn read_ready(&mut self) -> Result<bool, Infallible> {
+            Ok(!self.data.is_empty())
+        }
+    }
+
+    impl embedded_io::Read for Port<'_> {
+        fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
+            let n = buf.len().min(self.data.len()).min(self.ready);
+            let (head, tail) = self.data.split_at(n);
+            if let Some(b) = buf.get_mut(..n) {
+                b.copy_from_slice(head);
+            }
+            self.data = tail;
+            Ok(n)
+        }
+    }
+
+    #[test]
+    fn a_poll_reads_at_most_its_budget_and_the_rest_waits() {
+        let mut bytes = [0u8; 10 * 38];
+        for (k, f) in bytes.chunks_mut(38).enumerate() {
+            let s = ImuSample {
+                t: k as f64,
+                ..ImuSample::default()
+            };
+            f.copy_from_slice(&encode_imu_frame(&s));
+        }
+        let mut port = SerialNav::new(
+            Port {
+                data: &bytes,
+                ready: 7,
+            },
+            None,
+        );
+        let mut times = heapless::Vec::<f64, 16>::new();
+        let mut on = |i: NavInput| {
+            if let NavInput::Imu(s) = i {
+                let _ = times.push(s.t);
+            }
+        };
+        let first = port.poll(100, &mut on).unwrap();
+        assert_eq!(first, 100);
+        assert_eq!(port.poll(1000, &mut on).unwrap(), 280);
+        assert_eq!(port.poll(1000, &mut on).unwrap(), 0);
+        assert_eq!(
+            times.as_slice(),
+            &[0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]
+        );
+        assert_eq!(port.counts(), WireCounts::default());
+    }
+}
