@@ -13,6 +13,7 @@
 #                    ELF, resets the chip and decodes the defmt telemetry from RTT. Extra
 #                    arguments go to probe-rs (e.g. --probe VID:PID). PROBE_RS_CHIP overrides
 #                    the chip.
+#   imu-ident-nav-board  the same probe-rs run, for the STM32F405 navigation computer.
 #
 #   scripts/run-target.sh ELF [ARGS...]
 set -euo pipefail
@@ -31,7 +32,7 @@ case "$(basename -- "$elf")" in
         exec qemu-system-arm -cpu cortex-m4 -machine mps2-an386 -nographic \
             -semihosting-config enable=on,target=native -kernel "$elf" "$@"
         ;;
-    imu-ident-board)
+    imu-ident-board | imu-ident-nav-board)
         if ! command -v probe-rs >/dev/null 2>&1; then
             echo "run-target: probe-rs not found; install it with: cargo install probe-rs-tools --locked" >&2
             exit 127
@@ -39,7 +40,7 @@ case "$(basename -- "$elf")" in
         exec probe-rs run --chip "${PROBE_RS_CHIP:-STM32F405RGTx}" "$@" "$elf"
         ;;
     *)
-        echo "run-target: do not know where to run $elf (expected imu-ident-qemu, imu-ident-nav-qemu or imu-ident-board)" >&2
+        echo "run-target: do not know where to run $elf (expected imu-ident-qemu, imu-ident-nav-qemu, imu-ident-board or imu-ident-nav-board)" >&2
         exit 2
         ;;
 esac

@@ -7,9 +7,10 @@
 #   4. clippy -D warnings, Cortex-M4F (the no_std library, the QEMU and the STM32F405 firmware)
 #   5. host tests                     (cargo test --workspace: unit, integration and doc tests;
 #                                      the QEMU tests wait for step 7)
-#   6. firmware release builds        (imu-ident-qemu, imu-ident-nav-qemu and imu-ident-board for
-#                                      thumbv7em-none-eabihf, sizes printed; then all three again
-#                                      with prove-no-panic: they link only if no panic path is left)
+#   6. firmware release builds        (imu-ident-qemu, imu-ident-nav-qemu, imu-ident-board and
+#                                      imu-ident-nav-board for thumbv7em-none-eabihf, sizes printed;
+#                                      then all four again with prove-no-panic: they link only if
+#                                      no panic path is left)
 #   7. QEMU tests                     (hal-sim/tests/qemu_smoke.rs against the estimator firmware,
 #                                      hal-sim/tests/nav_qemu.rs against the navigation firmware)
 #   8. Python package                 (pip install ./python into a venv under the target dir,
@@ -53,7 +54,7 @@ cargo clippy -p imu-ident --target "$TARGET" --lib -- -D warnings
 cargo clippy -p imu-ident --target "$TARGET" --lib --features params8 -- -D warnings
 cargo clippy -p imu-ident --target "$TARGET" --features qemu --bins -- -D warnings
 # Release, as step 6 builds it (the board's features never mix with the QEMU ones).
-cargo clippy --release -p imu-ident --target "$TARGET" --features board --bin imu-ident-board -- -D warnings
+cargo clippy --release -p imu-ident --target "$TARGET" --features board --bins -- -D warnings
 
 section "5/8 host tests (cargo test --workspace)"
 # The QEMU tests are named qemu_firmware_*; they run in step 7 with the firmware built. Under
@@ -67,7 +68,7 @@ unset FUZZ_CASES
 cargo test --workspace --lib --bins --tests -- --skip qemu_firmware_
 cargo test --workspace --doc
 
-section "6/8 firmware release builds ($TARGET: imu-ident-qemu, imu-ident-nav-qemu, imu-ident-board)"
+section "6/8 firmware release builds ($TARGET: imu-ident-qemu, imu-ident-nav-qemu, the two boards)"
 # Prints an ELF's text/data/bss sizes (and, with -A, every section's).
 print_size() {
     if command -v llvm-size >/dev/null 2>&1; then
@@ -92,6 +93,10 @@ cargo build --release -p imu-ident --target "$TARGET" --features board --bin imu
 BOARD_ELF="$TARGET_DIR/$TARGET/release/imu-ident-board"
 print_size "$BOARD_ELF"
 print_size -A "$BOARD_ELF" | grep -E '^(section|\.vector_table|\.text|\.rodata|\.data|\.bss|\.uninit) '
+# The navigation computer: IMU frames and a u-blox receiver into the live loop (built only).
+cargo build --release -p imu-ident --target "$TARGET" --features board --bin imu-ident-nav-board
+print_size -A "$TARGET_DIR/$TARGET/release/imu-ident-nav-board" |
+    grep -E '^(section|\.text|\.rodata|\.ccmram|\.data|\.bss|\.uninit) '
 # Link-time proof that no panic path survives optimisation in either firmware (RELIABILITY.md,
 # "Panic-free firmware, proved at link time"): with `prove-no-panic` the panic handler calls
 # `imu_ident_panic_path_is_linked`, which is defined nowhere. A link error "undefined symbol:
@@ -106,6 +111,7 @@ NAV_ELF="$NAV_ELF-test"
 cargo build --release -p imu-ident --target "$TARGET" --features qemu,prove-no-panic --bin imu-ident-qemu
 cargo build --release -p imu-ident --target "$TARGET" --features qemu,prove-no-panic --bin imu-ident-nav-qemu
 cargo build --release -p imu-ident --target "$TARGET" --features board,prove-no-panic --bin imu-ident-board
+cargo build --release -p imu-ident --target "$TARGET" --features board,prove-no-panic --bin imu-ident-nav-board
 
 section "7/8 QEMU tests (mps2-an386: estimator and navigation firmware)"
 # --workspace keeps the feature set of step 5, so nothing is rebuilt.

@@ -40,21 +40,24 @@ fn main() {
 }
 
 #[cfg(all(target_arch = "arm", target_os = "none"))]
+#[path = "board_support/mod.rs"]
+mod board_support;
+
+#[cfg(all(target_arch = "arm", target_os = "none"))]
 mod firmware {
-    use core::cell::{RefCell, UnsafeCell};
-    use core::convert::Infallible;
-    use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+    use super::board_support::{drain, park, QueueRx, RxCounts};
+    use core::cell::RefCell;
+    use core::sync::atomic::{AtomicBool, Ordering};
 
     use cortex_m::interrupt::{self as irq, Mutex};
     use cortex_m::peripheral::NVIC;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
-    use heapless::spsc::{Consumer, Producer, Queue};
+    use heapless::spsc::{Producer, Queue};
     use imu_ident::edge::{ObservationSource, SerialSource, Tick};
     use imu_ident::model::InsModel;
     use imu_ident::step::{Estimator, StepConfig, StepError};
     use imu_ident::telemetry::DefmtSink;
     use static_cell::StaticCell;
-    use stm32f4xx_hal::nb;
     use stm32f4xx_hal::pac::{self, interrupt, Interrupt, TIM2, USART2};
     use stm32f4xx_hal::prelude::*;
     use stm32f4xx_hal::rcc::Clocks;
@@ -86,10 +89,8 @@ mod firmware {
     static RX_QUEUE: StaticCell<RxQueue> = StaticCell::new();
     /// What the USART2 interrupt owns, handed over once at start-up.
     static RX_ISR: Mutex<RefCell<Option<RxIsr>>> = Mutex::new(RefCell::new(None));
-    /// Bytes lost to line errors (overrun, framing, noise, parity).
-    static LINE_ERRORS: AtomicU32 = AtomicU32::new(0);
-    /// Bytes dropped because the queue was full.
-    static QUEUE_FULL: AtomicU32 = AtomicU32::new(0);
+    /// Bytes lost on the line (overrun, framing, noise, parity) or to a full queue.
+    static RX_COUNTS: RxCounts = RxCounts::new();
 
     struct RxIsr {
         rx: Rx<USART2>,
@@ -109,42 +110,6 @@ mod firmware {
         Timer,
         /// The estimator rejected the model or its settings.
         Nav(StepError),
-    }
-
-    /// The loop's side of the receive queue, as the `embedded_io` reader [`SerialSource`]
-    /// takes. Line errors never reach it: the interrupt counts them instead.
-    struct QueueRx(Consumer<'static, u8, RX_QUEUE_LEN>);
-
-    impl embedded_io::ErrorType for QueueRx {
-        type Error = Infallible;
-    }
-
-    impl embedded_io::ReadReady for QueueRx {
-        fn read_ready(&mut self) -> Result<bool, Infallible> {
-            Ok(self.0.ready())
-        }
-    }
-
-    impl embedded_io::Read for QueueRx {
-        /// Copies the queued bytes; blocks only while the queue is empty (as `embedded_io`
-        /// requires), which [`SerialSource`] avoids by asking [`read_ready`] first.
-        ///
-        /// [`read_ready`]: embedded_io::ReadReady::read_ready
-        fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
-            if buf.is_empty() {
-                return Ok(0);
-            }
-            while !self.0.ready() {
-                core::hint::spin_loop();
-            }
-            let mut n = 0;
-            for slot in buf.iter_mut() {
-                let Some(byte) = self.0.dequeue() else { break };
-                *slot = byte;
-                n += 1;
-            }
-            Ok(n)
-        }
     }
 
     /// The 1 Hz tick: TIM2 (32 bits) counting microseconds and wrapping every [`TICK_US`]; a
@@ -196,7 +161,7 @@ mod firmware {
     /// What the loop runs with.
     struct Board {
         nav: &'static mut Estimator<f32>,
-        source: SerialSource<QueueRx>,
+        source: SerialSource<QueueRx<RX_QUEUE_LEN>>,
         tick: TimerTick,
     }
 
@@ -208,13 +173,6 @@ mod firmware {
                 defmt::error!("board start failed: {}", e);
                 park()
             }
-        }
-    }
-
-    /// Stops here for good (interrupts still run, so a queued defmt frame is not lost).
-    fn park() -> ! {
-        loop {
-            cortex_m::asm::wfi();
         }
     }
 
@@ -306,8 +264,8 @@ mod firmware {
             nav.emit(&report, &mut sink);
 
             let counts = SerialCounts {
-                line_errors: LINE_ERRORS.load(Ordering::Relaxed),
-                queue_full: QUEUE_FULL.load(Ordering::Relaxed),
+                line_errors: RX_COUNTS.line_errors.load(Ordering::Relaxed),
+                queue_full: RX_COUNTS.queue_full.load(Ordering::Relaxed),
                 crc_rejected: source.decoder().rejected(),
                 superseded: source.superseded(),
                 late_ticks: tick.late,
@@ -329,9 +287,9 @@ mod firmware {
     /// The loss counters of the input and the tick, reported when they change.
     #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
     struct SerialCounts {
-        /// Bytes lost to line errors ([`LINE_ERRORS`]).
+        /// Bytes lost to line errors ([`RxCounts::line_errors`]).
         line_errors: u32,
-        /// Bytes dropped on a full queue ([`QUEUE_FULL`]).
+        /// Bytes dropped on a full queue ([`RxCounts::queue_full`]).
         queue_full: u32,
         /// Frames with a bad CRC.
         crc_rejected: u32,
@@ -351,169 +309,8 @@ mod firmware {
             let Some(state) = state.as_mut() else {
                 return;
             };
-            loop {
-                match state.rx.read() {
-                    Ok(byte) => {
-                        if state.queue.enqueue(byte).is_err() {
-                            QUEUE_FULL.fetch_add(1, Ordering::Relaxed);
-                        }
-                    }
-                    // Reading the data register cleared the error; the byte is gone.
-                    Err(nb::Error::Other(_)) => {
-                        LINE_ERRORS.fetch_add(1, Ordering::Relaxed);
-                    }
-                    Err(nb::Error::WouldBlock) => break,
-                }
-            }
+            drain(&mut state.rx, &mut state.queue, &RX_COUNTS);
         });
-    }
-
-    /// The global defmt logger: one RTT up channel named `defmt` in a `_SEGGER_RTT` control
-    /// block, as `defmt-rtt` lays it out (so `probe-rs run` finds and decodes it the same way),
-    /// without its panics: a frame started inside another (the logger re-entered from an
-    /// exception handler) is dropped. This module is the transport (`write_all`, `flush`);
-    /// the frame handling is the library's `imu_ident::defmt_frame`, shared with the QEMU
-    /// firmware.
-    mod rtt {
-        use super::UnsafeCell;
-        use core::sync::atomic::{AtomicU32, Ordering};
-        use imu_ident::defmt_frame;
-
-        /// Up buffer size [bytes] (defmt-rtt's default).
-        const BUF_SIZE: usize = 1024;
-        /// The flags' mode bits; the host sets "block if full" when it is attached.
-        const MODE_MASK: u32 = 0b11;
-        const MODE_BLOCK_IF_FULL: u32 = 2;
-        const MODE_NON_BLOCKING_TRIM: u32 = 1;
-
-        #[repr(C)]
-        struct Channel {
-            name: *const u8,
-            buffer: *mut u8,
-            size: u32,
-            write: AtomicU32,
-            read: AtomicU32,
-            flags: AtomicU32,
-        }
-
-        #[repr(C)]
-        struct Header {
-            id: [u8; 16],
-            max_up_channels: u32,
-            max_down_channels: u32,
-            up_channel: Channel,
-        }
-
-        // SAFETY: the pointers are to statics; the cursors are atomics.
-        unsafe impl Sync for Header {}
-
-        struct Buffer(UnsafeCell<[u8; BUF_SIZE]>);
-
-        // SAFETY: written only by the logger, with interrupts disabled; the host reads it.
-        unsafe impl Sync for Buffer {}
-
-        #[link_section = ".uninit.defmt-rtt.BUFFER"]
-        static BUFFER: Buffer = Buffer(UnsafeCell::new([0; BUF_SIZE]));
-
-        #[link_section = ".data.defmt-rtt.NAME"]
-        static NAME: [u8; 6] = *b"defmt\0";
-
-        #[no_mangle]
-        static _SEGGER_RTT: Header = Header {
-            id: *b"SEGGER RTT\0\0\0\0\0\0",
-            max_up_channels: 1,
-            max_down_channels: 0,
-            up_channel: Channel {
-                name: NAME.as_ptr(),
-                buffer: BUFFER.0.get() as *mut u8,
-                size: BUF_SIZE as u32,
-                write: AtomicU32::new(0),
-                read: AtomicU32::new(0),
-                flags: AtomicU32::new(MODE_NON_BLOCKING_TRIM),
-            },
-        };
-
-        /// Free bytes between the write and the read cursor (one slot stays empty).
-        fn available(read: usize, write: usize) -> usize {
-            if read > write {
-                read - write - 1
-            } else {
-                BUF_SIZE - 1 - write + read
-            }
-        }
-
-        /// Copies `bytes` into the buffer from `cursor` on, wrapping; returns the new cursor.
-        /// `bytes.len() < BUF_SIZE`.
-        fn copy_wrapping(bytes: &[u8], cursor: usize) -> usize {
-            let cursor = cursor % BUF_SIZE;
-            let first = bytes.len().min(BUF_SIZE - cursor);
-            let Some((head, tail)) = bytes.split_at_checked(first) else {
-                return cursor;
-            };
-            let base = BUFFER.0.get() as *mut u8;
-            // SAFETY: `cursor + head.len() <= BUF_SIZE` and `tail.len() < BUF_SIZE`; the
-            // buffer is written only here (interrupts disabled), the host only reads it.
-            unsafe {
-                core::ptr::copy_nonoverlapping(head.as_ptr(), base.add(cursor), head.len());
-                core::ptr::copy_nonoverlapping(tail.as_ptr(), base, tail.len().min(BUF_SIZE));
-            }
-            (cursor + bytes.len()) % BUF_SIZE
-        }
-
-        /// Writes all of `bytes`: waits for the host when it asked for blocking mode, else
-        /// overwrites what it has not read (as defmt-rtt does).
-        fn write_all(mut bytes: &[u8]) {
-            let ch = &_SEGGER_RTT.up_channel;
-            while !bytes.is_empty() {
-                let blocking = ch.flags.load(Ordering::Relaxed) & MODE_MASK == MODE_BLOCK_IF_FULL;
-                let write = ch.write.load(Ordering::Acquire) as usize % BUF_SIZE;
-                let room = if blocking {
-                    available(ch.read.load(Ordering::Relaxed) as usize % BUF_SIZE, write)
-                } else {
-                    BUF_SIZE - 1
-                };
-                let Some((now, rest)) = bytes.split_at_checked(bytes.len().min(room)) else {
-                    return;
-                };
-                if !now.is_empty() {
-                    let next = copy_wrapping(now, write);
-                    ch.write.store(next as u32, Ordering::Release);
-                }
-                bytes = rest;
-            }
-        }
-
-        #[defmt::global_logger]
-        struct Logger;
-
-        // SAFETY: frames are written with interrupts disabled; nested frames are dropped
-        // (`imu_ident::defmt_frame`).
-        unsafe impl defmt::Logger for Logger {
-            fn acquire() {
-                defmt_frame::acquire(write_all);
-            }
-
-            unsafe fn flush() {
-                let ch = &_SEGGER_RTT.up_channel;
-                if ch.flags.load(Ordering::Relaxed) & MODE_MASK != MODE_BLOCK_IF_FULL {
-                    return;
-                }
-                while ch.read.load(Ordering::Relaxed) != ch.write.load(Ordering::Relaxed) {
-                    core::hint::spin_loop();
-                }
-            }
-
-            unsafe fn release() {
-                // SAFETY: called after `acquire`, as the `Logger` contract requires.
-                unsafe { defmt_frame::release(write_all) }
-            }
-
-            unsafe fn write(bytes: &[u8]) {
-                // SAFETY: called between `acquire` and `release`, as the `Logger` contract
-                // requires.
-                unsafe { defmt_frame::write(bytes, write_all) }
-            }
-        }
     }
 
     #[cfg(not(feature = "prove-no-panic"))]

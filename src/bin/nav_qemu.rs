@@ -54,7 +54,12 @@ fn main() {
 mod semihost;
 
 #[cfg(all(target_arch = "arm", target_os = "none"))]
+#[path = "nav_support/mod.rs"]
+mod nav_support;
+
+#[cfg(all(target_arch = "arm", target_os = "none"))]
 mod firmware {
+    use super::nav_support::{decisions_of, report_decision, send_epoch, start_bank, Bank, Run};
     use core::ffi::CStr;
     use core::mem::MaybeUninit;
 
@@ -67,7 +72,7 @@ mod firmware {
     use imu_ident::nav::replay::{Decoder, Event, NavReplayError, Record};
     use imu_ident::nav::run::ImuStep;
     use imu_ident::nav::serial::{feed, NavInput, NavWire};
-    use imu_ident::nav::{Epoch, NavError, NavReplay, NavSetup, OnlineIdent, NAV_N};
+    use imu_ident::nav::{Epoch, NavError, NavReplay, NavSetup, NAV_N};
 
     /// File read when QEMU passes no argument.
     const DEFAULT_LOG: &CStr = c"nav.bin";
@@ -77,13 +82,6 @@ mod firmware {
     const CHUNK: usize = 512;
     /// Read size of a serial wire file: its inputs are queued per read (see `read_wire`).
     const WIRE_CHUNK: usize = 256;
-
-    /// Shadow filters of the online identification (the core's count for the firmware).
-    const BANK: usize = imu_ident::nav::online::FIRMWARE_BANK;
-
-    type Bank = OnlineIdent<f32, NAV_N, BANK>;
-
-    type Run = NavReplay<f32, NAV_N, Option<&'static mut Bank>>;
 
     /// IMU samples the live start holds until its fix (1.28 s at 100 Hz).
     const LIVE_BUFFER: usize = 128;
@@ -157,12 +155,6 @@ mod firmware {
     /// 13 KB) lives in a static, written once the setup has been read.
     static mut MODE: MaybeUninit<Mode> = MaybeUninit::uninit();
 
-    /// The online identification's bank (about 59 KB), in the core-coupled memory
-    /// (`memory/ccmram.x`: the F405's 128 KiB SRAM holds the other statics and the stack).
-    /// That section is not zeroed at reset: [`start_bank`] writes it before any read.
-    #[link_section = ".ccmram.bank"]
-    static mut BANK_STATE: MaybeUninit<Bank> = MaybeUninit::uninit();
-
     #[entry]
     fn main() -> ! {
         semihost::paint_stack();
@@ -200,62 +192,6 @@ mod firmware {
             Mode::Replay(r) => Ok(Nav::Replay(r)),
             Mode::Live(_) => Err(FirmwareError::NoSetup),
         }
-    }
-
-    /// Decisions the online identification's bank has taken (0 without a bank).
-    fn decisions_of(run: &Run) -> u32 {
-        run.navigator()
-            .observer()
-            .as_deref()
-            .map_or(0, |b| b.decisions())
-    }
-
-    /// Telemetry of a decision: per coordinate its log10 factor on the starting model, its
-    /// Cramér-Rao sd [decades] and the flag "identifiable from these data" (sd at most
-    /// `IDENTIFIABLE_SD`; issue 13's flag, sent rather than letting a flat coordinate wander).
-    fn report_decision(run: &Run, t: f64) {
-        let Some(bank) = run.navigator().observer().as_deref() else {
-            return;
-        };
-        for (i, (x, sd)) in bank.log10_factors().iter().zip(bank.cr_sd()).enumerate() {
-            defmt::info!(
-                "online t={=f64} i={=u8} x={=f64} sd={=f64} ok={=bool}",
-                t,
-                i as u8,
-                *x,
-                *sd,
-                bank.identifiable(i)
-            );
-        }
-    }
-
-    /// Starts the online identification's bank in [`BANK_STATE`] when the setup asks for it
-    /// (its own frame: the shadows' construction is not part of `init`'s). Called once: by
-    /// `init` for a replay, by the live loop when it places the run.
-    #[inline(never)]
-    fn start_bank(
-        setup: &NavSetup,
-        plain: &NavReplay<f32, NAV_N>,
-    ) -> Result<Option<&'static mut Bank>, NavError> {
-        let Some(cfg) = setup.online else {
-            return Ok(None);
-        };
-        // SAFETY: called once, before any other reference to BANK_STATE exists.
-        let slot = unsafe { &mut *core::ptr::addr_of_mut!(BANK_STATE) };
-        let bank = slot.write(Bank::BLANK);
-        bank.start(cfg, plain.navigator(), setup.t0)
-            .map_err(NavError::Model)?;
-        Ok(Some(bank))
-    }
-
-    /// The solution at a GNSS epoch, as telemetry.
-    fn send_epoch(e: &Epoch<f32>) {
-        let [vn, ve, vd] = e.vel;
-        let [sn, se, sd] = e.sd_pos;
-        defmt::info!(
-            "nav t={=f64} lat={=f64} lon={=f64} h={=f64} vn={=f32} ve={=f32} vd={=f32} sdn={=f32} sde={=f32} sdd={=f32} flags={=u8}",
-            e.t, e.pos.lat, e.pos.lon, e.pos.h, vn, ve, vd, sn, se, sd, e.flags
-        );
     }
 
     /// One record of a replay through the run.

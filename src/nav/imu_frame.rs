@@ -24,7 +24,7 @@
 //! assert_eq!(got, Some(s));
 //! ```
 
-use crate::edge::{seal_frame, CrcFrames};
+use crate::crc::{seal_frame, CrcFrames};
 
 /// Two sync bytes that start every IMU frame.
 pub const IMU_SYNC: [u8; 2] = [0xA5, 0x5B];

@@ -178,7 +178,7 @@ impl UbxDecoder {
 
     /// Drops the oldest buffered byte.
     fn drop_first(&mut self) {
-        self.len = crate::edge::drop_first(&mut self.buf, self.len);
+        self.len = crate::crc::drop_first(&mut self.buf, self.len);
     }
 
     /// What the buffered bytes are so far.

@@ -1,0 +1,84 @@
+//! What the navigation firmwares share (`imu-ident-nav-qemu`, `imu-ident-nav-board`): the
+//! online identification's bank in the core-coupled memory and its start, the telemetry of an
+//! epoch and of a decision. Wiring only; the navigator and the bank are the library's.
+
+use core::mem::MaybeUninit;
+use core::sync::atomic::{AtomicBool, Ordering};
+
+use imu_ident::nav::{Epoch, NavError, NavReplay, NavSetup, OnlineIdent, NAV_N};
+
+/// Shadow filters of the online identification (the core's count for the firmware).
+const BANK: usize = imu_ident::nav::online::FIRMWARE_BANK;
+
+/// The online identification's bank.
+pub type Bank = OnlineIdent<f32, NAV_N, BANK>;
+
+/// The navigation run, with the bank when the setup asks for it.
+pub type Run = NavReplay<f32, NAV_N, Option<&'static mut Bank>>;
+
+/// The online identification's bank (about 59 KB), in the core-coupled memory
+/// (`memory/ccmram.x`: the F405's 128 KiB SRAM holds the other statics and the stack).
+/// That section is not zeroed at reset: [`start_bank`] writes it before any read.
+#[link_section = ".ccmram.bank"]
+static mut BANK_STATE: MaybeUninit<Bank> = MaybeUninit::uninit();
+/// Set when [`BANK_STATE`] has been handed out.
+static BANK_TAKEN: AtomicBool = AtomicBool::new(false);
+
+/// Starts the online identification's bank in [`BANK_STATE`] when the setup asks for it
+/// (its own frame: the shadows' construction is not part of the caller's). Called when the run
+/// is built (a replay) or placed (the live loop); a second call gets no bank.
+#[inline(never)]
+pub fn start_bank(
+    setup: &NavSetup,
+    plain: &NavReplay<f32, NAV_N>,
+) -> Result<Option<&'static mut Bank>, NavError> {
+    let Some(cfg) = setup.online else {
+        return Ok(None);
+    };
+    if BANK_TAKEN.swap(true, Ordering::AcqRel) {
+        return Ok(None);
+    }
+    // SAFETY: BANK_TAKEN was false, so this is the only reference to BANK_STATE ever made.
+    let slot = unsafe { &mut *core::ptr::addr_of_mut!(BANK_STATE) };
+    let bank = slot.write(Bank::BLANK);
+    bank.start(cfg, plain.navigator(), setup.t0)
+        .map_err(NavError::Model)?;
+    Ok(Some(bank))
+}
+
+/// Decisions the online identification's bank has taken (0 without a bank).
+pub fn decisions_of(run: &Run) -> u32 {
+    run.navigator()
+        .observer()
+        .as_deref()
+        .map_or(0, |b| b.decisions())
+}
+
+/// Telemetry of a decision: per coordinate its log10 factor on the starting model, its
+/// Cramér-Rao sd [decades] and the flag "identifiable from these data" (sd at most
+/// `IDENTIFIABLE_SD`; issue 13's flag, sent rather than letting a flat coordinate wander).
+pub fn report_decision(run: &Run, t: f64) {
+    let Some(bank) = run.navigator().observer().as_deref() else {
+        return;
+    };
+    for (i, (x, sd)) in bank.log10_factors().iter().zip(bank.cr_sd()).enumerate() {
+        defmt::info!(
+            "online t={=f64} i={=u8} x={=f64} sd={=f64} ok={=bool}",
+            t,
+            i as u8,
+            *x,
+            *sd,
+            bank.identifiable(i)
+        );
+    }
+}
+
+/// The solution at a GNSS epoch, as telemetry.
+pub fn send_epoch(e: &Epoch<f32>) {
+    let [vn, ve, vd] = e.vel;
+    let [sn, se, sd] = e.sd_pos;
+    defmt::info!(
+        "nav t={=f64} lat={=f64} lon={=f64} h={=f64} vn={=f32} ve={=f32} vd={=f32} sdn={=f32} sde={=f32} sdd={=f32} flags={=u8}",
+        e.t, e.pos.lat, e.pos.lon, e.pos.h, vn, ve, vd, sn, se, sd, e.flags
+    );
+}
