@@ -644,6 +644,15 @@ fn live_under_qemu(elf: &std::path::Path, args: &NavArgs, bar32: f64) -> (NavFir
     let bytes = encode_live_replay(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
     let fw = run_nav_firmware_bytes(elf, &bytes, &QemuConfig::default())
         .unwrap_or_else(|e| panic!("{e:#}"));
+    let h32 = run_with::<f32>(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    let h64 = run_with::<f64>(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
+    at_parity("live QEMU", &fw, &h32, &h64, bar32);
+    (fw, h32)
+}
+
+/// The firmware run `fw` succeeded, fits the F405, and is within `bar32` sigma of the host's
+/// `f32` run and 0.05 sigma of its `f64` run (positions and sigmas; printed by [`report`]).
+fn at_parity(label: &str, fw: &NavFirmwareRun, h32: &NavRun, h64: &NavRun, bar32: f64) {
     assert!(
         fw.success(),
         "firmware failed: {:?}\nmessages: {:?}\nstderr: {}",
@@ -651,13 +660,10 @@ fn live_under_qemu(elf: &std::path::Path, args: &NavArgs, bar32: f64) -> (NavFir
         fw.messages,
         fw.stderr
     );
-    let h32 = run_with::<f32>(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
-    let h64 = run_with::<f64>(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
-    let (pos32, sd32, pos64, sd64) = report("live QEMU", &fw, &h32, &h64);
-    fits_the_f405(&fw);
+    let (pos32, sd32, pos64, sd64) = report(label, fw, h32, h64);
+    fits_the_f405(fw);
     assert!(pos32 < bar32 && sd32 < bar32, "{pos32} {sd32}");
     assert!(pos64 < 0.05 && sd64 < 0.05, "{pos64} {sd64}");
-    (fw, h32)
 }
 
 /// The real drive (`../shared/data/real/rtklib-drive-0708`; skipped with a message when the
@@ -672,20 +678,21 @@ fn live_under_qemu(elf: &std::path::Path, args: &NavArgs, bar32: f64) -> (NavFir
 fn qemu_firmware_live_on_the_real_drive_matches_the_host() {
     let Some(elf) = firmware_elf() else { return };
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    let Some((args, _, _)) =
-        hal_sim::nav::real::drive_0708(dir.path()).unwrap_or_else(|e| panic!("{e:#}"))
-    else {
+    let Some(args) = real_drive_streamed(dir.path()) else {
         return;
     };
-    let (fw, _) = live_under_qemu(
-        &elf,
-        &NavArgs {
-            outages: None,
-            ..args
-        },
-        1e-2,
-    );
+    let (fw, _) = live_under_qemu(&elf, &args, 1e-2);
     assert!(fw.epochs.len() > 2000, "{} epochs", fw.epochs.len());
+}
+
+/// The real drive's run options without its outage schedule (a stream withholds nothing), or
+/// `None` when the data are missing outside CI (`drive_0708` says why).
+fn real_drive_streamed(dir: &std::path::Path) -> Option<NavArgs> {
+    let (args, _, _) = hal_sim::nav::real::drive_0708(dir).unwrap_or_else(|e| panic!("{e:#}"))?;
+    Some(NavArgs {
+        outages: None,
+        ..args
+    })
 }
 
 /// Prints the firmware run `fw` against the host's `f32` and `f64` runs (worst position and

@@ -5,10 +5,10 @@
 //! the fixes as decoded: `nav_wire.rs` shows that host run is the wire's on the host, bit for
 //! bit). Bars as for the live replay (`live_under_qemu`): the platform's maths only.
 
-use super::{drive_nhc, drive_online, firmware_elf, fits_the_f405, report};
+use super::{at_parity, drive_nhc, drive_online, firmware_elf, real_drive_streamed};
 use hal_sim::nav::{run_with, NavArgs, NavRun};
-use hal_sim::nav_io::ubx::ubx_fixes;
-use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, ImuSample};
+use hal_sim::nav_io::ubx::{as_sent, ubx_fixes};
+use hal_sim::nav_io::{read_gnss_csv, read_imu_csv};
 use hal_sim::nav_qemu::{run_nav_firmware_wire, wire_of, NavFirmwareRun};
 use hal_sim::qemu::QemuConfig;
 
@@ -21,35 +21,18 @@ fn wire_under_qemu(elf: &std::path::Path, args: &NavArgs, bar32: f64) -> (NavFir
     let wire = wire_of(args, &imu, &fixes, 0.0).unwrap_or_else(|e| panic!("{e:#}"));
     let fw = run_nav_firmware_wire(elf, args, &wire, &QemuConfig::default())
         .unwrap_or_else(|e| panic!("{e:#}"));
-    assert!(
-        fw.success(),
-        "firmware failed: {:?}\nmessages: {:?}\nstderr: {}",
-        fw.status,
-        fw.messages,
-        fw.stderr
-    );
+    let as_sent = as_sent(&imu);
+    let (carried, _) = ubx_fixes(&wire, None);
+    assert_eq!(carried.len(), fixes.len());
+    let h32 = run_with::<f32>(args, &as_sent, &carried).unwrap_or_else(|e| panic!("{e:#}"));
+    let h64 = run_with::<f64>(args, &as_sent, &carried).unwrap_or_else(|e| panic!("{e:#}"));
+    at_parity("serial wire QEMU", &fw, &h32, &h64, bar32);
     let clean = "wire imu_rejected=0 ubx_rejected=0 no_fix=0 no_week=0";
     assert!(
         fw.messages.iter().any(|m| m.contains(clean)),
         "{:?}",
         fw.messages
     );
-    let as_sent: Vec<_> = imu
-        .iter()
-        .map(|s| ImuSample {
-            gyro: s.gyro.map(|x| f64::from(x as f32)),
-            accel: s.accel.map(|x| f64::from(x as f32)),
-            ..*s
-        })
-        .collect();
-    let (carried, _) = ubx_fixes(&wire, None);
-    assert_eq!(carried.len(), fixes.len());
-    let h32 = run_with::<f32>(args, &as_sent, &carried).unwrap_or_else(|e| panic!("{e:#}"));
-    let h64 = run_with::<f64>(args, &as_sent, &carried).unwrap_or_else(|e| panic!("{e:#}"));
-    let (pos32, sd32, pos64, sd64) = report("serial wire QEMU", &fw, &h32, &h64);
-    fits_the_f405(&fw);
-    assert!(pos32 < bar32 && sd32 < bar32, "{pos32} {sd32}");
-    assert!(pos64 < 0.05 && sd64 < 0.05, "{pos64} {sd64}");
     (fw, h32)
 }
 
@@ -88,14 +71,8 @@ fn qemu_firmware_on_the_serial_wire_with_the_bank_fits_and_matches_the_host() {
 fn qemu_firmware_on_the_serial_wire_of_the_real_drive_matches_the_host() {
     let Some(elf) = firmware_elf() else { return };
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    let Some((args, _, _)) =
-        hal_sim::nav::real::drive_0708(dir.path()).unwrap_or_else(|e| panic!("{e:#}"))
-    else {
+    let Some(args) = real_drive_streamed(dir.path()) else {
         return;
-    };
-    let args = NavArgs {
-        outages: None,
-        ..args
     };
     let (fw, _) = wire_under_qemu(&elf, &args, 1e-2);
     assert!(fw.epochs.len() > 2000, "{} epochs", fw.epochs.len());

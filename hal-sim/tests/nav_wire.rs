@@ -11,8 +11,8 @@
 use crate::nav_live::{assert_same_epochs, drive, load, Live};
 use hal_sim::nav::run_with;
 use hal_sim::nav::setup::{live_config, settings};
-use hal_sim::nav_io::ubx::{ubx_fixes, wire_inputs};
-use hal_sim::nav_io::{read_gnss_any, ImuSample};
+use hal_sim::nav_io::read_gnss_any;
+use hal_sim::nav_io::ubx::{as_sent, ubx_fixes, wire_inputs};
 use hal_sim::nav_qemu::wire_of;
 use imu_ident::nav::live::LiveNav;
 use imu_ident::nav::serial::{feed, NavInput, WireCounts};
@@ -41,16 +41,7 @@ fn a_log_over_the_serial_wire_is_the_host_run_on_what_the_wire_carried() {
     // Heading from the course and the constraint: the live run decides everything itself.
     let args = drive(dir.path(), 16, false, true);
     let (imu, fixes) = load(&args);
-    // The samples as the wire carries them, in single precision (the levelling window averages
-    // them in f64, so the host run on the f64 samples starts a few ulps away).
-    let as_sent: Vec<_> = imu
-        .iter()
-        .map(|s| ImuSample {
-            gyro: s.gyro.map(|x| f64::from(x as f32)),
-            accel: s.accel.map(|x| f64::from(x as f32)),
-            ..*s
-        })
-        .collect();
+    let as_sent = as_sent(&imu);
     // On time, and half a second ahead of the IMU (the fixes wait in the live queue).
     for delay in [0.0, -0.5] {
         let wire = wire_of(&args, &imu, &fixes, delay).unwrap_or_else(|e| panic!("{e:#}"));

@@ -56,7 +56,7 @@ mod firmware {
 
     use cortex_m::interrupt::{self as irq, Mutex};
     use cortex_m::peripheral::NVIC;
-    use cortex_m_rt::{entry, exception, ExceptionFrame};
+    use cortex_m_rt::entry;
     use heapless::spsc::{Producer, Queue};
     use imu_ident::model::{Component, RandomWalk, WhiteNoise};
     use imu_ident::nav::live::{LiveConfig, LiveEvent, LiveNav};
@@ -376,20 +376,5 @@ mod firmware {
                 }
             }
         });
-    }
-
-    #[cfg(not(feature = "prove-no-panic"))]
-    #[panic_handler]
-    fn panic(_info: &core::panic::PanicInfo) -> ! {
-        // No defmt here: the panic may come from inside the logger, which is not re-entrant.
-        irq::disable();
-        park()
-    }
-
-    // With `prove-no-panic` the panic handler is the library's (`imu_ident::panic_proof`).
-
-    #[exception]
-    unsafe fn HardFault(_frame: &ExceptionFrame) -> ! {
-        park()
     }
 }

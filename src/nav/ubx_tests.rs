@@ -91,6 +91,15 @@ fn other_messages_and_noise_are_passed_over() {
     assert_eq!(d.rejected(), 1);
 }
 
+/// The fixes `f` reads in `bytes`.
+fn fixes_of(f: &mut UbxFixes, bytes: &[u8]) -> Vec<LiveFix> {
+    bytes
+        .iter()
+        .filter_map(|b| f.push(*b))
+        .map(|x| x.live())
+        .collect()
+}
+
 fn pvt(itow_ms: u32) -> NavPvt {
     NavPvt {
         itow_ms,
@@ -110,13 +119,7 @@ fn pvt(itow_ms: u32) -> NavPvt {
 #[test]
 fn fixes_need_a_week_and_a_3d_solution() {
     let mut f = UbxFixes::new(None);
-    let mut feed = |bytes: &[u8]| -> Vec<LiveFix> {
-        bytes
-            .iter()
-            .filter_map(|b| f.push(*b))
-            .map(|x| x.live())
-            .collect()
-    };
+    let mut feed = |bytes: &[u8]| fixes_of(&mut f, bytes);
     assert!(feed(&encode_nav_pvt(&pvt(1000))).is_empty());
     assert!(feed(&encode_nav_timegps(1250, 2374)).is_empty());
     let two_d = NavPvt {
@@ -160,25 +163,13 @@ fn fixes_need_a_week_and_a_3d_solution() {
 fn the_weeks_turn_between_the_two_messages_is_followed() {
     let end = 604_799_750;
     let mut f = UbxFixes::new(None);
-    let mut feed = |bytes: &[u8]| -> Vec<LiveFix> {
-        bytes
-            .iter()
-            .filter_map(|b| f.push(*b))
-            .map(|x| x.live())
-            .collect()
-    };
+    let mut feed = |bytes: &[u8]| fixes_of(&mut f, bytes);
     assert!(feed(&encode_nav_timegps(end, 2000)).is_empty());
     // The next epoch's solution comes before its own NAV-TIMEGPS: time of week 0 of week 2001.
     assert_eq!(feed(&encode_nav_pvt(&pvt(0)))[0].t, 2001.0 * WEEK_S);
     // A week given up front holds for the first solution; the turn after it is followed.
     let mut g = UbxFixes::new(Some(2000));
-    let mut feed = |bytes: &[u8]| -> Vec<LiveFix> {
-        bytes
-            .iter()
-            .filter_map(|b| g.push(*b))
-            .map(|x| x.live())
-            .collect()
-    };
+    let mut feed = |bytes: &[u8]| fixes_of(&mut g, bytes);
     assert_eq!(
         feed(&encode_nav_pvt(&pvt(end)))[0].t,
         2000.0 * WEEK_S + 604_799.75

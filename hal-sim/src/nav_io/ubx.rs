@@ -163,6 +163,19 @@ pub fn serial_stream(imu: &[ImuSample], fixes: &[GnssFix], delay: f64) -> Result
     Ok(out)
 }
 
+/// The samples as the wire carries them: rates and specific force in single precision (the
+/// host run that compares with a wire's must read these: the levelling window averages them in
+/// `f64`).
+pub fn as_sent(imu: &[ImuSample]) -> Vec<ImuSample> {
+    imu.iter()
+        .map(|s| ImuSample {
+            gyro: s.gyro.map(|x| f64::from(x as f32)),
+            accel: s.accel.map(|x| f64::from(x as f32)),
+            ..*s
+        })
+        .collect()
+}
+
 /// The samples and fixes a wire carries, in its order (the core's [`NavWire`]), with what it
 /// refused.
 pub fn wire_inputs(bytes: &[u8], week: Option<u16>) -> (Vec<NavInput>, WireCounts) {

@@ -1,11 +1,13 @@
 //! What the STM32F405 firmwares share (`imu-ident-board`, `imu-ident-nav-board`): the RTT
 //! defmt logger ([`rtt`]), a serial port's interrupt side ([`drain`] into a queue, counting
 //! what is lost) and its loop side ([`QueueRx`], the `embedded_io` reader the core's decoders
-//! take), and [`park`]. Board wiring only; the estimators and decoders are the library's.
+//! take), [`park`], and the panic and hard-fault handlers (both park the core). Board wiring
+//! only; the estimators and decoders are the library's.
 
 use core::convert::Infallible;
 use core::sync::atomic::{AtomicU32, Ordering};
 
+use cortex_m_rt::{exception, ExceptionFrame};
 use heapless::spsc::{Consumer, Producer};
 use stm32f4xx_hal::nb;
 use stm32f4xx_hal::prelude::_embedded_hal_serial_nb_Read as SerialRead;
@@ -94,4 +96,19 @@ impl<const N: usize> embedded_io::Read for QueueRx<N> {
         }
         Ok(n)
     }
+}
+
+#[cfg(not(feature = "prove-no-panic"))]
+#[panic_handler]
+fn panic(_info: &core::panic::PanicInfo) -> ! {
+    // No defmt here: the panic may come from inside the logger, which is not re-entrant.
+    cortex_m::interrupt::disable();
+    park()
+}
+
+// With `prove-no-panic` the panic handler is the library's (`imu_ident::panic_proof`).
+
+#[exception]
+unsafe fn HardFault(_frame: &ExceptionFrame) -> ! {
+    park()
 }
