@@ -427,4 +427,25 @@ pub enum Command {
         #[arg(long, value_delimiter = ',', allow_negative_numbers = true, default_values_t = [0.0, -0.05, -0.65])]
         antenna_lever: Vec<f64>,
     },
+    /// Write a log as a navigation computer's serial wire (README "The serial wire"): an IMU
+    /// frame per sample and each fix's UBX NAV-TIMEGPS + NAV-PVT, in arrival order; without
+    /// --imu, a u-blox .ubx log of the fixes alone.
+    Wire {
+        /// IMU CSV (omit for a .ubx log of the fixes).
+        #[arg(long)]
+        imu: Option<PathBuf>,
+        /// GNSS CSV, RTKLIB .pos or .ubx.
+        #[arg(long)]
+        gnss: PathBuf,
+        /// Each fix goes on the wire when the IMU passes its time plus this [s] (a receiver's
+        /// latency; negative: ahead of the IMU).
+        #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
+        delay: f64,
+        /// Keep .pos epochs with 1 <= Q <= MAX_Q.
+        #[arg(long, default_value_t = 2)]
+        max_q: u8,
+        /// Output file.
+        #[arg(long)]
+        out: PathBuf,
+    },
 }

@@ -3,7 +3,7 @@
 //! This file dispatches each command to the library; the arguments are defined in
 //! [`hal_sim::cli`].
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::Parser;
 use hal_sim::cli::{Cli, Command};
 use hal_sim::commands;
@@ -413,6 +413,29 @@ fn main() -> Result<()> {
             hours,
             out,
         } => commands::demo(effect.as_deref(), seed, hours, &out)?,
+        Command::Wire {
+            imu,
+            gnss,
+            delay,
+            max_q,
+            out,
+        } => {
+            let fixes = hal_sim::nav_io::read_gnss_any(&gnss, max_q)?;
+            let samples = match &imu {
+                Some(p) => hal_sim::nav_io::read_imu_csv(p)?,
+                None => vec![],
+            };
+            let bytes = hal_sim::nav_io::ubx::serial_stream(&samples, &fixes, delay)
+                .with_context(|| format!("{}", gnss.display()))?;
+            std::fs::write(&out, &bytes).with_context(|| format!("writing {}", out.display()))?;
+            println!(
+                "wrote {}: {} IMU frames, {} fixes (NAV-TIMEGPS + NAV-PVT), {} bytes",
+                out.display(),
+                samples.len(),
+                fixes.len(),
+                bytes.len()
+            );
+        }
         Command::ImportDrive {
             imu,
             tag,

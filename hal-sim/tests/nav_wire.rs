@@ -76,12 +76,41 @@ fn a_log_over_the_serial_wire_is_the_host_run_on_what_the_wire_carried() {
         assert_same_epochs(&live.epochs, &host);
         assert!(live.epochs.len() > 300, "{} epochs", live.epochs.len());
     }
-    // The same fixes from a `.ubx` file (a receiver's log: the wire without the IMU frames).
+    // The same fixes from a `.ubx` file (a receiver's log: the wire without the IMU frames),
+    // written by `hal-sim wire`.
     let wire = wire_of(&args, &[], &fixes, 0.0).unwrap_or_else(|e| panic!("{e:#}"));
     let path = dir.path().join("gnss.ubx");
-    std::fs::write(&path, &wire).unwrap_or_else(|e| panic!("{e}"));
+    let cli = |extra: &[&std::ffi::OsStr]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_hal-sim"))
+            .arg("wire")
+            .args(extra)
+            .output()
+            .unwrap_or_else(|e| panic!("{e}"))
+    };
+    let o = cli(&[
+        "--gnss".as_ref(),
+        args.gnss.as_os_str(),
+        "--out".as_ref(),
+        path.as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read(&path).unwrap_or_default(), wire);
     let from_file = read_gnss_any(&path, 1).unwrap_or_else(|e| panic!("{e:#}"));
     assert_eq!(from_file, ubx_fixes(&wire, None).0);
+    // A fix without velocity cannot be a NAV-PVT: the command says which file and which fix.
+    let bad = dir.path().join("no-velocity.csv");
+    std::fs::write(&bad, "t,lat,lon,h\n1.5,40.0,-105.0,1600.0\n").unwrap_or_else(|e| panic!("{e}"));
+    let o = cli(&[
+        "--gnss".as_ref(),
+        bad.as_os_str(),
+        "--out".as_ref(),
+        path.as_os_str(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("no-velocity.csv") && err.contains("t = 1.5"),
+        "{err}"
+    );
 }
 
 /// Where each input ends on a wire, and how long its frame or message is.
