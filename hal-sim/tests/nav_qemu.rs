@@ -594,14 +594,7 @@ fn drive_args_static(dir: &std::path::Path) -> NavArgs {
 fn qemu_firmware_live_start_matches_the_host_navigator() {
     let Some(elf) = firmware_elf() else { return };
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    let (fw, _) = live_under_qemu(
-        &elf,
-        &NavArgs {
-            outages: None,
-            ..drive_nhc(dir.path())
-        },
-        1e-3,
-    );
+    let (fw, _) = live_under_qemu(&elf, &drive_nhc(dir.path()), 1e-3);
     let heading = fw.epochs.iter().any(|e| e.flags & gnss_flags::HEADING != 0);
     assert!(heading, "no fix set the heading");
 }
@@ -614,14 +607,7 @@ fn qemu_firmware_live_start_matches_the_host_navigator() {
 fn qemu_firmware_live_start_with_the_online_identification_matches_the_host() {
     let Some(elf) = firmware_elf() else { return };
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    let (fw, h32) = live_under_qemu(
-        &elf,
-        &NavArgs {
-            outages: None,
-            ..drive_online(dir.path())
-        },
-        1e-3,
-    );
+    let (fw, h32) = live_under_qemu(&elf, &drive_online(dir.path()), 1e-3);
     let log = h32.adapt.as_ref().unwrap_or_else(|| panic!("no adapt log"));
     let online = compare_online(&fw.online, log);
     eprintln!("live online identification against the host: {online:?}");
@@ -637,8 +623,10 @@ fn qemu_firmware_live_start_with_the_online_identification_matches_the_host() {
 }
 
 /// Runs the live replay of `args` under QEMU; checks it fits the F405 and its positions and
-/// sigmas against the host's `f32` (`bar32` sigma) and `f64` (0.05 sigma) runs.
+/// sigmas against the host's `f32` (`bar32` sigma) and `f64` (0.05 sigma) runs ([`streamed`]:
+/// without the outage schedule).
 fn live_under_qemu(elf: &std::path::Path, args: &NavArgs, bar32: f64) -> (NavFirmwareRun, NavRun) {
+    let args = &streamed(args);
     let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));
     let fixes = read_gnss_csv(&args.gnss).unwrap_or_else(|e| panic!("{e:#}"));
     let bytes = encode_live_replay(args, &imu, &fixes).unwrap_or_else(|e| panic!("{e:#}"));
@@ -678,21 +666,27 @@ fn at_parity(label: &str, fw: &NavFirmwareRun, h32: &NavRun, h64: &NavRun, bar32
 fn qemu_firmware_live_on_the_real_drive_matches_the_host() {
     let Some(elf) = firmware_elf() else { return };
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    let Some(args) = real_drive_streamed(dir.path()) else {
+    let Some(args) = real_drive(dir.path()) else {
         return;
     };
     let (fw, _) = live_under_qemu(&elf, &args, 1e-2);
     assert!(fw.epochs.len() > 2000, "{} epochs", fw.epochs.len());
 }
 
-/// The real drive's run options without its outage schedule (a stream withholds nothing), or
-/// `None` when the data are missing outside CI (`drive_0708` says why).
-fn real_drive_streamed(dir: &std::path::Path) -> Option<NavArgs> {
+/// The real drive's run options, or `None` when the data are missing outside CI
+/// (`drive_0708` says why).
+fn real_drive(dir: &std::path::Path) -> Option<NavArgs> {
     let (args, _, _) = hal_sim::nav::real::drive_0708(dir).unwrap_or_else(|e| panic!("{e:#}"))?;
-    Some(NavArgs {
+    Some(args)
+}
+
+/// `args` as a stream runs them: without the outage schedule (a live run withholds nothing),
+/// so that the host runs compared are the stream's.
+fn streamed(args: &NavArgs) -> NavArgs {
+    NavArgs {
         outages: None,
-        ..args
-    })
+        ..args.clone()
+    }
 }
 
 /// Prints the firmware run `fw` against the host's `f32` and `f64` runs (worst position and

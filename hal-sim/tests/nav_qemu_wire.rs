@@ -5,7 +5,7 @@
 //! the fixes as decoded: `nav_wire.rs` shows that host run is the wire's on the host, bit for
 //! bit). Bars as for the live replay (`live_under_qemu`): the platform's maths only.
 
-use super::{at_parity, drive_nhc, drive_online, firmware_elf, real_drive_streamed};
+use super::{at_parity, drive_nhc, drive_online, firmware_elf, real_drive, streamed};
 use hal_sim::nav::{run_with, NavArgs, NavRun};
 use hal_sim::nav_io::ubx::{as_sent, ubx_fixes};
 use hal_sim::nav_io::{read_gnss_csv, read_imu_csv};
@@ -16,6 +16,7 @@ use hal_sim::qemu::QemuConfig;
 /// nothing, and the positions and sigmas against the host's `f32` run (within `bar32` sigma)
 /// and `f64` run (0.05 sigma).
 fn wire_under_qemu(elf: &std::path::Path, args: &NavArgs, bar32: f64) -> (NavFirmwareRun, NavRun) {
+    let args = &streamed(args);
     let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));
     let fixes = read_gnss_csv(&args.gnss).unwrap_or_else(|e| panic!("{e:#}"));
     let wire = wire_of(args, &imu, &fixes, 0.0).unwrap_or_else(|e| panic!("{e:#}"));
@@ -42,10 +43,7 @@ fn wire_under_qemu(elf: &std::path::Path, args: &NavArgs, bar32: f64) -> (NavFir
 fn qemu_firmware_on_the_serial_wire_matches_the_host() {
     let Some(elf) = firmware_elf() else { return };
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    let args = NavArgs {
-        outages: None,
-        ..drive_nhc(dir.path())
-    };
+    let args = drive_nhc(dir.path());
     let (fw, _) = wire_under_qemu(&elf, &args, 1e-3);
     assert!(fw.epochs.len() > 300, "{} epochs", fw.epochs.len());
 }
@@ -56,10 +54,7 @@ fn qemu_firmware_on_the_serial_wire_matches_the_host() {
 fn qemu_firmware_on_the_serial_wire_with_the_bank_fits_and_matches_the_host() {
     let Some(elf) = firmware_elf() else { return };
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    let args = NavArgs {
-        outages: None,
-        ..drive_online(dir.path())
-    };
+    let args = drive_online(dir.path());
     let (fw, _) = wire_under_qemu(&elf, &args, 1e-3);
     assert!(!fw.online.is_empty(), "the bank made no decision");
 }
@@ -71,7 +66,7 @@ fn qemu_firmware_on_the_serial_wire_with_the_bank_fits_and_matches_the_host() {
 fn qemu_firmware_on_the_serial_wire_of_the_real_drive_matches_the_host() {
     let Some(elf) = firmware_elf() else { return };
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    let Some(args) = real_drive_streamed(dir.path()) else {
+    let Some(args) = real_drive(dir.path()) else {
         return;
     };
     let (fw, _) = wire_under_qemu(&elf, &args, 1e-2);

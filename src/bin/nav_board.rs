@@ -168,11 +168,16 @@ mod firmware {
             lever_arm: ANTENNA_LEVER,
             gate: Some(1.0),
             online: Some(OnlineConfig::default()),
-            live: Some(LiveConfig {
-                latency: LATENCY_S,
-                ..LiveConfig::new(ALIGN_S)
-            }),
+            live: Some(live_config()),
             ..NavSetup::new(imu, init)
+        }
+    }
+
+    /// The live loop's rules: `hal-sim nav`'s, with the window and the latency budget above.
+    fn live_config() -> LiveConfig {
+        LiveConfig {
+            latency: LATENCY_S,
+            ..LiveConfig::new(ALIGN_S)
         }
     }
 
@@ -194,11 +199,9 @@ mod firmware {
         if LIVE_TAKEN.swap(true, Ordering::AcqRel) {
             return None;
         }
-        let setup = board_setup();
-        let cfg = setup.live.unwrap_or(LiveConfig::new(ALIGN_S));
         // SAFETY: LIVE_TAKEN was false, so this is the only reference to LIVE ever made.
         let slot = unsafe { &mut *core::ptr::addr_of_mut!(LIVE) };
-        Some(slot.write(Live::new(setup, cfg, start_bank)))
+        Some(slot.write(Live::new(board_setup(), live_config(), start_bank)))
     }
 
     type Ports = (
@@ -330,10 +333,14 @@ mod firmware {
             let losses = Losses {
                 imu_wire: imu.counts(),
                 gnss_wire: gnss.counts(),
-                line_errors: IMU_COUNTS.line_errors.load(Ordering::Relaxed)
-                    + GNSS_COUNTS.line_errors.load(Ordering::Relaxed),
-                queue_full: IMU_COUNTS.queue_full.load(Ordering::Relaxed)
-                    + GNSS_COUNTS.queue_full.load(Ordering::Relaxed),
+                line_errors: IMU_COUNTS
+                    .line_errors
+                    .load(Ordering::Relaxed)
+                    .saturating_add(GNSS_COUNTS.line_errors.load(Ordering::Relaxed)),
+                queue_full: IMU_COUNTS
+                    .queue_full
+                    .load(Ordering::Relaxed)
+                    .saturating_add(GNSS_COUNTS.queue_full.load(Ordering::Relaxed)),
                 refused,
             };
             if losses != reported {

@@ -314,36 +314,24 @@ impl UbxFixes {
                 None
             }
             UbxMessage::NavPvt(p) => {
-                let fix = self.fix(&p);
-                if let (Some(_), Some((week, at))) = (&fix, &mut self.week) {
-                    // The epoch's week and time of week follow the turn of the week.
-                    *week = epoch_week(*week, *at, p.itow_ms);
-                    *at = Some(p.itow_ms);
+                let d = &mut self.drops;
+                if !solution_ok(&p) {
+                    d.no_fix = d.no_fix.saturating_add(1);
+                    return None;
                 }
-                if fix.is_none() {
-                    let d = &mut self.drops;
-                    if solution_ok(&p) {
-                        d.no_week = d.no_week.saturating_add(1);
-                    } else {
-                        d.no_fix = d.no_fix.saturating_add(1);
-                    }
-                }
-                fix
+                let Some((week, at)) = self.week else {
+                    d.no_week = d.no_week.saturating_add(1);
+                    return None;
+                };
+                // The epoch's week (its turn followed), and the time of week it is last seen at.
+                let week = epoch_week(week, at, p.itow_ms);
+                self.week = Some((week, Some(p.itow_ms)));
+                Some(UbxFix {
+                    t: f64::from(week) * WEEK_S + f64::from(p.itow_ms) / 1000.0,
+                    pvt: p,
+                })
             }
         }
-    }
-
-    /// The time of a `NAV-PVT`'s epoch given the week so far, when it is a good 3D solution.
-    fn fix(&self, p: &NavPvt) -> Option<UbxFix> {
-        if !solution_ok(p) {
-            return None;
-        }
-        let (week, at) = self.week?;
-        let week = f64::from(epoch_week(week, at, p.itow_ms));
-        Some(UbxFix {
-            t: week * WEEK_S + f64::from(p.itow_ms) / 1000.0,
-            pvt: *p,
-        })
     }
 }
 
@@ -471,13 +459,14 @@ pub fn encode_nav_pvt(p: &NavPvt) -> [u8; 100] {
 /// A `NAV-TIMEGPS` message with a valid time of week and week.
 pub fn encode_nav_timegps(itow_ms: u32, week: u16) -> [u8; 24] {
     let mut q = [0u8; 16];
-    if let (Some(t), Some(w)) = (q.get_mut(..4), Some(week.to_le_bytes())) {
+    if let Some(t) = q.get_mut(..4) {
         t.copy_from_slice(&itow_ms.to_le_bytes());
-        if let Some(d) = q.get_mut(8..10) {
-            d.copy_from_slice(&w);
-        }
+    }
+    if let Some(w) = q.get_mut(8..10) {
+        w.copy_from_slice(&week.to_le_bytes());
     }
     if let Some(v) = q.get_mut(11) {
+        // valid: towValid, weekValid, leapSValid.
         *v = 0b111;
     }
     encode(NAV_TIMEGPS.0, NAV_TIMEGPS.1, &q)

@@ -83,8 +83,12 @@ pub fn nav_pvt(f: &GnssFix) -> Result<(u16, NavPvt)> {
             f.t
         );
     };
-    let week = (f.t / WEEK_S).floor();
-    let itow = ((f.t - week * WEEK_S) * 1000.0).round();
+    // Whole milliseconds first, then the week and the time of week: a time that rounds to the
+    // week's end is the next week's 0.
+    const WEEK_MS: f64 = WEEK_S * 1000.0;
+    let ms = (f.t * 1000.0).round();
+    let week = (ms / WEEK_MS).floor();
+    let itow = ms - week * WEEK_MS;
     let int = |x: f64, what: &str| -> Result<i32> {
         let r = x.round();
         if r.is_finite() && r.abs() < f64::from(i32::MAX) {
@@ -111,7 +115,7 @@ pub fn nav_pvt(f: &GnssFix) -> Result<(u16, NavPvt)> {
     Ok((
         week as u16,
         NavPvt {
-            itow_ms: itow.clamp(0.0, WEEK_S * 1000.0 - 1.0) as u32,
+            itow_ms: itow as u32,
             fix_type: 3,
             flags: 1,
             num_sv: 0,
