@@ -5,6 +5,7 @@ pub mod adaptive;
 pub mod allan;
 pub mod candidates;
 pub mod cli;
+pub mod clock;
 pub mod commands;
 pub mod compare;
 pub mod datasheet;

@@ -41,6 +41,8 @@ mod nav_adapt;
 mod nav_bank;
 #[path = "nav_blind_spots.rs"]
 mod nav_blind_spots;
+#[path = "nav_clock.rs"]
+mod nav_clock;
 #[path = "nav_diagnose.rs"]
 mod nav_diagnose;
 #[path = "nav_identify_axes.rs"]

@@ -123,6 +123,7 @@ fn item_spans(wire: &[u8]) -> Vec<(usize, usize, NavInput)> {
             let len = match input {
                 NavInput::Imu(_) => 38,
                 NavInput::Fix(_) => 100,
+                NavInput::Pulse(_) => 24,
             };
             out.push((i + 1 - len, i + 1, input));
         });

@@ -9,6 +9,7 @@
 //! default).
 
 pub mod error_model;
+pub mod gps_clock;
 pub mod imu_frame;
 pub mod imu_model;
 pub mod live;

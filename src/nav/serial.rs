@@ -25,6 +25,7 @@
 //!     wire.push(b, &mut |input| match input {
 //!         NavInput::Imu(_) => samples += 1,
 //!         NavInput::Fix(f) => { fixes += 1; assert_eq!(f.t, 2374.0 * 604_800.0 + 1.0) }
+//!         NavInput::Pulse(_) => {}
 //!     });
 //! }
 //! assert_eq!((samples, fixes), (1, 1));
@@ -33,7 +34,7 @@
 use super::imu_frame::{ImuFrameDecoder, ImuSample};
 use super::live::{LiveEvent, LiveFix, LiveNav};
 use super::navigator::NavObserver;
-use super::ubx::UbxFixes;
+use super::ubx::{TimePulse, UbxEvent, UbxFixes};
 use super::NavError;
 use crate::Real;
 
@@ -44,6 +45,10 @@ pub enum NavInput {
     Imu(ImuSample),
     /// A GNSS fix.
     Fix(LiveFix),
+    /// The GPS time of the receiver's next time pulse (`TIM-TP`): for a
+    /// [`GpsClock`](super::gps_clock::GpsClock) that stamps samples with a local counter; the
+    /// navigator does not take it.
+    Pulse(TimePulse),
 }
 
 /// What a wire refused so far.
@@ -57,6 +62,8 @@ pub struct WireCounts {
     pub no_fix: u32,
     /// Solutions before the GPS week was known.
     pub no_week: u32,
+    /// Pulse times on another GNSS's time, or on UTC before the leap seconds were known.
+    pub time_base: u32,
 }
 
 /// Both decoders, fed every byte.
@@ -80,8 +87,10 @@ impl NavWire {
         if let Some(s) = self.imu.push(b) {
             out(NavInput::Imu(s));
         }
-        if let Some(f) = self.gnss.push(b) {
-            out(NavInput::Fix(f.live()));
+        match self.gnss.push_any(b) {
+            Some(UbxEvent::Fix(f)) => out(NavInput::Fix(f.live())),
+            Some(UbxEvent::Pulse(p)) => out(NavInput::Pulse(p)),
+            None => {}
         }
     }
 
@@ -93,6 +102,7 @@ impl NavWire {
             ubx_rejected: self.gnss.decoder().rejected(),
             no_fix: drops.no_fix,
             no_week: drops.no_week,
+            time_base: drops.time_base,
         }
     }
 }
@@ -146,7 +156,8 @@ impl<R: embedded_io::Read + embedded_io::ReadReady> SerialNav<R> {
     }
 }
 
-/// Gives a live run one input: [`LiveNav::imu`] for a sample, [`LiveNav::gnss`] for a fix.
+/// Gives a live run one input: [`LiveNav::imu`] for a sample, [`LiveNav::gnss`] for a fix
+/// (a pulse time is not the navigator's: nothing).
 pub fn feed<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize>(
     nav: &mut LiveNav<T, N, O, B>,
     input: &NavInput,
@@ -155,6 +166,7 @@ pub fn feed<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize>(
     match input {
         NavInput::Imu(s) => nav.imu(s.t, s.gyro.map(f64::from), s.accel.map(f64::from), out),
         NavInput::Fix(f) => nav.gnss(f, out),
+        NavInput::Pulse(_) => Ok(()),
     }
 }
 

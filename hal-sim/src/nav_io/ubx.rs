@@ -51,6 +51,7 @@ pub fn ubx_fixes(bytes: &[u8], week: Option<u16>) -> (Vec<GnssFix>, WireCounts) 
         ubx_rejected: fixes.decoder().rejected(),
         no_fix: drops.no_fix,
         no_week: drops.no_week,
+        time_base: drops.time_base,
     };
     (out, counts)
 }

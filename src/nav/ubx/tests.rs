@@ -154,7 +154,8 @@ fn fixes_need_a_week_and_a_3d_solution() {
         f.drops(),
         UbxDrops {
             no_fix: 2,
-            no_week: 1
+            no_week: 1,
+            time_base: 0
         }
     );
 }
@@ -178,6 +179,52 @@ fn the_weeks_turn_between_the_two_messages_is_followed() {
         feed(&encode_nav_pvt(&pvt(250)))[0].t,
         2001.0 * WEEK_S + 0.25
     );
+}
+
+/// The pulse times `f` reads in `bytes`.
+fn pulses_of(f: &mut UbxFixes, bytes: &[u8]) -> Vec<f64> {
+    let pulse = |e| match e {
+        UbxEvent::Pulse(p) => Some(p.t),
+        UbxEvent::Fix(_) => None,
+    };
+    bytes
+        .iter()
+        .filter_map(|b| f.push_any(*b))
+        .filter_map(pulse)
+        .collect()
+}
+
+#[test]
+fn a_time_pulse_is_read_on_gps_time_or_on_utc_with_the_leap_seconds() {
+    let t = 2374.0 * WEEK_S + 243_259.0;
+    let tp = tim_tp_at(t);
+    assert_eq!((tp.week, tp.tow_ms, tp.tow_sub_ms), (2374, 243_259_000, 0));
+    let half = tim_tp_at(t + 0.5e-3 + 0.25e-6);
+    assert_eq!(half.tow_ms, 243_259_000);
+    assert_eq!(
+        decode(&encode_tim_tp(&half)),
+        [UbxMessage::TimTp(half)],
+        "the encoder's fields are read back"
+    );
+    let mut f = UbxFixes::new(None);
+    // GPS time base: needs nothing else (the week is in the message).
+    assert_eq!(pulses_of(&mut f, &encode_tim_tp(&tp)), [t]);
+    let got = pulses_of(&mut f, &encode_tim_tp(&half))[0];
+    assert!((got - (t + 0.50025e-3)).abs() < 1e-9, "{}", got - t);
+    // UTC: 18 s behind GPS; refused until NAV-TIMEGPS gives the leap seconds.
+    let utc = TimTp {
+        flags: 0b11,
+        ..tim_tp_at(t - 18.0)
+    };
+    assert!(pulses_of(&mut f, &encode_tim_tp(&utc)).is_empty());
+    assert!(pulses_of(&mut f, &encode_nav_timegps(243_258_500, 2374)).is_empty());
+    assert_eq!(pulses_of(&mut f, &encode_tim_tp(&utc)), [t]);
+    // Another GNSS's time (Galileo), or UTC not available: refused.
+    let gal = TimTp { ref_info: 3, ..tp };
+    let no_utc = TimTp { flags: 0b01, ..utc };
+    assert!(pulses_of(&mut f, &encode_tim_tp(&gal)).is_empty());
+    assert!(pulses_of(&mut f, &encode_tim_tp(&no_utc)).is_empty());
+    assert_eq!(f.drops().time_base, 3);
 }
 
 proptest::proptest! {

@@ -1,11 +1,13 @@
 //! GNSS fixes from a u-blox receiver: the UBX binary protocol's `NAV-PVT` (the position,
 //! velocity and time solution) and `NAV-TIMEGPS` (the GPS week), read byte by byte into the
-//! [`LiveFix`] a [`LiveNav`](super::live::LiveNav) takes.
+//! [`LiveFix`] a [`LiveNav`](super::live::LiveNav) takes; and `TIM-TP`, the GPS time of the
+//! receiver's next time pulse, which a [`GpsClock`](super::gps_clock::GpsClock) pairs with the
+//! pulse's capture to stamp a local clock's counts in GPS time.
 //!
 //! A UBX message is `B5 62 | class | id | length u16 LE | payload | CK_A CK_B`, the checksum
 //! the 8-bit Fletcher sum over class, id, length and payload (u-blox's interface description,
 //! "UBX checksum"). [`UbxDecoder`] finds the two messages read here (92 and 16 bytes of payload)
-//! among any others, and counts what it refused.
+//! (and `TIM-TP`'s 16) among any others, and counts what it refused.
 //!
 //! The fix ([`UbxFixes`]), from `NAV-PVT`:
 //! - taken only when `fixType` is 3D (3) or GNSS + dead reckoning (4) and `gnssFixOK` is set;
@@ -47,6 +49,10 @@
 //! assert_eq!(fix.sd_vel, Some([0.059; 3]));
 //! ```
 
+mod encode;
+
+pub use encode::{encode_nav_pvt, encode_nav_timegps, encode_tim_tp, tim_tp_at};
+
 use super::live::LiveFix;
 use crate::strapdown::Geodetic;
 
@@ -56,6 +62,8 @@ pub const UBX_SYNC: [u8; 2] = [0xB5, 0x62];
 pub const NAV_PVT: (u8, u8, usize) = (0x01, 0x07, 92);
 /// `NAV-TIMEGPS`: class, id and payload length.
 pub const NAV_TIMEGPS: (u8, u8, usize) = (0x01, 0x20, 16);
+/// `TIM-TP`: class, id and payload length.
+pub const TIM_TP: (u8, u8, usize) = (0x0D, 0x01, 16);
 /// Seconds in a GPS week.
 pub const WEEK_S: f64 = 604_800.0;
 /// Milliseconds in half a GPS week: a time of week this far from the week's message is in the
@@ -100,10 +108,32 @@ pub enum UbxMessage {
         itow_ms: u32,
         /// GPS week (none when not valid yet).
         week: Option<u16>,
+        /// GPS minus UTC [s] (none when not valid yet).
+        leap_s: Option<i8>,
     },
+    /// `TIM-TP`.
+    TimTp(TimTp),
 }
 
-/// Byte-at-a-time UBX message decoder for the two messages read here. Constant memory, no
+/// The fields of `TIM-TP` (offsets in u-blox's description): the time of the next pulse.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct TimTp {
+    /// Time of week of the next pulse in the time base [ms] (offset 0).
+    pub tow_ms: u32,
+    /// Its sub-millisecond part [2^-32 ms] (4).
+    pub tow_sub_ms: u32,
+    /// The pulse's quantisation error [ps] (8): tens of nanoseconds, far below what the
+    /// navigator's stamps need, so not applied.
+    pub q_err_ps: i32,
+    /// Week of the next pulse in the time base (12).
+    pub week: u16,
+    /// Bit 0 `timeBase` (0 GNSS, 1 UTC), bit 1 `utc` available (14).
+    pub flags: u8,
+    /// Bits 0-3 `timeRefGnss` (0 GPS), bits 4-7 `utcStandard` (15).
+    pub ref_info: u8,
+}
+
+/// Byte-at-a-time UBX message decoder for the three messages read here. Constant memory, no
 /// panics.
 ///
 /// It keeps the bytes from the last candidate sync, at most one `NAV-PVT`'s worth, and checks
@@ -138,7 +168,7 @@ impl UbxDecoder {
         }
     }
 
-    /// Messages refused so far: a `NAV-PVT` or `NAV-TIMEGPS` with a bad checksum or the wrong
+    /// Messages refused so far: a `NAV-PVT`, `NAV-TIMEGPS` or `TIM-TP` with a bad checksum or the wrong
     /// length (an older protocol's `NAV-PVT` is 84 bytes).
     pub fn rejected(&self) -> u32 {
         self.rejected
@@ -194,6 +224,7 @@ impl UbxDecoder {
         let want = match (class, id) {
             (c, i) if (c, i) == (NAV_PVT.0, NAV_PVT.1) => NAV_PVT.2,
             (c, i) if (c, i) == (NAV_TIMEGPS.0, NAV_TIMEGPS.1) => NAV_TIMEGPS.2,
+            (c, i) if (c, i) == (TIM_TP.0, TIM_TP.1) => TIM_TP.2,
             _ => return Candidate::Bad { counted: false },
         };
         let (Some(&l0), Some(&l1)) = (bytes.get(4), bytes.get(5)) else {
@@ -249,31 +280,66 @@ fn message(class: u8, id: u8, p: &[u8]) -> Option<UbxMessage> {
             s_acc_mm_s: u32_at(68)?,
         }));
     }
-    // NAV-TIMEGPS; valid (offset 11): bit 0 towValid, bit 1 weekValid.
+    let u16_at = |o: usize| Some(u16::from_le_bytes(p.get(o..o + 2)?.try_into().ok()?));
+    if (class, id) == (TIM_TP.0, TIM_TP.1) {
+        return Some(UbxMessage::TimTp(TimTp {
+            tow_ms: u32_at(0)?,
+            tow_sub_ms: u32_at(4)?,
+            q_err_ps: i32_at(8)?,
+            week: u16_at(12)?,
+            flags: *p.get(14)?,
+            ref_info: *p.get(15)?,
+        }));
+    }
+    // NAV-TIMEGPS; valid (offset 11): bit 0 towValid, bit 1 weekValid, bit 2 leapSValid.
     let valid = *p.get(11)?;
-    let week = u16::from_le_bytes(p.get(8..10)?.try_into().ok()?);
+    let leap = i8::from_le_bytes([*p.get(10)?]);
     Some(UbxMessage::NavTimeGps {
         itow_ms: u32_at(0)?,
-        week: (valid & 0b11 == 0b11).then_some(week),
+        week: (valid & 0b11 == 0b11).then_some(u16_at(8)?),
+        leap_s: (valid & 0b100 != 0).then_some(leap),
     })
 }
 
-/// Why a `NAV-PVT` gave no fix.
+/// Why a `NAV-PVT` gave no fix, or a `TIM-TP` no pulse time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct UbxDrops {
     /// Not a 3D fix, or `gnssFixOK` clear.
     pub no_fix: u32,
     /// No GPS week yet.
     pub no_week: u32,
+    /// A `TIM-TP` on another GNSS's time, or on UTC before GPS - UTC (`NAV-TIMEGPS`'s leap
+    /// seconds) is known.
+    pub time_base: u32,
 }
 
-/// [`LiveFix`]es from a UBX byte stream: a [`UbxDecoder`] and the GPS week.
+/// The GPS time of the receiver's next time pulse, from `TIM-TP`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimePulse {
+    /// GPS seconds since 1980 at the pulse.
+    pub t: f64,
+    /// The message.
+    pub tp: TimTp,
+}
+
+/// What [`UbxFixes::push_any`] reads.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum UbxEvent {
+    /// A good 3D fix.
+    Fix(UbxFix),
+    /// The time of the next time pulse.
+    Pulse(TimePulse),
+}
+
+/// [`LiveFix`]es and pulse times from a UBX byte stream: a [`UbxDecoder`] and the GPS week.
 #[derive(Debug, Clone)]
 pub struct UbxFixes {
     decoder: UbxDecoder,
     /// The week, and the time of week [ms] of the last message in it (none when the week was
     /// given and no solution has come yet).
     week: Option<(u16, Option<u32>)>,
+    /// GPS - UTC [s], once `NAV-TIMEGPS` gives it.
+    leap_s: Option<i8>,
     drops: UbxDrops,
 }
 
@@ -287,9 +353,11 @@ impl UbxFixes {
                 Some(w) => Some((w, None)),
                 None => None,
             },
+            leap_s: None,
             drops: UbxDrops {
                 no_fix: 0,
                 no_week: 0,
+                time_base: 0,
             },
         }
     }
@@ -306,12 +374,35 @@ impl UbxFixes {
 
     /// Takes one byte; returns a fix when a `NAV-PVT` with a good 3D solution completes.
     pub fn push(&mut self, b: u8) -> Option<UbxFix> {
+        match self.push_any(b)? {
+            UbxEvent::Fix(f) => Some(f),
+            UbxEvent::Pulse(_) => None,
+        }
+    }
+
+    /// Takes one byte; returns a fix as [`push`](Self::push) does, or the GPS time of the next
+    /// time pulse when a `TIM-TP` on GPS time (or on UTC with the leap seconds known)
+    /// completes.
+    pub fn push_any(&mut self, b: u8) -> Option<UbxEvent> {
         match self.decoder.push(b)? {
-            UbxMessage::NavTimeGps { itow_ms, week } => {
+            UbxMessage::NavTimeGps {
+                itow_ms,
+                week,
+                leap_s,
+            } => {
                 if let Some(w) = week {
                     self.week = Some((w, Some(itow_ms)));
                 }
+                self.leap_s = leap_s.or(self.leap_s);
                 None
+            }
+            UbxMessage::TimTp(tp) => {
+                let Some(t) = pulse_time(&tp, self.leap_s) else {
+                    let d = &mut self.drops;
+                    d.time_base = d.time_base.saturating_add(1);
+                    return None;
+                };
+                Some(UbxEvent::Pulse(TimePulse { t, tp }))
             }
             UbxMessage::NavPvt(p) => {
                 let d = &mut self.drops;
@@ -326,13 +417,27 @@ impl UbxFixes {
                 // The epoch's week (its turn followed), and the time of week it is last seen at.
                 let week = epoch_week(week, at, p.itow_ms);
                 self.week = Some((week, Some(p.itow_ms)));
-                Some(UbxFix {
+                Some(UbxEvent::Fix(UbxFix {
                     t: f64::from(week) * WEEK_S + f64::from(p.itow_ms) / 1000.0,
                     pvt: p,
-                })
+                }))
             }
         }
     }
+}
+
+/// GPS seconds since 1980 at a `TIM-TP`'s pulse: its week and time of week in GPS time
+/// (`timeBase` GNSS, `timeRefGnss` GPS), or in UTC plus the leap seconds (GPS = UTC + leap).
+fn pulse_time(tp: &TimTp, leap_s: Option<i8>) -> Option<f64> {
+    let utc = tp.flags & 1 == 1;
+    let shift = match (utc, leap_s) {
+        (false, _) if tp.ref_info & 0x0F == 0 => 0.0,
+        (true, Some(l)) if tp.flags & 0b10 != 0 => f64::from(l),
+        _ => return None,
+    };
+    // towSubMS is 2^-32 ms.
+    let sub = f64::from(tp.tow_sub_ms) * (1.0 / 4_294_967_296.0);
+    Some(f64::from(tp.week) * WEEK_S + (f64::from(tp.tow_ms) + sub) / 1000.0 + shift)
 }
 
 /// A good 3D solution and its time of validity [s] (GPS seconds since 1980).
@@ -414,64 +519,6 @@ fn epoch_week(week: u16, at: Option<u32>, itow_ms: u32) -> u16 {
     }
 }
 
-/// A whole UBX message: sync, class, id, length, `payload`, checksum (for tests and the host's
-/// encoders; the firmware only reads).
-fn encode<const P: usize, const M: usize>(class: u8, id: u8, payload: &[u8; P]) -> [u8; M] {
-    let mut m = [0u8; M];
-    let len = u16::try_from(P).unwrap_or(u16::MAX).to_le_bytes();
-    let head = [UBX_SYNC[0], UBX_SYNC[1], class, id, len[0], len[1]];
-    for (d, s) in m.iter_mut().zip(head.iter().chain(payload.iter())) {
-        *d = *s;
-    }
-    let (mut a, mut b) = (0u8, 0u8);
-    for x in m.iter().take(6 + P).skip(2) {
-        a = a.wrapping_add(*x);
-        b = b.wrapping_add(a);
-    }
-    if let Some(ck) = m.get_mut(6 + P..8 + P) {
-        ck.copy_from_slice(&[a, b]);
-    }
-    m
-}
-
-/// A `NAV-PVT` message with these fields (the others zero).
-pub fn encode_nav_pvt(p: &NavPvt) -> [u8; 100] {
-    let mut q = [0u8; 92];
-    let mut put = |o: usize, bytes: &[u8]| {
-        if let Some(d) = q.get_mut(o..o + bytes.len()) {
-            d.copy_from_slice(bytes);
-        }
-    };
-    put(0, &p.itow_ms.to_le_bytes());
-    put(20, &[p.fix_type, p.flags, 0, p.num_sv]);
-    put(24, &p.lon_e7.to_le_bytes());
-    put(28, &p.lat_e7.to_le_bytes());
-    put(32, &p.height_mm.to_le_bytes());
-    put(40, &p.h_acc_mm.to_le_bytes());
-    put(44, &p.v_acc_mm.to_le_bytes());
-    for (k, v) in p.vel_ned_mm_s.iter().enumerate() {
-        put(48 + 4 * k, &v.to_le_bytes());
-    }
-    put(68, &p.s_acc_mm_s.to_le_bytes());
-    encode(NAV_PVT.0, NAV_PVT.1, &q)
-}
-
-/// A `NAV-TIMEGPS` message with a valid time of week and week.
-pub fn encode_nav_timegps(itow_ms: u32, week: u16) -> [u8; 24] {
-    let mut q = [0u8; 16];
-    if let Some(t) = q.get_mut(..4) {
-        t.copy_from_slice(&itow_ms.to_le_bytes());
-    }
-    if let Some(w) = q.get_mut(8..10) {
-        w.copy_from_slice(&week.to_le_bytes());
-    }
-    if let Some(v) = q.get_mut(11) {
-        // valid: towValid, weekValid, leapSValid.
-        *v = 0b111;
-    }
-    encode(NAV_TIMEGPS.0, NAV_TIMEGPS.1, &q)
-}
-
 #[cfg(test)]
-#[path = "ubx_tests.rs"]
+#[path = "tests.rs"]
 mod tests;
