@@ -399,11 +399,16 @@ impl GpsClock {
             return PulseUse::Used;
         }
         self.counts.rejected = self.counts.rejected.saturating_add(1);
+        if !(dt > 0.0 && nu.is_finite()) {
+            // A second already fused (a glitch next to its pulse), or a time going back: not
+            // evidence that the clock moved, so not one of the refusals in a row.
+            return PulseUse::Rejected;
+        }
         self.rejects = self.rejects.saturating_add(1);
         if self.rejects < MAX_REJECTS {
             return PulseUse::Rejected;
         }
-        if !(self.locked() && dt > 0.0 && nu.is_finite()) {
+        if !self.locked() {
             self.restart();
             return PulseUse::Rejected;
         }

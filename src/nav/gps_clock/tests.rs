@@ -64,6 +64,14 @@ fn lost_messages_and_glitches_cost_nothing_once_locked() {
     assert_eq!(clock.pulse(c(T0 + 29.3)), PulseUse::Unpaired);
     assert_eq!(clock.pulse(c(T0 + 30.0 + 1e-5)), PulseUse::Rejected);
     assert_eq!(run(&mut clock, &c, &[30], &[]), [PulseUse::Used]);
+    // Glitches just after a pulse pair with its second, already fused: refused, however many,
+    // and the clock neither re-anchors nor restarts.
+    for k in 1..=5 {
+        let glitch = T0 + 30.0 + 2e-4 * f64::from(k);
+        assert_eq!(clock.pulse(c(glitch)), PulseUse::Rejected);
+    }
+    assert_eq!(run(&mut clock, &c, &[31], &[]), [PulseUse::Used]);
+    assert_eq!((clock.counts().reanchored, clock.counts().restarts), (0, 0));
     let s = clock.stamp(c(T0 + 30.5)).unwrap();
     assert!((s.t - (T0 + 30.5)).abs() < 2e-6);
 }
