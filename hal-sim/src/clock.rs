@@ -66,7 +66,7 @@ pub struct ClockRun {
     pub counts: ClockCounts,
     /// Samples before the lock (not stamped).
     pub unstamped: usize,
-    /// Glitch edges sent, and how many pairs with nothing.
+    /// Glitch edges sent.
     pub glitches: u32,
     /// Of those, the ones that paired with nothing.
     pub glitches_unpaired: u32,

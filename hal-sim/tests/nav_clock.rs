@@ -2,10 +2,11 @@
 //! (`hal_sim::trajectory::oscillator`): an 84-MHz 32-bit counter (it wraps every 51 s) on a
 //! crystal tens of ppm off, its pulses captured with jitter, their `TIM-TP` messages read
 //! through the UBX decoder. The filter is consistent with its model (chi-square on the
-//! pulses' normalised innovations), through lost messages, lost pulses, glitches and a
-//! 5-min gap; an oscillator noisier than the model shows in the same statistic. Seeds
-//! 65700-65709 (development); the figures on fresh seeds are in BENCHMARKS.md "Sample times
-//! from a local clock".
+//! pulses' normalised innovations), through lost messages, lost pulses, glitches, a 5-min
+//! gap and a frequency step; an oscillator off its model, either way, shows in the same
+//! statistic, and its noise is identified; a drive stamped by the timer navigates as on GPS
+//! time. Seeds 65700-65709 (development); the figures on fresh seeds are in BENCHMARKS.md
+//! "Sample times from a local timer".
 
 use hal_sim::clock::{clock_run, oscillator_spec, ClockRun, Faults};
 use hal_sim::trajectory::oscillator::Oscillator;
