@@ -161,27 +161,15 @@ impl<R: embedded_io::Read + embedded_io::ReadReady> ObservationSource for Serial
 
     fn poll(&mut self) -> Result<Option<Row>, R::Error> {
         let mut newest = None;
-        let mut chunk = [0u8; 32];
-        let mut budget = MAX_BYTES_PER_POLL;
-        while budget > 0 && self.rx.read_ready()? {
-            let want = budget.min(chunk.len());
-            let Some(buf) = chunk.get_mut(..want) else {
-                break;
-            };
-            let n = self.rx.read(buf)?;
-            if n == 0 {
-                break;
-            }
-            budget = budget.saturating_sub(n);
-            for &b in buf.iter().take(n) {
-                if let Some(row) = self.decoder.push(b) {
-                    if newest.is_some() {
-                        self.superseded = self.superseded.saturating_add(1);
-                    }
-                    newest = Some(row);
+        let (decoder, superseded) = (&mut self.decoder, &mut self.superseded);
+        crate::port::read_ready(&mut self.rx, MAX_BYTES_PER_POLL, |b| {
+            if let Some(row) = decoder.push(b) {
+                if newest.is_some() {
+                    *superseded = superseded.saturating_add(1);
                 }
+                newest = Some(row);
             }
-        }
+        })?;
         Ok(newest)
     }
 }

@@ -14,6 +14,7 @@ pub mod model;
 pub mod nav;
 #[cfg(all(target_arch = "arm", target_os = "none", feature = "prove-no-panic"))]
 mod panic_proof;
+pub mod port;
 pub mod real;
 pub mod replay;
 pub mod step;

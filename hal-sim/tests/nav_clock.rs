@@ -9,6 +9,7 @@
 //! "Sample times from a local timer".
 
 use hal_sim::clock::{clock_run, oscillator_spec, ClockRun, Faults};
+use hal_sim::nav_io::outages::north_east;
 use hal_sim::trajectory::oscillator::Oscillator;
 use imu_ident::nav::gps_clock::{ClockConfig, GpsClock};
 
@@ -194,20 +195,19 @@ fn live_on(
 /// The largest position difference between two runs' epochs at the same fix times, in the
 /// first run's sigmas, and in metres.
 fn worst_difference(a: &crate::nav_live::Live, b: &crate::nav_live::Live) -> (f64, f64, usize) {
-    use imu_ident::strapdown::earth;
     let (mut sig, mut m, mut n) = (0f64, 0f64, 0);
     for e in &a.epochs {
         let Some(o) = b.epochs.iter().find(|o| o.t == e.t) else {
             continue;
         };
-        let rn = earth::radius_north(e.pos.lat) + e.pos.h;
-        let re = (earth::radius_east(e.pos.lat) + e.pos.h) * e.pos.lat.cos();
-        let d = [
-            (o.pos.lat - e.pos.lat) * rn,
-            (o.pos.lon - e.pos.lon) * re,
-            o.pos.h - e.pos.h,
-        ];
-        for (d, sd) in d.iter().zip(e.sd_pos) {
+        let [dn, de] = north_east(
+            e.pos.lat.to_degrees(),
+            e.pos.lon.to_degrees(),
+            e.pos.h,
+            o.pos.lat.to_degrees(),
+            o.pos.lon.to_degrees(),
+        );
+        for (d, sd) in [dn, de, o.pos.h - e.pos.h].iter().zip(e.sd_pos) {
             sig = sig.max(d.abs() / f64::from(sd));
             m = m.max(d.abs());
         }
@@ -291,16 +291,18 @@ fn a_drive_stamped_by_a_drifting_timer_navigates_as_on_gps_time() {
 
 /// The RMS horizontal position error of a run's epochs against the truth at their times.
 fn horizontal_rms(l: &crate::nav_live::Live, truth: &[hal_sim::nav_io::TruthRow]) -> f64 {
-    use imu_ident::strapdown::earth;
     let mut sum = 0.0;
     for e in &l.epochs {
         let i = truth.partition_point(|r| r.t < e.t).min(truth.len() - 1);
         let r = &truth[i];
         assert!((r.t - e.t).abs() < 1e-9, "no truth row at {}", e.t);
-        let rn = earth::radius_north(e.pos.lat) + e.pos.h;
-        let re = (earth::radius_east(e.pos.lat) + e.pos.h) * e.pos.lat.cos();
-        let dn = (e.pos.lat - r.lat_deg.to_radians()) * rn;
-        let de = (e.pos.lon - r.lon_deg.to_radians()) * re;
+        let [dn, de] = north_east(
+            r.lat_deg,
+            r.lon_deg,
+            r.h,
+            e.pos.lat.to_degrees(),
+            e.pos.lon.to_degrees(),
+        );
         sum += dn * dn + de * de;
     }
     (sum / l.epochs.len() as f64).sqrt()

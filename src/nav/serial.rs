@@ -136,23 +136,8 @@ impl<R: embedded_io::Read + embedded_io::ReadReady> SerialNav<R> {
         max_bytes: usize,
         out: &mut impl FnMut(NavInput),
     ) -> Result<usize, R::Error> {
-        let mut chunk = [0u8; 64];
-        let mut read = 0usize;
-        while read < max_bytes && self.rx.read_ready()? {
-            let want = (max_bytes - read).min(chunk.len());
-            let Some(buf) = chunk.get_mut(..want) else {
-                break;
-            };
-            let n = self.rx.read(buf)?;
-            if n == 0 {
-                break;
-            }
-            read = read.saturating_add(n);
-            for &b in buf.iter().take(n) {
-                self.wire.push(b, out);
-            }
-        }
-        Ok(read)
+        let wire = &mut self.wire;
+        crate::port::read_ready(&mut self.rx, max_bytes, |b| wire.push(b, out))
     }
 }
 

@@ -106,10 +106,8 @@ impl ClockNoise {
         }
     }
 
-    /// The shadows start again about the running filter's factor.
+    /// The shadows start again, at the next pulse, about the running filter's factor.
     pub(super) fn restart(&mut self) {
-        self.c = self.u;
-        self.shadow_scales = [-OFFSET, 0.0, OFFSET].map(|o| libm::pow(10.0, self.c + o));
         self.shadows = [None; 3];
         self.sums = [0.0; 3];
         self.n = 0;
@@ -124,8 +122,9 @@ impl ClockNoise {
         let r = cfg.sd_capture * cfg.sd_capture;
         let mut steps = [None; 3];
         if self.shadows[1].is_none() {
-            // Started: the shadows' noise about the centre.
-            self.restart();
+            // (Re)started: the shadows about the running filter's factor.
+            self.c = self.u;
+            self.shadow_scales = [-OFFSET, 0.0, OFFSET].map(|o| libm::pow(10.0, self.c + o));
         }
         for ((out, shadow), scale) in steps.iter_mut().zip(&self.shadows).zip(self.shadow_scales) {
             let from = shadow.unwrap_or(*anchor);
