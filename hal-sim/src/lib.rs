@@ -25,6 +25,7 @@ pub mod nav;
 pub mod nav_io;
 pub mod nav_qemu;
 pub mod output;
+pub mod present;
 pub mod qemu;
 pub mod records;
 pub mod replay;

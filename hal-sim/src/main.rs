@@ -114,6 +114,8 @@ fn main() -> Result<()> {
                 lever_arm: three(lever_arm, "lever-arm")?,
                 step,
                 fix_interval,
+                // `nav` is the batch run: every fix in time order, no budget.
+                latency: 0.0,
                 align,
                 yaw_deg: yaw,
                 yaw_speed,

@@ -53,6 +53,8 @@ mod nav_io_formats;
 mod nav_io_real;
 #[path = "nav_live.rs"]
 mod nav_live;
+#[path = "nav_present.rs"]
+mod nav_present;
 #[path = "nav_real.rs"]
 mod nav_real;
 #[path = "nav_report.rs"]

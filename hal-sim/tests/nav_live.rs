@@ -12,8 +12,7 @@ use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, GnssFix, ImuSample};
 use hal_sim::nav_qemu::replay_records;
 use imu_ident::nav::live::{DropReason, LiveConfig, LiveEvent, LiveNav};
 use imu_ident::nav::replay::{encode, Record};
-use imu_ident::nav::{Epoch, ImuErrorModel, NavInit, NavSetup, NAV_N};
-use nalgebra::Vector3;
+use imu_ident::nav::{Epoch, ImuErrorModel, NavSetup, NAV_N};
 
 fn mems() -> ImuErrorModel<f64> {
     hal_sim::trajectory::errors::ImuErrorModel::mems()
@@ -21,34 +20,10 @@ fn mems() -> ImuErrorModel<f64> {
         .unwrap_or_else(|e| panic!("{e:#}"))
 }
 
-/// A simulated 10-min drive (seed, 100 Hz, 1-Hz GNSS) in `dir` and the run's options: no
-/// outage schedule (a live run withholds nothing), lever arm, the gyro bias seeded from the
-/// 50-s window; the heading given when `yaw` (else from the course), the constraint on too when
-/// `nhc`.
+/// A simulated 10-min drive (`hal_sim::present::simulated_drive`).
 pub(crate) fn drive(dir: &std::path::Path, seed: u64, yaw: bool, nhc: bool) -> NavArgs {
-    hal_sim::trajectory::write::simulate_drive_files(1.0 / 6.0, 100.0, seed, vec![], dir)
-        .unwrap_or_else(|e| panic!("{e:#}"));
-    let truth =
-        hal_sim::nav_io::read_truth_csv(&dir.join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
-    NavArgs {
-        lever_arm: [0.3, 0.0, -0.8],
-        align: 50.0,
-        yaw_deg: yaw.then(|| truth[0].rpy_deg[2]),
-        nhc: nhc.then_some(0.05),
-        nhc_lever: [0.0, 0.0, 0.65],
-        init: NavInit {
-            sd_att: Vector3::repeat(1f64.to_radians()),
-            sd_vel: 0.1,
-            sd_pos: 1.0,
-        },
-        single: true,
-        ..NavArgs::new(
-            dir.join("imu.csv"),
-            dir.join("gnss.csv"),
-            mems(),
-            "mems (true)",
-        )
-    }
+    hal_sim::present::simulated_drive(dir, 1.0 / 6.0, seed, yaw, nhc)
+        .unwrap_or_else(|e| panic!("{e:#}"))
 }
 
 /// What a live run produced.
@@ -434,7 +409,8 @@ fn a_corrupted_time_stamp_does_not_stop_the_live_run() {
 /// Seeded hostile streams (non-finite and huge values, times that stand still or go back,
 /// fixes before the start and bursts that fill the queue) through the live loop: never a
 /// panic; refused samples are `BadTime` and change nothing; every fix is either taken, queued
-/// or reported dropped.
+/// or reported dropped. Half the seeds run with a latency budget: the present solution is
+/// never behind the run's.
 #[test]
 fn hostile_live_streams_never_panic() {
     use rand::{Rng, SeedableRng};
@@ -443,6 +419,10 @@ fn hostile_live_streams_never_panic() {
     let hostile = [f64::NAN, f64::INFINITY, -f64::INFINITY, 1e30, -1e30, 0.0];
     for seed in 0..40u64 {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let cfg = LiveConfig {
+            latency: if seed % 2 == 1 { 0.2 } else { 0.0 },
+            ..cfg
+        };
         let mut nav =
             LiveNav::<f32, NAV_N>::new(setup.clone(), cfg, LiveNav::<f32, NAV_N>::no_observer);
         let mut live = Live::default();
@@ -480,6 +460,12 @@ fn hostile_live_streams_never_panic() {
                 if !tf.is_finite() {
                     tf = 0.0;
                 }
+            }
+            if let (Some(run), Some(now)) = (nav.run(), nav.present()) {
+                assert!(
+                    now.time() >= run.time(),
+                    "seed {seed}: present behind the run"
+                );
             }
         }
         let taken = live.epochs.len() + live.dropped.len();

@@ -30,7 +30,8 @@
 //!   `nhc` (the same with the non-holonomic constraint applied
 //!   after the propagation: gate + two sequential updates + closed-loop correction; none
 //!   without the constraint), `gnss` (a fix fused: gate + six sequential updates +
-//!   closed-loop correction); `stack` for start-up and for the run.
+//!   closed-loop correction); in a live run, `live` (every call, whatever it did: the loop's
+//!   whole cost, the output predictor's included); `stack` for start-up and for the run.
 //! - Exit: status 0 after a complete, checksum-valid replay; 1 otherwise.
 //!
 //! ```text
@@ -115,7 +116,11 @@ mod firmware {
         fuse: Counts,
         /// Decoding a full chunk of a serial wire file.
         wire: Counts,
+        /// Every call of a live run, whatever it did (`icount live`: the whole loop's cost,
+        /// the output predictor's included).
+        live: Counts,
         n_imu: u32,
+        live_calls: u32,
         epochs: u32,
         chunks: u32,
     }
@@ -272,6 +277,8 @@ mod firmware {
         feed(live, r, &mut on).map_err(FirmwareError::Nav)?;
         let t1 = SYST::get_current();
         let instr = semihost::instructions(t0, t1);
+        tally.live.add(instr, tally.live_calls);
+        tally.live_calls = tally.live_calls.wrapping_add(1);
         match (r, call.samples, &call.last) {
             (NavInput::Imu(_), 1, Some(done)) => tally.sample(done, instr),
             (NavInput::Fix(_), 0, _) if call.fused => tally.fuse.add(instr, tally.epochs),
@@ -344,6 +351,9 @@ mod firmware {
         tally.step.log("step");
         tally.nhc.log("nhc");
         tally.fuse.log("gnss");
+        if matches!(nav, Some(Nav::Live(_))) {
+            tally.live.log("live");
+        }
         let records = decoder.finish().map_err(FirmwareError::Log)?;
         Ok((records, tally.epochs))
     }

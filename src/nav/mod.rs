@@ -15,6 +15,7 @@ pub mod imu_model;
 pub mod live;
 pub mod navigator;
 pub mod online;
+pub mod predictor;
 pub mod replay;
 pub mod rest;
 pub mod run;

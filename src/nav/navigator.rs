@@ -290,6 +290,12 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
         self.gaps
     }
 
+    /// The longest IMU interval mechanised with the previous sample's increments [s]
+    /// ([`NavConfig::max_imu_gap`]).
+    pub fn max_imu_gap(&self) -> T {
+        self.cfg.max_imu_gap
+    }
+
     /// Estimated sensor errors `(b_g, b_a)` now being removed from the IMU (rad/s, m/s^2).
     pub fn sensor_errors(&self) -> (Vector3<T>, Vector3<T>) {
         (self.b_g, self.b_a)
@@ -424,11 +430,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
             self.gaps = self.gaps.saturating_add(1);
             self.ins.restart_increments();
         }
-        // Measured = (1 + s) true + b: true ~ measured - b - s measured (first order in s).
-        let comp = Increment {
-            dtheta: inc.dtheta - self.b_g * dt - self.s_g.component_mul(&inc.dtheta),
-            dv: inc.dv - self.b_a * dt - self.s_a.component_mul(&inc.dv),
-        };
+        let comp = compensate(inc, dt, &(self.b_g, self.b_a), &(self.s_g, self.s_a));
         let c = self.ins.dcm();
         self.c_sample = c;
         let v0 = self.ins.velocity();
@@ -534,6 +536,23 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
             self.s_g = sg;
             self.s_a = sa;
         }
+    }
+}
+
+/// The increment `inc` over `dt` [s] with the estimated sensor errors removed: biases
+/// `(b_g, b_a)` and scale factors `(s_g, s_a)` ([`Navigator::sensor_errors`],
+/// [`Navigator::scale_factors`]). Measured = (1 + s) true + b dt, so true ~ measured - b dt -
+/// s measured (first order in s). The navigator's samples and the output predictor's
+/// ([`super::predictor`]) go through this one function, so both mechanise the same numbers.
+pub fn compensate<T: Real>(
+    inc: &Increment<T>,
+    dt: T,
+    bias: &(Vector3<T>, Vector3<T>),
+    scale: &(Vector3<T>, Vector3<T>),
+) -> Increment<T> {
+    Increment {
+        dtheta: inc.dtheta - bias.0 * dt - scale.0.component_mul(&inc.dtheta),
+        dv: inc.dv - bias.1 * dt - scale.1.component_mul(&inc.dv),
     }
 }
 

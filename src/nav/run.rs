@@ -150,6 +150,12 @@ pub fn move_by(p: &Geodetic, d: &Vector3<f64>) -> Geodetic {
     }
 }
 
+/// The rates of the record `r` in `T`: `(gyro [rad/s], specific force [m/s^2])`.
+pub fn record_rates<T: Real>(r: &ImuRecord) -> (Vector3<T>, Vector3<T>) {
+    let v = |a: [f32; 3]| Vector3::from(a).map(|v| T::lit(f64::from(v)));
+    (v(r.gyro), v(r.accel))
+}
+
 /// A run over replay records, its navigator reporting to the observer `O` (the online
 /// identification's bank, [`with_observer`](NavReplay::with_observer); none by default).
 #[derive(Debug, Clone)]
@@ -231,8 +237,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> NavReplay<T, N, O> {
     /// zero-velocity update if the setup has one and the step was at rest
     /// ([`Zupt::after_step`]): the host driver's order, before the fixes this sample reaches.
     pub fn imu(&mut self, r: &ImuRecord) -> Result<ImuStep<T>, NavError> {
-        let gyro = Vector3::from(r.gyro).map(|v| T::lit(f64::from(v)));
-        let accel = Vector3::from(r.accel).map(|v| T::lit(f64::from(v)));
+        let (gyro, accel) = record_rates(r);
         self.sample(r.t, gyro, accel)
     }
 

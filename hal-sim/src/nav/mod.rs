@@ -64,6 +64,9 @@ pub struct NavArgs {
     /// filter steps is fused at its own time, the filter first propagated over the part of
     /// the step elapsed (`Navigator::gnss`).
     pub fix_interval: f64,
+    /// A live run's latency budget [s] ([`imu_ident::nav::live::LiveConfig::latency`]; the
+    /// batch run has none: it takes every fix in time order).
+    pub latency: f64,
     /// Static levelling window at the start [s].
     pub align: f64,
     /// Initial yaw [deg] (else from the GNSS course).
@@ -142,6 +145,7 @@ impl NavArgs {
             lever_arm: [0.0; 3],
             step: 1.0,
             fix_interval: 0.0,
+            latency: 0.0,
             align: 20.0,
             yaw_deg: None,
             yaw_speed: 2.0,

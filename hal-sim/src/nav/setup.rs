@@ -120,7 +120,7 @@ pub fn live_config(args: &NavArgs) -> LiveConfig {
         yaw_speed: args.yaw_speed,
         fix_interval: args.fix_interval,
         use_velocity: args.use_velocity,
-        latency: 0.0,
+        latency: args.latency,
     }
 }
 

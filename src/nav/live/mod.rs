@@ -11,7 +11,8 @@
 //! unless the samples wait for it: with a latency budget ([`LiveConfig::latency`]) each sample
 //! is mechanised that long after it arrived, so every fix up to that late is taken in the
 //! host's order, at the price of a solution that much behind the newest sample (the delayed
-//! fusion horizon of PX4's EKF2, without its output predictor). Measured on a simulated drive
+//! fusion horizon of PX4's EKF2; [`LiveNav::present`] is its output predictor, the solution
+//! carried to the newest sample, [`super::predictor`]). Measured on a simulated drive
 //! with fixes 0.25 s late: up to 44 sigma off the host's run without a budget (the navigator
 //! moves a late fix's position back along the velocity, but compares its velocity with the
 //! newest one, and the fix is gated in turns), bit for bit with a 0.3-s budget
@@ -53,135 +54,20 @@
 //! assert!(started && epochs == 3); // fixes at 2.5, 3.5 and 4.5 s, after the start at 2.01 s
 //! ```
 
+mod inputs;
+
 use super::navigator::NavObserver;
-use super::replay::{gnss_flags, GnssRecord, ImuRecord, NavSetup};
-use super::run::{Epoch, ImuStep, NavReplay};
+use super::predictor::OutputPredictor;
+use super::replay::{ImuRecord, NavSetup};
+use super::run::NavReplay;
 pub use super::start::{Alignment, FixPlan, FixPlanner, StartState};
-use super::{NavError, NAV_Z};
-use crate::filter::Fused;
-use crate::strapdown::{AlignError, Geodetic};
+use super::NavError;
+use crate::strapdown::AlignError;
 use crate::Real;
 use heapless::Deque;
-
-/// Fixes waiting for the IMU sample that passes them.
-pub const PENDING: usize = 8;
-
-/// A sample further ahead of the previous one than this [s] is suspect: refused, and taken
-/// only when the next sample follows it within this (a real gap: the sensor restarted).
-/// One corrupted time stamp then costs one sample, not the run (every later sample would be
-/// "backwards").
-pub const MAX_IMU_JUMP: f64 = 1.0;
-
-/// A fix further ahead of the newest sample than this [s] is dropped
-/// ([`DropReason::Ahead`]): a corrupted time would otherwise head the queue for ever.
-pub const MAX_FIX_LEAD: f64 = 2.0;
-
-/// How a live run starts and decides its fixes (the host's `nav` options of the same names;
-/// carried by a live replay, [`NavSetup::live`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LiveConfig {
-    /// The levelling window after the first sample, at rest [s] (`--align`).
-    pub align: f64,
-    /// The heading, when given [rad] (`--yaw`); else from the GNSS course.
-    pub yaw: Option<f64>,
-    /// Seed the gyro bias with the window's mean rate (not `--no-static-gyro-bias`).
-    pub static_gyro_bias: bool,
-    /// Speed at which the course gives the heading [m/s] (`--yaw-speed`).
-    pub yaw_speed: f64,
-    /// Shortest interval between fused fixes [s] (`--fix-interval`).
-    pub fix_interval: f64,
-    /// Fuse the fixes' velocities (`--use-velocity`).
-    pub use_velocity: bool,
-    /// The receiver's latency budget [s]: the IMU samples are mechanised this long after they
-    /// arrive, so that a fix that comes up to this late is still taken after the first
-    /// sample at or past its time, as the host takes it (module docs). The solution is then
-    /// this much behind the newest sample.
-    pub latency: f64,
-}
-
-impl LiveConfig {
-    /// The host's defaults (`hal-sim nav`) with the window `align` [s].
-    pub fn new(align: f64) -> Self {
-        Self {
-            align,
-            yaw: None,
-            static_gyro_bias: true,
-            yaw_speed: 2.0,
-            fix_interval: 0.0,
-            use_velocity: true,
-            latency: 0.0,
-        }
-    }
-}
-
-/// A GNSS fix as it arrives (the host's GNSS CSV row, angles in radians).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LiveFix {
-    /// Time of validity [s], the IMU's time scale.
-    pub t: f64,
-    /// Antenna position.
-    pub pos: Geodetic,
-    /// NED velocity [m/s].
-    pub vel: Option<[f64; 3]>,
-    /// Position standard deviations N, E, D [m] (none: the setup's defaults).
-    pub sd_pos: Option<[f64; 3]>,
-    /// Velocity standard deviations [m/s] (none: the setup's defaults).
-    pub sd_vel: Option<[f64; 3]>,
-}
-
-impl LiveFix {
-    /// The fix of a replay record (its flags and yaw are not read: the live run decides
-    /// them); a vector with a component that is not finite is none.
-    pub fn from_record(r: &GnssRecord) -> Self {
-        let v = |a: [f32; 3]| a.iter().all(|x| x.is_finite()).then(|| a.map(f64::from));
-        Self {
-            t: r.t,
-            pos: r.pos,
-            vel: v(r.vel),
-            sd_pos: v(r.sd_pos),
-            sd_vel: v(r.sd_vel),
-        }
-    }
-}
-
-/// Why a fix was not taken.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum DropReason {
-    /// Its time is not after the previous fix's (or not a number).
-    NotIncreasing,
-    /// It is before the run's start.
-    BeforeStart,
-    /// Its time is not finite, or more than [`MAX_FIX_LEAD`] ahead of the newest sample.
-    Ahead,
-    /// The queue of fixes waiting for the IMU is full.
-    QueueFull,
-}
-
-/// What a call did, in order ([`LiveNav::imu`], [`LiveNav::gnss`]).
-#[derive(Debug)]
-pub enum LiveEvent<'a, T: Real> {
-    /// The run started from this setup (the alignment's start state in the configured one).
-    Started(&'a NavSetup),
-    /// The levelling failed (not at rest, or no sample): it starts again from the next sample.
-    Realigning(AlignError),
-    /// No fix came before the start's buffer filled: the levelling starts again.
-    NoFix,
-    /// A fix at this time was dropped.
-    FixDropped(f64, DropReason),
-    /// An IMU sample of the run (the record the replay would hold) and what it did.
-    Imu(&'a ImuRecord, &'a ImuStep<T>),
-    /// A fix of the run: its record (the decisions in its flags), the fusion when it was
-    /// fused, and the solution at its time.
-    Fix {
-        /// The fix as the replay would hold it.
-        record: &'a GnssRecord,
-        /// The fusion, when fused.
-        fused: Option<&'a Fused<T, NAV_Z>>,
-        /// The solution at the fix's time.
-        epoch: &'a Epoch<T>,
-    },
-}
+pub use inputs::{
+    record_of, DropReason, LiveConfig, LiveEvent, LiveFix, MAX_FIX_LEAD, MAX_IMU_JUMP, PENDING,
+};
 
 /// Attaches the run's observer (the online identification's bank) once the run is built.
 pub type Attach<T, const N: usize, O> = fn(&NavSetup, &NavReplay<T, N>) -> Result<O, NavError>;
@@ -217,6 +103,15 @@ pub struct LiveNav<T: Real, const N: usize, O = (), const B: usize = 256> {
     t_fix: f64,
     /// A sample time refused as a jump, which the next sample may confirm.
     suspect: f64,
+    /// The solution at the newest sample ([`present`](Self::present)).
+    present: Option<OutputPredictor<T>>,
+    /// The run's solution changed other than by mechanising a sample since the predictor's
+    /// copy (a step, a fix, an error): the copy is taken again.
+    moved: bool,
+    /// Samples the predictor has mechanised.
+    predicted: u64,
+    /// The predictor runs ([`set_present`](Self::set_present); on by default).
+    predicting: bool,
 }
 
 impl<T: Real, const N: usize, const B: usize> LiveNav<T, N, (), B> {
@@ -251,7 +146,67 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
             t_imu: f64::NAN,
             t_fix: f64::NAN,
             suspect: f64::NAN,
+            present: None,
+            moved: false,
+            predicted: 0,
+            predicting: true,
         }
+    }
+
+    /// The solution at the newest sample, once running: the run's, carried through the
+    /// samples still waiting for the latency budget ([`super::predictor`]). Without a budget
+    /// it is the run's own solution.
+    pub fn present(&self) -> Option<&OutputPredictor<T>> {
+        self.present.as_ref()
+    }
+
+    /// Runs the output predictor, or not (on by default): a board that reads only the run's
+    /// solutions saves its cost (about one more mechanisation per sample at 100 Hz with 4-Hz
+    /// fixes and a 0.25-s budget, BENCHMARKS.md "The present solution"); off, [`present`]
+    /// is none.
+    ///
+    /// [`present`]: Self::present
+    pub fn set_present(&mut self, on: bool) {
+        self.predicting = on;
+        self.moved = true;
+        self.predict();
+    }
+
+    /// Samples the output predictor has mechanised so far: each sample once as it arrives,
+    /// and the waiting samples again after each change of the run's solution (the
+    /// predictor's cost, in samples mechanised).
+    pub fn predicted_samples(&self) -> u64 {
+        self.predicted
+    }
+
+    /// Carries the predictor to the newest sample ([`OutputPredictor::carry`]).
+    fn predict(&mut self) {
+        let Phase::Running(run) = &self.phase else {
+            self.present = None;
+            return;
+        };
+        if !self.predicting {
+            self.present = None;
+            return;
+        }
+        let (n, ok) = OutputPredictor::carry(
+            &mut self.present,
+            run.navigator(),
+            self.moved,
+            self.buffer.iter(),
+        );
+        self.predicted = self.predicted.saturating_add(n);
+        self.moved = !ok;
+    }
+
+    /// Marks the run's solution as changed when `r` failed (a sample or fix half taken),
+    /// then carries the predictor to the newest sample.
+    fn predicted_after<R>(&mut self, r: Result<R, NavError>) -> Result<R, NavError> {
+        if r.is_err() {
+            self.moved = true;
+        }
+        self.predict();
+        r
     }
 
     /// The run, once started.
@@ -273,6 +228,17 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
     /// sample has not confirmed, is refused ([`NavError::BadTime`]) and changes nothing;
     /// while levelling, a time that goes back starts the levelling again from it.
     pub fn imu(
+        &mut self,
+        t: f64,
+        gyro: [f64; 3],
+        accel: [f64; 3],
+        out: &mut impl FnMut(LiveEvent<'_, T>),
+    ) -> Result<(), NavError> {
+        let r = self.take_imu(t, gyro, accel, out);
+        self.predicted_after(r)
+    }
+
+    fn take_imu(
         &mut self,
         t: f64,
         gyro: [f64; 3],
@@ -335,6 +301,15 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
         f: &LiveFix,
         out: &mut impl FnMut(LiveEvent<'_, T>),
     ) -> Result<(), NavError> {
+        let r = self.take_gnss(f, out);
+        self.predicted_after(r)
+    }
+
+    fn take_gnss(
+        &mut self,
+        f: &LiveFix,
+        out: &mut impl FnMut(LiveEvent<'_, T>),
+    ) -> Result<(), NavError> {
         let plausible = f.t.is_finite() && f.t <= self.t_imu + MAX_FIX_LEAD;
         if !self.t_imu.is_nan() && !plausible {
             out(LiveEvent::FixDropped(f.t, DropReason::Ahead));
@@ -372,6 +347,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
                     out(LiveEvent::FixDropped(f.t, DropReason::BeforeStart));
                 } else if f.t <= run.time() && self.pending.is_empty() {
                     let (cfg, planner) = (&self.cfg, &mut self.planner);
+                    self.moved = true;
                     take_fix(run, cfg, planner, f, out)?;
                 } else {
                     self.queue(f, out);
@@ -509,10 +485,11 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
     /// The end of the stream (a log's end, or before a shutdown): the samples still waiting
     /// for the latency budget are mechanised, each followed by the queued fixes it passes.
     pub fn flush(&mut self, out: &mut impl FnMut(LiveEvent<'_, T>)) -> Result<(), NavError> {
-        match self.phase {
+        let r = match self.phase {
             Phase::Running(_) => self.drain_to(f64::INFINITY, out),
             _ => Ok(()),
-        }
+        };
+        self.predicted_after(r)
     }
 
     /// Mechanises the buffered samples older than the latency budget, each followed by the
@@ -544,9 +521,13 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
             return Ok(());
         };
         let step = run.imu(record)?;
+        // A filter step changes the solution (its aiding, a retuned model) and the sensor
+        // errors removed: the predictor copies the run again.
+        self.moved |= step.stepped;
         out(LiveEvent::Imu(record, &step));
         while let Some(f) = self.pending.front().copied().filter(|f| f.t <= record.t) {
             self.pending.pop_front();
+            self.moved = true;
             take_fix(run, &self.cfg, &mut self.planner, &f, out)?;
         }
         Ok(())
@@ -572,32 +553,4 @@ fn take_fix<T: Real, const N: usize, O: NavObserver<T, N>>(
         epoch: &epoch,
     });
     Ok(())
-}
-
-/// The replay record of the fix `f` with the decisions `plan`.
-pub fn record_of(f: &LiveFix, plan: &FixPlan, use_velocity: bool) -> GnssRecord {
-    let f32x3 = |v: [f64; 3]| v.map(|x| x as f32);
-    let nan3 = [f32::NAN; 3];
-    // A heading needs the velocity it comes from.
-    let heading = plan.heading.filter(|_| f.vel.is_some());
-    let mut flags = 0;
-    for (on, bit) in [
-        (plan.withheld, gnss_flags::WITHHELD),
-        (heading.is_some(), gnss_flags::HEADING),
-        (plan.fuse, gnss_flags::FUSE),
-        (use_velocity, gnss_flags::VELOCITY),
-    ] {
-        if on {
-            flags |= bit;
-        }
-    }
-    GnssRecord {
-        t: f.t,
-        pos: f.pos,
-        vel: f.vel.map_or(nan3, f32x3),
-        sd_pos: f.sd_pos.map_or(nan3, f32x3),
-        sd_vel: f.sd_vel.map_or(nan3, f32x3),
-        flags,
-        yaw: heading.unwrap_or(0.0),
-    }
 }
