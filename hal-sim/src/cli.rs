@@ -111,6 +111,15 @@ pub enum Command {
         /// the host's). Not with --identify: pass the identified model and options instead.
         #[arg(long, conflicts_with = "identify")]
         qemu_elf: Option<PathBuf>,
+        /// Also stream the log through the live loop as a navigation computer receives it,
+        /// each fix DELAY [s] after its time, the samples held LATENCY [s] for them, and write
+        /// the solution at the newest sample (the output predictor) at every sample to
+        /// present.csv (the truth CSV's columns) and its figures to present.json (with --truth,
+        /// against the truth; else against the run's own later solution). The stream withholds
+        /// nothing (no outage schedule) and runs no online identification.
+        #[arg(long, value_delimiter = ',', value_name = "DELAY,LATENCY",
+              conflicts_with_all = ["identify", "adapt", "diagnose"])]
+        present: Option<Vec<f64>>,
         /// Added to every IMU time [s] (a residual logging delay).
         #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
         imu_time_shift: f64,

@@ -64,6 +64,7 @@ fn main() -> Result<()> {
             adapt_flat_waits,
             adapt_exit_z,
             qemu_elf,
+            present,
         } => {
             // Read first: a bad truth file should stop the command before the run.
             let truth_rows = truth
@@ -210,6 +211,19 @@ fn main() -> Result<()> {
                     None
                 },
             };
+            // Checked before the run, which it follows.
+            let present = present
+                .map(|p| {
+                    <[f64; 2]>::try_from(p)
+                        .ok()
+                        .filter(|[d, l]| d.is_finite() && l.is_finite() && *l >= 0.0)
+                        .ok_or_else(|| {
+                            anyhow::anyhow!(
+                                "--present: expected DELAY,LATENCY, finite, LATENCY >= 0"
+                            )
+                        })
+                })
+                .transpose()?;
             let identify = identify.then_some(if identify_axes {
                 hal_sim::nav::identify::Axes::Tested
             } else {
@@ -248,6 +262,15 @@ fn main() -> Result<()> {
             };
             hal_sim::nav::records::write_outputs(&out, &run, cmp.as_ref(), id.as_ref(), &[])?;
             println!("{}", serde_json::to_string_pretty(&run.summary)?);
+            if let Some([delay, latency]) = present {
+                let s = hal_sim::present::write_present(
+                    &args,
+                    truth_rows.as_deref(),
+                    (delay, latency),
+                    &out,
+                )?;
+                eprintln!("{s}");
+            }
             if let Some(elf) = qemu_elf {
                 let imu = hal_sim::nav_io::read_imu_csv(&args.imu)?;
                 let fixes = hal_sim::nav_io::read_gnss_any(&args.gnss, args.max_q)?;

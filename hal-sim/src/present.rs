@@ -91,6 +91,25 @@ pub struct PresentRun {
     pub predicted: u64,
     /// Changes of the run's solution other than by a sample: filter steps, fixes, the start.
     pub changes: u64,
+    /// The present solution after every sample once running (the truth CSV's columns).
+    pub rows: Vec<TruthRow>,
+}
+
+/// The present solution as a row of the truth CSV's columns (no sensor errors).
+fn row_of(now: &imu_ident::nav::predictor::OutputPredictor<f32>) -> TruthRow {
+    let ins = now.ins();
+    let (p, v) = (ins.position(), ins.velocity());
+    let (r, pi, y) = ins.attitude_f64().euler();
+    TruthRow {
+        t: now.time(),
+        lat_deg: p.lat.to_degrees(),
+        lon_deg: p.lon.to_degrees(),
+        h: p.h,
+        vel_ned: [v.x, v.y, v.z].map(f64::from),
+        rpy_deg: [r, pi, y].map(f64::to_degrees),
+        gyro_bias: None,
+        accel_bias: None,
+    }
 }
 
 /// The bits of a solution: latitude, longitude, height, velocity and attitude.
@@ -177,6 +196,7 @@ pub fn present_run(
         let (Some(run), Some(now)) = (nav.run(), nav.present()) else {
             continue;
         };
+        out.rows.push(row_of(now));
         let c = changes.get();
         let ins = run.navigator().ins();
         let (p, q) = (now.ins().position(), ins.position());
@@ -213,4 +233,85 @@ pub fn present_run(
     out.predicted = nav.predicted_samples();
     out.changes = changes.get();
     Ok(out)
+}
+
+/// Median, 95th percentile, worst and RMS of `v`.
+fn stats(v: &[f64]) -> serde_json::Value {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let at = |q: f64| {
+        s.get(((s.len().max(1) - 1) as f64 * q).round() as usize)
+            .copied()
+    };
+    let rms = (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
+    serde_json::json!({ "median": at(0.5), "p95": at(0.95), "worst": at(1.0), "rms": rms })
+}
+
+/// `hal-sim nav --present DELAY,LATENCY`: the log of `args` streamed live (module docs), every
+/// fix `delay` [s] late within the budget `latency` [s]; writes `present.csv` (the present
+/// solution after every sample, the truth CSV's columns) and `present.json` (with a truth,
+/// the three solutions' errors from the first sample on; without, the distances from the
+/// run's own later solution) into `out`. Returns a one-line summary.
+pub fn write_present(
+    args: &NavArgs,
+    truth: Option<&[TruthRow]>,
+    (delay, latency): (f64, f64),
+    out: &Path,
+) -> Result<String> {
+    if !(delay.is_finite() && latency.is_finite() && latency >= 0.0) {
+        anyhow::bail!(
+            "--present: DELAY and LATENCY must be finite, LATENCY >= 0 (got {delay}, {latency})"
+        );
+    }
+    let imu = crate::nav_io::read_imu_csv(&args.imu)?;
+    let fixes = crate::nav_io::read_gnss_any(&args.gnss, args.max_q)?;
+    let imu = crate::nav::setup::shifted_imu(args, &imu);
+    let r = present_run(args, &imu, &fixes, truth, (delay, latency, 0.0))?;
+    crate::nav_io::write_truth_csv(&out.join("present.csv"), &r.rows)?;
+    let names = ["present", "stale", "run"];
+    let mut errors = serde_json::Map::new();
+    for (k, name) in names.iter().enumerate() {
+        let pick =
+            |f: fn(&SolutionError) -> f64| r.errors.iter().map(|e| f(&e[k])).collect::<Vec<_>>();
+        errors.insert(
+            (*name).into(),
+            serde_json::json!({
+                "horizontal_m": stats(&pick(|e| e.horizontal)),
+                "velocity_m_s": stats(&pick(|e| e.velocity)),
+                "attitude_deg": stats(&pick(|e| e.attitude)),
+            }),
+        );
+    }
+    let json = serde_json::json!({
+        "delay_s": delay,
+        "latency_s": latency,
+        "samples": r.samples,
+        "rows": r.rows.len(),
+        "mechanised_per_sample": r.predicted as f64 / r.samples.max(1) as f64,
+        "compared_bit_for_bit": r.compared,
+        "differ": r.differ,
+        "errors_against_truth": if r.errors.is_empty() { serde_json::Value::Null } else { errors.into() },
+        "distance_from_the_run_m": {
+            "present": stats(&r.to_run.iter().map(|d| d[0]).collect::<Vec<_>>()),
+            "stale": stats(&r.to_run.iter().map(|d| d[1]).collect::<Vec<_>>()),
+        },
+    });
+    crate::output::write_string(
+        &out.join("present.json"),
+        &serde_json::to_string_pretty(&json)?,
+    )?;
+    let d = |k: usize| {
+        let v: Vec<f64> = r.to_run.iter().map(|x| x[k]).collect();
+        (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
+    };
+    Ok(format!(
+        "present: {} rows in present.csv (fixes {delay} s late, a {latency}-s budget); RMS distance \
+         from the run's later solution {:.3} m (stale {:.3} m); {} predictions compared bit for \
+         bit, {} differ; present.json",
+        r.rows.len(),
+        d(0),
+        d(1),
+        r.compared,
+        r.differ
+    ))
 }

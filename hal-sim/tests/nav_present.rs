@@ -132,3 +132,53 @@ fn real_drive_present_solution_stays_with_the_run() {
     );
     assert_cost_bounded(&r, 0.25);
 }
+
+/// `hal-sim nav --present DELAY,LATENCY` (`hal_sim::present::write_present`): `present.csv`
+/// is read back by the truth CSV's reader, one row per sample once running, the last at the
+/// last sample; `present.json` holds the figures the bench prints; a negative budget is refused
+/// with the option's name, before anything is written.
+#[test]
+fn nav_present_writes_the_present_solution_in_the_truth_format() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let args = simulated_drive(dir.path(), 1.0 / 12.0, 65_801, true, false)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    let out = dir.path().join("out");
+    std::fs::create_dir_all(&out).unwrap_or_else(|e| panic!("{e}"));
+    let truth = read_truth_csv(&dir.path().join("truth.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+    let err = hal_sim::present::write_present(&args, None, (0.2, -1.0), &out)
+        .err()
+        .map(|e| format!("{e:#}"));
+    assert!(
+        err.as_deref().is_some_and(|e| e.contains("--present")),
+        "{err:?}"
+    );
+    assert!(!out.join("present.csv").exists());
+    let line = hal_sim::present::write_present(&args, Some(&truth), (0.2, 0.25), &out)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    eprintln!("{line}");
+    let rows = read_truth_csv(&out.join("present.csv")).unwrap_or_else(|e| panic!("{e:#}"));
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("present.json")).unwrap_or_else(|e| panic!("{e}")),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));
+    assert_eq!(json["rows"].as_u64(), Some(rows.len() as u64));
+    assert_eq!(json["differ"].as_u64(), Some(0));
+    // One row per sample from the start: after the 50-s levelling window (5000 samples) and
+    // the wait for the next 1-Hz fix, delivered 0.2 s late (at most 121 more).
+    let after = imu.len() - rows.len();
+    assert!(
+        (5000..=5121).contains(&after),
+        "{} rows, {} samples",
+        rows.len(),
+        imu.len()
+    );
+    assert_eq!(rows.last().map(|r| r.t), imu.last().map(|s| s.t));
+    assert!(rows.windows(2).all(|w| w[1].t > w[0].t));
+    let present = json["errors_against_truth"]["present"]["horizontal_m"]["rms"].as_f64();
+    let stale = json["errors_against_truth"]["stale"]["horizontal_m"]["rms"].as_f64();
+    assert!(
+        matches!((present, stale), (Some(p), Some(s)) if 5.0 * p < s),
+        "{present:?} {stale:?}"
+    );
+}
