@@ -20,6 +20,7 @@ use crate::nav_io::outages::north_east;
 use crate::nav_io::{GnssFix, ImuSample, TruthRow};
 use anyhow::{anyhow, Result};
 use imu_ident::nav::live::{LiveConfig, LiveEvent, LiveNav};
+use imu_ident::nav::predictor::Present;
 use imu_ident::nav::NAV_N;
 use imu_ident::strapdown::{Geodetic, Strapdown};
 use nalgebra::Vector3;
@@ -96,7 +97,7 @@ pub struct PresentRun {
 }
 
 /// The present solution as a row of the truth CSV's columns (no sensor errors).
-fn row_of(now: &imu_ident::nav::predictor::OutputPredictor<f32>) -> TruthRow {
+fn row_of(now: &Present<'_, f32>) -> TruthRow {
     let ins = now.ins();
     let (p, v) = (ins.position(), ins.velocity());
     let (r, pi, y) = ins.attitude_f64().euler();
@@ -196,7 +197,7 @@ pub fn present_run(
         let (Some(run), Some(now)) = (nav.run(), nav.present()) else {
             continue;
         };
-        out.rows.push(row_of(now));
+        out.rows.push(row_of(&now));
         let c = changes.get();
         let ins = run.navigator().ins();
         let (p, q) = (now.ins().position(), ins.position());
@@ -300,17 +301,18 @@ pub fn write_present(
         &out.join("present.json"),
         &serde_json::to_string_pretty(&json)?,
     )?;
-    let d = |k: usize| {
-        let v: Vec<f64> = r.to_run.iter().map(|x| x[k]).collect();
-        (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
+    let rms = |k: &str| {
+        json["distance_from_the_run_m"][k]["rms"]
+            .as_f64()
+            .unwrap_or(f64::NAN)
     };
     Ok(format!(
         "present: {} rows in present.csv (fixes {delay} s late, a {latency}-s budget); RMS distance \
          from the run's later solution {:.3} m (stale {:.3} m); {} predictions compared bit for \
          bit, {} differ; present.json",
         r.rows.len(),
-        d(0),
-        d(1),
+        rms("present"),
+        rms("stale"),
         r.compared,
         r.differ
     ))

@@ -31,7 +31,9 @@
 //!   after the propagation: gate + two sequential updates + closed-loop correction; none
 //!   without the constraint), `gnss` (a fix fused: gate + six sequential updates +
 //!   closed-loop correction); in a live run, `live` (every call, whatever it did: the loop's
-//!   whole cost, the output predictor's included); `stack` for start-up and for the run.
+//!   whole cost, the output predictor's included; with a latency budget the fixes are fused
+//!   inside the sample calls that pass them, so `imu` and `step` include them and `gnss`
+//!   counts none); `stack` for start-up and for the run.
 //! - Exit: status 0 after a complete, checksum-valid replay; 1 otherwise.
 //!
 //! ```text

@@ -56,6 +56,31 @@ use crate::strapdown::{Increment, Strapdown};
 use crate::Real;
 use nalgebra::Vector3;
 
+/// The solution at the newest sample ([`LiveNav::present`](super::live::LiveNav::present)):
+/// the predictor's, or the run's own when no sample waits for the budget.
+#[derive(Debug, Clone, Copy)]
+pub struct Present<'a, T: Real> {
+    t: f64,
+    ins: &'a Strapdown<T>,
+}
+
+impl<'a, T: Real> Present<'a, T> {
+    /// The solution `ins` at time `t` [s].
+    pub fn new(t: f64, ins: &'a Strapdown<T>) -> Self {
+        Self { t, ins }
+    }
+
+    /// Position, velocity and attitude at [`time`](Self::time).
+    pub fn ins(&self) -> &'a Strapdown<T> {
+        self.ins
+    }
+
+    /// Time of the solution [s]: the newest sample's.
+    pub fn time(&self) -> f64 {
+        self.t
+    }
+}
+
 /// The run's mechanisation carried ahead to the newest sample (module docs).
 #[derive(Debug, Clone)]
 pub struct OutputPredictor<T: Real> {
@@ -134,13 +159,8 @@ impl<T: Real> OutputPredictor<T> {
         Ok(())
     }
 
-    /// The predicted mechanisation: position, velocity and attitude at [`time`](Self::time).
-    pub fn ins(&self) -> &Strapdown<T> {
-        &self.ins
-    }
-
-    /// Time of the predicted solution [s]: the newest sample's.
-    pub fn time(&self) -> f64 {
-        self.t
+    /// The predicted solution.
+    pub fn present(&self) -> Present<'_, T> {
+        Present::new(self.t, &self.ins)
     }
 }

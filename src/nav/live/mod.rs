@@ -57,7 +57,7 @@
 mod inputs;
 
 use super::navigator::NavObserver;
-use super::predictor::OutputPredictor;
+use super::predictor::{OutputPredictor, Present};
 use super::replay::{ImuRecord, NavSetup};
 use super::run::NavReplay;
 pub use super::start::{Alignment, FixPlan, FixPlanner, StartState};
@@ -154,10 +154,25 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
     }
 
     /// The solution at the newest sample, once running: the run's, carried through the
-    /// samples still waiting for the latency budget ([`super::predictor`]). Without a budget
-    /// it is the run's own solution.
-    pub fn present(&self) -> Option<&OutputPredictor<T>> {
-        self.present.as_ref()
+    /// samples still waiting for the latency budget ([`super::predictor`]); the run's own
+    /// when none waits (no budget: nothing is copied). None while levelling, when switched
+    /// off ([`set_present`](Self::set_present)), and after a sample the predictor's copy
+    /// refused, until the run's next change.
+    pub fn present(&self) -> Option<Present<'_, T>> {
+        let Phase::Running(run) = &self.phase else {
+            return None;
+        };
+        if !self.predicting {
+            return None;
+        }
+        match &self.present {
+            Some(p) => Some(p.present()),
+            None if self.buffer.is_empty() => {
+                let nav = run.navigator();
+                Some(Present::new(nav.time(), nav.ins()))
+            }
+            None => None,
+        }
     }
 
     /// Runs the output predictor, or not (on by default): a board that reads only the run's
@@ -185,8 +200,11 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
             self.present = None;
             return;
         };
-        if !self.predicting {
+        if !self.predicting || self.buffer.is_empty() {
+            // Nothing to carry: the present is the run's own solution (`present`), and the
+            // next sample that waits takes a new copy.
             self.present = None;
+            self.moved = false;
             return;
         }
         let (n, ok) = OutputPredictor::carry(
