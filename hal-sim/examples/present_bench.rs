@@ -10,12 +10,19 @@
 //! `real=1`: the real drive (`../shared/data/real/rtklib-drive-0708`, 100 Hz and 4-Hz RTK
 //! fixes, no outage), which has no truth at the IMU's rate: only that distance.
 //!
+//! Beside each run, the same log with its fixes on time and no budget (the host's batch run):
+//! with a truth, the late run's RMS over the on-time run's per seed; on the real drive, the
+//! horizontal distance of the present solution from the on-time run's at every sample. With
+//! `latency=0` this measures a late fix taken after the samples it missed
+//! (`imu_ident::nav::navigator::history`; BENCHMARKS.md "Late fixes without a budget").
+//!
 //! ```text
 //! cargo run --release -p hal-sim --example present_bench -- [first=65800] [seeds=10] [minutes=20] [delay=0.25] [latency=0.3] [nhc=1] [real=0]
 //! ```
 
 use hal_sim::nav::NavArgs;
-use hal_sim::nav_io::{read_gnss_csv, read_imu_csv, read_truth_csv};
+use hal_sim::nav_io::TruthRow;
+use hal_sim::nav_io::{outages::north_east, read_gnss_csv, read_imu_csv, read_truth_csv};
 use hal_sim::present::{present_run, simulated_drive, PresentRun, SolutionError};
 
 #[path = "bench_args/mod.rs"]
@@ -46,6 +53,20 @@ fn to_run_line(r: &PresentRun) -> String {
     s
 }
 
+/// The horizontal distance [m] of each row of `rows` from the row of `reference` at the same
+/// time (rows without one are skipped).
+fn distances(rows: &[TruthRow], reference: &[TruthRow]) -> Vec<f64> {
+    let at: std::collections::HashMap<u64, &TruthRow> =
+        reference.iter().map(|r| (r.t.to_bits(), r)).collect();
+    rows.iter()
+        .filter_map(|r| {
+            let o = at.get(&r.t.to_bits())?;
+            let ne = north_east(o.lat_deg, o.lon_deg, o.h, r.lat_deg, r.lon_deg);
+            Some(ne[0].hypot(ne[1]))
+        })
+        .collect()
+}
+
 fn real(delay: f64, latency: f64) -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
     let Some((args, imu, fixes)) = hal_sim::nav::real::drive_0708(dir.path())? else {
@@ -56,6 +77,19 @@ fn real(delay: f64, latency: f64) -> anyhow::Result<()> {
         ..args
     };
     let r = present_run(&args, &imu, &fixes, None, (delay, latency, 120.0))?;
+    let on_time = present_run(&args, &imu, &fixes, None, (0.0, 0.0, 120.0))?;
+    let t_settle = imu.first().map_or(0.0, |s| s.t) + 120.0;
+    let rows: Vec<TruthRow> = r.rows.iter().filter(|w| w.t >= t_settle).cloned().collect();
+    let mut d = distances(&rows, &on_time.rows);
+    println!(
+        "real drive: the present solution from the on-time run's at {} samples from 2 min on: \
+         median {:.4} / p95 {:.4} / worst {:.4} m, RMS {:.4} m",
+        d.len(),
+        pct(&mut d, 0.5),
+        pct(&mut d, 0.95),
+        pct(&mut d, 1.0),
+        rms(&d)
+    );
     println!(
         "real drive, fixes {delay} s late, budget {latency} s: {} samples, {} distances; from \
          the run's solution at the same time (median/p95/worst):{}; compared {} (differ {}), \
@@ -85,6 +119,8 @@ fn main() -> anyhow::Result<()> {
     let mut rms_of = vec![[vec![], vec![], vec![]]; 3];
     let mut worst_of = vec![[vec![], vec![], vec![]]; 3];
     let (mut compared, mut differ, mut cost) = (0, 0, vec![]);
+    // Per quantity: the run's per-seed RMS over the on-time run's.
+    let mut over_on_time = [vec![], vec![], vec![]];
     for seed in first..first + seeds {
         let dir = tempfile::tempdir()?;
         let args = simulated_drive(dir.path(), minutes / 60.0, seed, false, nhc)?;
@@ -92,7 +128,13 @@ fn main() -> anyhow::Result<()> {
         let fixes = read_gnss_csv(&args.gnss)?;
         let truth = read_truth_csv(&dir.path().join("truth.csv"))?;
         let r = present_run(&args, &imu, &fixes, Some(&truth), (delay, latency, 120.0))?;
+        let on_time = present_run(&args, &imu, &fixes, Some(&truth), (0.0, 0.0, 120.0))?;
         let q = |s: &SolutionError| [s.horizontal, s.velocity, s.attitude];
+        for (j, list) in over_on_time.iter_mut().enumerate() {
+            let late: Vec<f64> = r.errors.iter().map(|e| q(&e[2])[j]).collect();
+            let ok: Vec<f64> = on_time.errors.iter().map(|e| q(&e[2])[j]).collect();
+            list.push(rms(&late) / rms(&ok));
+        }
         let mut line = format!("seed {seed}:");
         for (k, name) in names.iter().enumerate() {
             line += &format!(" {name}");
@@ -152,6 +194,18 @@ fn main() -> anyhow::Result<()> {
         println!("{line}");
     }
     println!("{ratios}");
+    let mut line =
+        String::from("run / on-time run (no budget), per-seed RMS ratio, median / p95 / worst:");
+    for (j, name) in ["horizontal", "velocity", "attitude"].iter().enumerate() {
+        let r = &mut over_on_time[j];
+        line += &format!(
+            " {name} {:.4}/{:.4}/{:.4};",
+            pct(r, 0.5),
+            pct(r, 0.95),
+            pct(r, 1.0)
+        );
+    }
+    println!("{line}");
     println!(
         "bit for bit: {compared} predictions compared, {differ} differ; predictor cost \
          {:.2}/{:.2}/{:.2} samples mechanised per sample",

@@ -15,10 +15,10 @@
 //!   mean of `dphi, dv, dp` is only driven by the change of the estimated sensor errors within
 //!   the step (`(1 - e^{-dt/tau}) b`, below 0.4 % of `b` for `tau >= 300 s` at 1 Hz), which is
 //!   dropped. The sensor-error part of `x` is predicted as usual.
-//! - [`Navigator::gnss`]: a fix is fused at its own time `t_f <= t` (the solution's position
-//!   and velocity are moved back by `t - t_f`, at most one IMU interval, along the velocity and
-//!   the last sample's velocity change, over which the mechanised velocity is linear); the
-//!   filter is first propagated
+//! - [`Navigator::gnss`]: a fix is fused at its own time `t_f <= t`: the solution's position
+//!   and velocity are moved back by `t - t_f`, along the last sample's velocity change (over
+//!   which the mechanised velocity is linear) and, for a late fix, the velocities kept at the
+//!   sample boundaries of the last half second ([`history`]); the filter is first propagated
 //!   over the part of the step already elapsed. The first fix after a step restarts the step
 //!   clock at its time of validity, so fixes at the filter rate land on the steps, and faster
 //!   fixes (4-Hz RTK) each propagate over part of a step while the steps keep their cadence,
@@ -146,6 +146,9 @@ pub struct Navigator<T: Real, const N: usize, O = ()> {
     /// interval), with which a fix inside the sample is compared with the solution
     /// interpolated to its time ([`Navigator::gnss`]).
     a_sample: Vector3<T>,
+    /// The velocity at the sample boundaries of the last half second, for late fixes
+    /// ([`history`]).
+    history: VelocityHistory<T>,
     s_g: Vector3<T>,
     s_a: Vector3<T>,
     b_g: Vector3<T>,
@@ -199,6 +202,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             w_b: Vector3::zeros(),
             c_sample: Matrix3::identity(),
             a_sample: Vector3::zeros(),
+            history: VelocityHistory::new(),
             s_g: Vector3::zeros(),
             s_a: Vector3::zeros(),
             b_g: Vector3::zeros(),
@@ -233,6 +237,7 @@ impl<T: Real, const N: usize> Navigator<T, N> {
             w_b: self.w_b,
             c_sample: self.c_sample,
             a_sample: self.a_sample,
+            history: self.history,
             s_g: self.s_g,
             s_a: self.s_a,
             b_g: self.b_g,
@@ -383,6 +388,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
             .set_attitude(crate::strapdown::Quat::from_euler(roll, pitch, yaw))?;
         if let Some(v) = vel {
             self.ins.set_velocity(v)?;
+            self.history.clear();
         }
         restart_heading(&mut self.kf, &self.scale, sd, vel.is_some());
         self.obs.heading_restarted(&self.scale, sd, vel.is_some());
@@ -434,6 +440,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
         let c = self.ins.dcm();
         self.c_sample = c;
         let v0 = self.ins.velocity();
+        self.history.push(self.t, v0);
         self.ins.step(&comp, dt)?;
         self.a_sample = (self.ins.velocity() - v0) / dt;
         self.t_prev = self.t;
@@ -508,7 +515,9 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
         let x = self.state_si();
         let v3 = |k: usize| Vector3::new(x[k], x[k + 1], x[k + 2]);
         let (phi, dv, dp) = (v3(nav_idx::ATT), v3(nav_idx::VEL), v3(nav_idx::POS));
+        let v_before = self.ins.velocity();
         self.ins.correct(&phi, &dv, &dp)?;
+        self.history.shift(&(self.ins.velocity() - v_before));
         self.obs.corrected(&self.kf.x, &self.p0);
         for v in self.kf.x.iter_mut().take(nav_idx::SENSOR) {
             *v = T::zero();
@@ -622,7 +631,9 @@ pub fn restart_heading<T: Real, const N: usize>(
 }
 
 mod aiding;
+pub mod history;
 mod observer;
+use history::VelocityHistory;
 pub use observer::{NavObserver, ObservationKind};
 #[cfg(test)]
 pub(crate) mod tests;

@@ -13,7 +13,7 @@ use super::rest::{RestDetector, Zupt};
 use super::{NavInit, NavPoint, StrapdownErrorModel, NAV_Z};
 use crate::filter::Fused;
 use crate::model::ModelError;
-use crate::strapdown::{earth, Geodetic, Increment, Strapdown};
+use crate::strapdown::{Geodetic, Increment, Strapdown};
 use crate::Real;
 use nalgebra::Vector3;
 
@@ -125,9 +125,11 @@ pub struct ImuStep<T> {
 pub struct Epoch<T> {
     /// Epoch time [s].
     pub t: f64,
-    /// IMU position moved back along the velocity to the epoch.
+    /// IMU position moved back to the epoch ([`Navigator::solution_at`]).
+    ///
+    /// [`Navigator::solution_at`]: super::Navigator::solution_at
     pub pos: Geodetic,
-    /// NED velocity [m/s].
+    /// NED velocity [m/s] at the epoch.
     pub vel: [T; 3],
     /// Standard deviations of the position error N, E, D [m].
     pub sd_pos: [T; 3],
@@ -138,17 +140,9 @@ pub struct Epoch<T> {
 /// Flag of [`Epoch::flags`]: the fix was offered to the filter and gated.
 pub const EPOCH_GATED: u8 = 0x80;
 
-/// `p` moved by the NED offset `d` [m] (first order; offsets of metres): the epoch solution
-/// moved back to the fix time, on the host (`hal_sim::nav::move_by`) and the firmware alike.
-pub fn move_by(p: &Geodetic, d: &Vector3<f64>) -> Geodetic {
-    let rn = earth::radius_north(p.lat) + p.h;
-    let re = earth::radius_east(p.lat) + p.h;
-    Geodetic {
-        lat: p.lat + d.x / rn,
-        lon: p.lon + d.y / (re * libm::cos(p.lat)),
-        h: p.h - d.z,
-    }
-}
+/// `p` moved by the NED offset `d` (the geodetic step of the strapdown layer, here where the
+/// epochs and the start use it).
+pub use crate::strapdown::move_by;
 
 /// The rates of the record `r` in `T`: `(gyro [rad/s], specific force [m/s^2])`.
 pub fn record_rates<T: Real>(r: &ImuRecord) -> (Vector3<T>, Vector3<T>) {
@@ -341,12 +335,10 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> NavReplay<T, N, O> {
     }
 
     /// The solution at the epoch `r` (after [`gnss`](Self::gnss) for it), moved back from the
-    /// last IMU time; `fused` is what [`gnss`](Self::gnss) returned.
+    /// last IMU time ([`Navigator::solution_at`]); `fused` is what [`gnss`](Self::gnss)
+    /// returned.
     pub fn epoch(&self, r: &GnssRecord, fused: Option<&Fused<T, NAV_Z>>) -> Epoch<T> {
-        let ins = self.nav.ins();
-        let v = ins.velocity();
-        let v64 = v.map(|x| x.as_f64());
-        let pos = move_by(&ins.position(), &(-v64 * (self.t - r.t)));
+        let (pos, v) = self.nav.solution_at(r.t);
         let sd = self.nav.sigma_si();
         let p = super::nav_idx::POS;
         let sd_pos = [p, p + 1, p + 2].map(|i| sd.get(i).copied().unwrap_or_else(T::zero));

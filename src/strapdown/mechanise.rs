@@ -83,6 +83,19 @@ pub struct Geodetic {
     pub h: f64,
 }
 
+/// `p` moved by the NED offset `d` [m] (first order; offsets of metres): a solution moved
+/// back to a fix's time (`nav::navigator::Navigator::solution_at`, on the host and the
+/// firmware alike), an antenna moved to the IMU.
+pub fn move_by(p: &Geodetic, d: &Vector3<f64>) -> Geodetic {
+    let rn = earth::radius_north(p.lat) + p.h;
+    let re = earth::radius_east(p.lat) + p.h;
+    Geodetic {
+        lat: p.lat + d.x / rn,
+        lon: p.lon + d.y / (re * libm::cos(p.lat)),
+        h: p.h - d.z,
+    }
+}
+
 /// The integrated IMU output over one sample interval `(t - dt, t]`, body frame (FRD).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Increment<T: Real> {

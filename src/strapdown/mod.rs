@@ -19,6 +19,6 @@ mod tests;
 pub use align::{heading_from_course, level_from_specific_force, AlignError, Leveller};
 pub use attitude::{skew, Quat};
 pub use mechanise::{
-    body_increments, coning, sculling, Corrections, Geodetic, Increment, Strapdown, StrapdownError,
-    MAX_LAT, REBASE_M,
+    body_increments, coning, move_by, sculling, Corrections, Geodetic, Increment, Strapdown,
+    StrapdownError, MAX_LAT, REBASE_M,
 };

@@ -132,8 +132,9 @@ impl EpochRecord {
         t_now: f64,
     ) {
         let ins = nav.ins();
-        let v = ins.velocity().map(|x| x.as_f64());
-        let back = super::move_by(&ins.position(), &(-v * (t_now - t)));
+        // The run's own epoch solution (`imu_ident::nav::run::Run::epoch`): the firmware's.
+        let (back, v) = nav.solution_at(t);
+        let v = v.map(|x| x.as_f64());
         self.lat_deg = back.lat.to_degrees();
         self.lon_deg = back.lon.to_degrees();
         self.h = back.h;

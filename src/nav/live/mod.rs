@@ -8,15 +8,19 @@
 //! The order of a stream: the host takes a fix after the first IMU sample at or past its time.
 //! A fix that arrives before that sample waits in a small queue ([`PENDING`] fixes). A fix
 //! that arrives after it (a receiver's latency) is taken at once, after the samples it missed,
-//! unless the samples wait for it: with a latency budget ([`LiveConfig::latency`]) each sample
-//! is mechanised that long after it arrived, so every fix up to that late is taken in the
-//! host's order, at the price of a solution that much behind the newest sample (the delayed
-//! fusion horizon of PX4's EKF2; [`LiveNav::present`] is its output predictor, the solution
-//! carried to the newest sample, [`super::predictor`]). Measured on a simulated drive
-//! with fixes 0.25 s late: up to 44 sigma off the host's run without a budget (the navigator
-//! moves a late fix's position back along the velocity, but compares its velocity with the
-//! newest one, and the fix is gated in turns), bit for bit with a 0.3-s budget
-//! (`hal-sim/tests/nav_live.rs`).
+//! compared with the solution moved back to its time along the velocities the navigator keeps
+//! for a second ([`super::navigator::history`]): the run then differs from the host's by
+//! taking each correction that much later. Or the samples wait for it: with a latency budget
+//! ([`LiveConfig::latency`]) each sample is mechanised that long after it arrived, so every
+//! fix up to that late is taken in the host's order, bit for bit, at the price of a solution
+//! that much behind the newest sample (the delayed fusion horizon of PX4's EKF2;
+//! [`LiveNav::present`] is its output predictor, the solution carried to the newest sample,
+//! [`super::predictor`]), which costs a mechanisation of the waiting samples per change of the
+//! run. Measured on a simulated drive with fixes 0.25 s late (`hal-sim/tests/nav_live.rs`):
+//! without a budget, within 1.21 sigma of the host's run at every epoch (44 sigma before the
+//! history); with a 0.3-s budget, bit for bit. On 20 drives and on the real drive the two
+//! ways are equally accurate at the newest sample (BENCHMARKS.md "Late fixes without a
+//! budget").
 //!
 //! The start is the fix nearest the end of the levelling window, before or after it; the
 //! samples after the window wait in a buffer of `B` samples until a fix after the window has
@@ -73,6 +77,9 @@ pub use inputs::{
 pub type Attach<T, const N: usize, O> = fn(&NavSetup, &NavReplay<T, N>) -> Result<O, NavError>;
 
 /// Where the start is.
+// The run is large and the other phases small: boxing it is not an option without a heap, and
+// the live loop sits in one static, so the enum's size is the run's either way.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone)]
 enum Phase<T: Real, const N: usize, O> {
     /// Levelling.
