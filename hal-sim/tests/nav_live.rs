@@ -249,6 +249,71 @@ fn a_latency_budget_takes_late_fixes_in_the_host_order() {
     );
 }
 
+/// The epochs of a live run in `T` on `imu` and `fixes`, each fix delivered `delay` s after
+/// its time, without a latency budget.
+fn late_epochs<T: imu_ident::Real>(
+    args: &NavArgs,
+    imu: &[ImuSample],
+    fixes: &[GnssFix],
+    delay: f64,
+) -> Vec<Epoch<T>> {
+    let mut nav = LiveNav::<T, NAV_N>::new(
+        settings(args),
+        live_config(args),
+        LiveNav::<T, NAV_N>::no_observer,
+    );
+    let mut epochs = Vec::new();
+    let mut take = |e: LiveEvent<'_, T>| {
+        if let LiveEvent::Fix { epoch, .. } = e {
+            epochs.push(*epoch);
+        }
+    };
+    let mut k = 0;
+    for s in imu {
+        while k < fixes.len() && fixes[k].t + delay < s.t {
+            nav.gnss(&live_fix(&fixes[k]), &mut take)
+                .unwrap_or_else(|e| panic!("fix at {}: {e:?}", fixes[k].t));
+            k += 1;
+        }
+        nav.imu(s.t, s.gyro, s.accel, &mut take)
+            .unwrap_or_else(|e| panic!("sample at {}: {e:?}", s.t));
+    }
+    nav.flush(&mut take)
+        .unwrap_or_else(|e| panic!("flush: {e:?}"));
+    epochs
+}
+
+/// Single precision on the late-fix path (`imu_ident::nav::navigator::history`: velocities in
+/// `T`, their integral in `f64`): fixes 0.25 s late without a budget, the `f32` live run
+/// against the `f64` one at every epoch within 0.05 sigma of position, the core's `f32` bar
+/// (6.1e-4 sigma on 2026-12-01).
+#[test]
+fn late_fixes_in_single_precision_follow_double() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let args = drive(dir.path(), 18, true, true);
+    let (imu, fixes) = load(&args);
+    let e32 = late_epochs::<f32>(&args, &imu, &fixes, 0.25);
+    let e64 = late_epochs::<f64>(&args, &imu, &fixes, 0.25);
+    assert!(e32.len() > 300, "{} epochs", e32.len());
+    assert_eq!(e32.len(), e64.len());
+    let mut worst = 0.0f64;
+    for (a, b) in e32.iter().zip(&e64) {
+        assert_eq!(a.t.to_bits(), b.t.to_bits());
+        let ne = hal_sim::nav_io::outages::north_east(
+            b.pos.lat.to_degrees(),
+            b.pos.lon.to_degrees(),
+            b.pos.h,
+            a.pos.lat.to_degrees(),
+            a.pos.lon.to_degrees(),
+        );
+        for (d, sd) in [ne[0], ne[1], a.pos.h - b.pos.h].iter().zip(b.sd_pos) {
+            worst = worst.max(d.abs() / sd);
+        }
+    }
+    eprintln!("fixes 0.25 s late, no budget: f32 against f64, worst position {worst:.2e} sigma");
+    assert!(worst < 0.05, "{worst} sigma");
+}
+
 /// A level IMU at rest at 100 Hz from `t0` for `secs` seconds (the specific force `f`).
 fn at_rest(t0: f64, secs: f64, f: [f64; 3]) -> Vec<ImuSample> {
     let n = (secs * 100.0).round() as usize;

@@ -3,7 +3,9 @@
 //! the core's decoders (`imu_ident::nav::serial`) into the firmware's live loop, as a board's
 //! ports would feed it; against the host run on what the wire carried (the samples in `f32`,
 //! the fixes as decoded: `nav_wire.rs` shows that host run is the wire's on the host, bit for
-//! bit). Bars as for the live replay (`live_under_qemu`): the platform's maths only.
+//! bit). Bars as for the live replay (`live_under_qemu`): the platform's maths only. With every
+//! fix late and no budget, against the host's live runs on the same inputs (the late path,
+//! `imu_ident::nav::navigator::history`).
 
 use super::{at_parity, drive_nhc, drive_online, firmware_elf, real_drive, streamed};
 use hal_sim::nav::{run_with, NavArgs, NavRun};
@@ -11,6 +13,9 @@ use hal_sim::nav_io::ubx::{as_sent, ubx_fixes};
 use hal_sim::nav_io::{read_gnss_csv, read_imu_csv};
 use hal_sim::nav_qemu::{run_nav_firmware_wire, wire_of, NavFirmwareRun};
 use hal_sim::qemu::QemuConfig;
+use imu_ident::nav::live::{LiveEvent, LiveNav};
+use imu_ident::nav::serial::{feed, NavInput};
+use imu_ident::nav::{Epoch, NAV_N};
 
 /// Runs `args`' log over the wire under QEMU; checks it fits the F405, that the wire lost
 /// nothing, and the positions and sigmas against the host's `f32` run (within `bar32` sigma)
@@ -71,4 +76,79 @@ fn qemu_firmware_on_the_serial_wire_of_the_real_drive_matches_the_host() {
     };
     let (fw, _) = wire_under_qemu(&elf, &args, 1e-2);
     assert!(fw.epochs.len() > 2000, "{} epochs", fw.epochs.len());
+}
+
+/// The epochs of a host live run in `T` on the wire's `inputs` (no latency budget).
+fn host_live<T: imu_ident::Real>(args: &NavArgs, inputs: &[NavInput]) -> Vec<Epoch<T>> {
+    let mut nav = LiveNav::<T, NAV_N>::new(
+        hal_sim::nav::setup::settings(args),
+        hal_sim::nav::setup::live_config(args),
+        LiveNav::<T, NAV_N>::no_observer,
+    );
+    let mut epochs = Vec::new();
+    let mut take = |e: LiveEvent<'_, T>| {
+        if let LiveEvent::Fix { epoch, .. } = e {
+            epochs.push(*epoch);
+        }
+    };
+    for i in inputs {
+        let _ = feed(&mut nav, i, &mut take);
+    }
+    nav.flush(&mut take)
+        .unwrap_or_else(|e| panic!("flush: {e:?}"));
+    epochs
+}
+
+/// A receiver 0.25 s late and no latency budget (the board's other choice): every fix reaches
+/// the live loop 25 samples after its time and is compared with the solution moved back
+/// along the velocities the navigator keeps (`imu_ident::nav::navigator::history`). The
+/// emulated M4 against the host's live runs on what the wire carried, epoch by epoch: within
+/// 1e-3 sigma of position of the `f32` run and 0.05 sigma of the `f64` one (the bars of
+/// `qemu_firmware_on_the_serial_wire_matches_the_host`).
+#[test]
+fn qemu_firmware_takes_late_fixes_as_the_host_live_loop() {
+    let Some(elf) = firmware_elf() else { return };
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let args = streamed(&drive_nhc(dir.path()));
+    let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));
+    let fixes = read_gnss_csv(&args.gnss).unwrap_or_else(|e| panic!("{e:#}"));
+    let wire = wire_of(&args, &imu, &fixes, 0.25).unwrap_or_else(|e| panic!("{e:#}"));
+    let fw = run_nav_firmware_wire(&elf, &args, &wire, &QemuConfig::default())
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    assert!(fw.success(), "{:?} {:?}", fw.status, fw.messages);
+    let (inputs, _) = hal_sim::nav_io::ubx::wire_inputs(&wire, None);
+    let (h32, h64) = (
+        host_live::<f32>(&args, &inputs),
+        host_live::<f64>(&args, &inputs),
+    );
+    assert!(fw.epochs.len() > 300, "{} epochs", fw.epochs.len());
+    assert_eq!((fw.epochs.len(), h64.len()), (h32.len(), h32.len()));
+    let mut worst = [0.0f64; 2];
+    for ((f, a), b) in fw.epochs.iter().zip(&h32).zip(&h64) {
+        assert_eq!(
+            (f.t.to_bits(), f.t.to_bits()),
+            (a.t.to_bits(), b.t.to_bits())
+        );
+        for (w, h) in worst
+            .iter_mut()
+            .zip([(a.pos, a.sd_pos.map(f64::from)), (b.pos, b.sd_pos)])
+        {
+            let ne = hal_sim::nav_io::outages::north_east(
+                h.0.lat.to_degrees(),
+                h.0.lon.to_degrees(),
+                h.0.h,
+                f.lat.to_degrees(),
+                f.lon.to_degrees(),
+            );
+            for (d, sd) in [ne[0], ne[1], f.h - h.0.h].iter().zip(h.1) {
+                *w = w.max(d.abs() / sd);
+            }
+        }
+    }
+    eprintln!(
+        "late fixes (0.25 s, no budget) on the M4: worst position {:.2e} sigma from the host's \
+         f32 live run, {:.2e} from f64",
+        worst[0], worst[1]
+    );
+    assert!(worst[0] < 1e-3 && worst[1] < 0.05, "{worst:?}");
 }
