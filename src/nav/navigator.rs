@@ -18,7 +18,7 @@
 //! - [`Navigator::gnss`]: a fix is fused at its own time `t_f <= t`: the solution's position
 //!   and velocity are moved back by `t - t_f`, along the last sample's velocity change (over
 //!   which the mechanised velocity is linear) and, for a late fix, the velocities kept at the
-//!   sample boundaries of the last half second ([`history`]); the filter is first propagated
+//!   sample boundaries of the last 0.94 s ([`history`]); the filter is first propagated
 //!   over the part of the step already elapsed. The first fix after a step restarts the step
 //!   clock at its time of validity, so fixes at the filter rate land on the steps, and faster
 //!   fixes (4-Hz RTK) each propagate over part of a step while the steps keep their cadence,
@@ -146,7 +146,7 @@ pub struct Navigator<T: Real, const N: usize, O = ()> {
     /// interval), with which a fix inside the sample is compared with the solution
     /// interpolated to its time ([`Navigator::gnss`]).
     a_sample: Vector3<T>,
-    /// The velocity at the sample boundaries of the last half second, for late fixes
+    /// The velocity every 20 ms over the last 0.94 s, for late fixes
     /// ([`history`]).
     history: VelocityHistory<T>,
     s_g: Vector3<T>,
