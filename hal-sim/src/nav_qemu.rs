@@ -52,7 +52,6 @@ pub const NAV_ELF_ENV: &str = "IMU_IDENT_NAV_FIRMWARE_ELF";
 const REPLAY_NAME: &str = "nav.bin";
 /// The serial wire's file name in QEMU's working directory.
 const WIRE_NAME: &str = "wire.bin";
-/// Fields of the firmware's per-epoch frame.
 /// The fields of a firmware `online` frame (one coordinate at one decision of the bank).
 const ONLINE_FIELDS: [&str; 5] = ["t", "i", "x", "sd", "ok"];
 
@@ -71,8 +70,13 @@ pub struct OnlineReport {
     pub identifiable: bool,
 }
 
+/// Fields of the firmware's per-epoch frame.
 const NAV_FIELDS: [&str; 11] = [
     "t", "lat", "lon", "h", "vn", "ve", "vd", "sdn", "sde", "sdd", "flags",
+];
+/// Fields of the firmware's `now` frame (the solution at the newest sample).
+const NOW_FIELDS: [&str; 10] = [
+    "t", "lat", "lon", "h", "vn", "ve", "vd", "roll", "pitch", "yaw",
 ];
 
 /// The setup and records of a run with `args` on `imu` and `fixes` (module docs).
@@ -195,11 +199,31 @@ pub struct NavEpoch {
     pub flags: u8,
 }
 
+/// The firmware's solution at the newest IMU sample (a live run's `now` frame, every tenth
+/// sample: the output predictor's, `imu_ident::nav::predictor`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct NavPresent {
+    /// Time of the newest sample [s].
+    pub t: f64,
+    /// Latitude [rad].
+    pub lat: f64,
+    /// Longitude [rad].
+    pub lon: f64,
+    /// Height [m].
+    pub h: f64,
+    /// NED velocity [m/s].
+    pub vel: [f32; 3],
+    /// Roll, pitch, yaw [rad].
+    pub euler: [f32; 3],
+}
+
 /// What one navigation firmware run produced.
 #[derive(Debug, Clone)]
 pub struct NavFirmwareRun {
     /// One per GNSS epoch after the start.
     pub epochs: Vec<NavEpoch>,
+    /// A live run's solution at the newest sample, every tenth sample once the run started.
+    pub present: Vec<NavPresent>,
     /// Instruction counts: `imu` (mechanisation only), `step` (IMU sample + 1 Hz filter
     /// propagation), `nhc` (the same plus the non-holonomic constraint; none without it),
     /// `gnss` (fusion of one fix).
@@ -290,6 +314,7 @@ fn decode_nav(elf_bytes: &[u8], stream: &[u8]) -> Result<NavFirmwareRun> {
     decoder.received(stream);
     let mut run = NavFirmwareRun {
         epochs: vec![],
+        present: vec![],
         icount: vec![],
         stack: vec![],
         online: vec![],
@@ -317,6 +342,20 @@ fn decode_nav(elf_bytes: &[u8], stream: &[u8]) -> Result<NavFirmwareRun> {
                 vel: [field("vn", &vn)?, field("ve", &ve)?, field("vd", &vd)?],
                 sd_pos: [field("sdn", &sn)?, field("sde", &se)?, field("sdd", &sd)?],
                 flags: field("flags", &flags)?,
+            });
+        } else if let Some(v) = tagged(&frame, "now", &NOW_FIELDS)? {
+            let [t, lat, lon, h, vn, ve, vd, roll, pitch, yaw] = v;
+            run.present.push(NavPresent {
+                t: field("t", &t)?,
+                lat: field("lat", &lat)?,
+                lon: field("lon", &lon)?,
+                h: field("h", &h)?,
+                vel: [field("vn", &vn)?, field("ve", &ve)?, field("vd", &vd)?],
+                euler: [
+                    field("roll", &roll)?,
+                    field("pitch", &pitch)?,
+                    field("yaw", &yaw)?,
+                ],
             });
         } else if let Some(v) = tagged(&frame, "icount", &ICOUNT_FIELDS)? {
             let [class, n, mean, worst, worst_k] = v;

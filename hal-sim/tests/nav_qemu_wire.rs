@@ -5,13 +5,14 @@
 //! the fixes as decoded: `nav_wire.rs` shows that host run is the wire's on the host, bit for
 //! bit). Bars as for the live replay (`live_under_qemu`): the platform's maths only. With every
 //! fix late and no budget, against the host's live runs on the same inputs (the late path,
-//! `imu_ident::nav::navigator::history`).
+//! `imu_ident::nav::navigator::history`). With the board's budget, the solution at the newest
+//! sample the firmware sends (`now`) against the host's output predictor.
 
 use super::{at_parity, drive_nhc, drive_online, firmware_elf, real_drive, streamed};
 use hal_sim::nav::{run_with, NavArgs, NavRun};
 use hal_sim::nav_io::ubx::{as_sent, ubx_fixes};
 use hal_sim::nav_io::{read_gnss_csv, read_imu_csv};
-use hal_sim::nav_qemu::{run_nav_firmware_wire, wire_of, NavFirmwareRun};
+use hal_sim::nav_qemu::{run_nav_firmware_wire, wire_of, NavEpoch, NavFirmwareRun};
 use hal_sim::qemu::QemuConfig;
 use imu_ident::nav::live::{LiveEvent, LiveNav};
 use imu_ident::nav::serial::{feed, NavInput};
@@ -78,14 +79,38 @@ fn qemu_firmware_on_the_serial_wire_of_the_real_drive_matches_the_host() {
     assert!(fw.epochs.len() > 2000, "{} epochs", fw.epochs.len());
 }
 
-/// The epochs of a host live run in `T` on the wire's `inputs` (no latency budget).
-fn host_live<T: imu_ident::Real>(args: &NavArgs, inputs: &[NavInput]) -> Vec<Epoch<T>> {
+/// A host live run in `T` on the wire's inputs: its epochs, and after every sample the
+/// solution at the newest sample ([`LiveNav::present`]) with the run's position and attitude
+/// sigmas (the present has none of its own).
+struct HostLive<T: imu_ident::Real> {
+    epochs: Vec<Epoch<T>>,
+    present: Vec<HostPresent>,
+}
+
+/// The host's solution at the newest sample.
+struct HostPresent {
+    /// The samples given to the live loop so far, this one included.
+    k: usize,
+    t: f64,
+    pos: imu_ident::strapdown::Geodetic,
+    /// Roll, pitch, yaw [rad].
+    euler: [f64; 3],
+    /// The run's sigmas of position N, E, D [m] and attitude [rad].
+    sd_pos: [f64; 3],
+    sd_att: [f64; 3],
+}
+
+/// [`HostLive`] of `args` (its latency budget) on `inputs`.
+fn host_live<T: imu_ident::Real>(args: &NavArgs, inputs: &[NavInput]) -> HostLive<T> {
+    use imu_ident::nav::nav_idx::{ATT, POS};
     let mut nav = LiveNav::<T, NAV_N>::new(
         hal_sim::nav::setup::settings(args),
         hal_sim::nav::setup::live_config(args),
         LiveNav::<T, NAV_N>::no_observer,
     );
     let mut epochs = Vec::new();
+    let mut present = Vec::new();
+    let mut k = 0;
     let mut take = |e: LiveEvent<'_, T>| {
         if let LiveEvent::Fix { epoch, .. } = e {
             epochs.push(*epoch);
@@ -93,10 +118,52 @@ fn host_live<T: imu_ident::Real>(args: &NavArgs, inputs: &[NavInput]) -> Vec<Epo
     };
     for i in inputs {
         let _ = feed(&mut nav, i, &mut take);
+        k += usize::from(matches!(i, NavInput::Imu(_)));
+        if let (NavInput::Imu(_), Some(now), Some(run)) = (i, nav.present(), nav.run()) {
+            let sd = run.navigator().sigma_si().map(|v| v.as_f64());
+            let (roll, pitch, yaw) = now.ins().attitude_f64().euler();
+            present.push(HostPresent {
+                k,
+                t: now.time(),
+                pos: now.ins().position(),
+                euler: [roll, pitch, yaw],
+                sd_pos: [sd[POS], sd[POS + 1], sd[POS + 2]],
+                sd_att: [sd[ATT], sd[ATT + 1], sd[ATT + 2]],
+            });
+        }
     }
     nav.flush(&mut take)
         .unwrap_or_else(|e| panic!("flush: {e:?}"));
-    epochs
+    HostLive { epochs, present }
+}
+
+/// Worst position difference of the firmware's epochs `fw` from the host's `host` (the same
+/// times, bit for bit), in units of the host's position sigma.
+fn epochs_apart<T: imu_ident::Real>(fw: &[NavEpoch], host: &[Epoch<T>]) -> f64 {
+    assert_eq!(fw.len(), host.len());
+    let mut worst = 0.0f64;
+    for (f, h) in fw.iter().zip(host) {
+        assert_eq!(f.t.to_bits(), h.t.to_bits());
+        let sd = h.sd_pos.map(|v| v.as_f64());
+        worst = worst.max(apart(&h.pos, [f.lat, f.lon, f.h], &sd));
+    }
+    worst
+}
+
+/// Largest of the N, E and D distances of the position `(lat, lon, h)` [rad, rad, m] from
+/// `at`, each over its sigma `sd`.
+fn apart(at: &imu_ident::strapdown::Geodetic, [lat, lon, h]: [f64; 3], sd: &[f64; 3]) -> f64 {
+    let ne = hal_sim::nav_io::outages::north_east(
+        at.lat.to_degrees(),
+        at.lon.to_degrees(),
+        at.h,
+        lat.to_degrees(),
+        lon.to_degrees(),
+    );
+    [ne[0], ne[1], h - at.h]
+        .iter()
+        .zip(sd)
+        .fold(0.0f64, |w, (d, s)| w.max(d.abs() / s))
 }
 
 /// A receiver 0.25 s late and no latency budget (the board's other choice): every fix reaches
@@ -122,33 +189,91 @@ fn qemu_firmware_takes_late_fixes_as_the_host_live_loop() {
         host_live::<f64>(&args, &inputs),
     );
     assert!(fw.epochs.len() > 300, "{} epochs", fw.epochs.len());
-    assert_eq!((fw.epochs.len(), h64.len()), (h32.len(), h32.len()));
-    let mut worst = [0.0f64; 2];
-    for ((f, a), b) in fw.epochs.iter().zip(&h32).zip(&h64) {
-        assert_eq!(
-            (f.t.to_bits(), f.t.to_bits()),
-            (a.t.to_bits(), b.t.to_bits())
-        );
-        for (w, h) in worst
-            .iter_mut()
-            .zip([(a.pos, a.sd_pos.map(f64::from)), (b.pos, b.sd_pos)])
-        {
-            let ne = hal_sim::nav_io::outages::north_east(
-                h.0.lat.to_degrees(),
-                h.0.lon.to_degrees(),
-                h.0.h,
-                f.lat.to_degrees(),
-                f.lon.to_degrees(),
-            );
-            for (d, sd) in [ne[0], ne[1], f.h - h.0.h].iter().zip(h.1) {
-                *w = w.max(d.abs() / sd);
-            }
-        }
-    }
+    let worst = [
+        epochs_apart(&fw.epochs, &h32.epochs),
+        epochs_apart(&fw.epochs, &h64.epochs),
+    ];
     eprintln!(
         "late fixes (0.25 s, no budget) on the M4: worst position {:.2e} sigma from the host's \
          f32 live run, {:.2e} from f64",
         worst[0], worst[1]
     );
     assert!(worst[0] < 1e-3 && worst[1] < 0.05, "{worst:?}");
+}
+
+/// The worst differences of the firmware run `fw` from the host's `h`: its `now` frames'
+/// positions and attitudes, and its epochs' positions, in units of the host run's sigmas.
+fn present_apart<T: imu_ident::Real>(fw: &NavFirmwareRun, h: &HostLive<T>) -> [f64; 3] {
+    // The firmware sends a frame after every tenth sample when there is a present
+    // (`PRESENT_EVERY` in `src/bin/nav_support`): as many as the host has.
+    let expected = h.present.iter().filter(|p| p.k % 10 == 0).count();
+    assert_eq!(fw.present.len(), expected);
+    let mut w = [0.0f64; 3];
+    let mut k = 0;
+    for f in &fw.present {
+        while h.present.get(k).is_some_and(|p| p.t < f.t) {
+            k += 1;
+        }
+        let p = h
+            .present
+            .get(k)
+            .filter(|p| p.t.to_bits() == f.t.to_bits())
+            .unwrap_or_else(|| panic!("no host present at t = {}", f.t));
+        w[0] = w[0].max(apart(&p.pos, [f.lat, f.lon, f.h], &p.sd_pos));
+        // Roll and pitch over the smaller level tilt sigma, yaw over the heading's.
+        let level = p.sd_att[0].min(p.sd_att[1]);
+        for ((a, b), sd) in f.euler.iter().zip(p.euler).zip([level, level, p.sd_att[2]]) {
+            // The frame carries the angles in `f32`: the host's are rounded alike.
+            let d = (f64::from(*a) - f64::from(b as f32) + std::f64::consts::PI)
+                .rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI;
+            w[2] = w[2].max(d.abs() / sd);
+        }
+    }
+    w[1] = epochs_apart(&fw.epochs, &h.epochs);
+    w
+}
+
+/// The board's setting: the receiver 0.1 s late, a 0.15-s latency budget, the output predictor
+/// carrying the run to the newest sample. The emulated board sends the solution at the newest
+/// sample every tenth sample (`now`, the navigation board's frame, the same code:
+/// `src/bin/nav_support`); each against the host's live runs' present at the same sample
+/// (the same time, bit for bit), in units of the host run's sigmas: within 1e-3 of the `f32`
+/// run, 0.05 of the `f64` run (the bars of the epochs, which are checked too). Attitude as
+/// roll and pitch over the smaller level tilt sigma, yaw over the heading's (the frame carries
+/// them in `f32`; the host's are rounded alike).
+#[test]
+fn qemu_firmware_sends_the_present_solution_as_the_host_predictor() {
+    let Some(elf) = firmware_elf() else { return };
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let args = NavArgs {
+        latency: 0.15,
+        ..streamed(&drive_nhc(dir.path()))
+    };
+    let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));
+    let fixes = read_gnss_csv(&args.gnss).unwrap_or_else(|e| panic!("{e:#}"));
+    let wire = wire_of(&args, &imu, &fixes, 0.1).unwrap_or_else(|e| panic!("{e:#}"));
+    let fw = run_nav_firmware_wire(&elf, &args, &wire, &QemuConfig::default())
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    assert!(fw.success(), "{:?} {:?}", fw.status, fw.messages);
+    let (inputs, _) = hal_sim::nav_io::ubx::wire_inputs(&wire, None);
+    assert!(fw.present.len() > 3000, "{} frames", fw.present.len());
+    let worst = [
+        present_apart(&fw, &host_live::<f32>(&args, &inputs)),
+        present_apart(&fw, &host_live::<f64>(&args, &inputs)),
+    ];
+    eprintln!(
+        "the present on the M4 ({} frames; fixes 0.1 s late, 0.15-s budget): worst position \
+         {:.2e} sigma, attitude {:.2e} sigma from the host's f32 live run ({:.2e} sigma at the \
+         epochs); {:.2e}, {:.2e} ({:.2e}) from f64",
+        fw.present.len(),
+        worst[0][0],
+        worst[0][2],
+        worst[0][1],
+        worst[1][0],
+        worst[1][2],
+        worst[1][1]
+    );
+    assert!(worst[0].iter().all(|w| *w < 1e-3), "{worst:?}");
+    assert!(worst[1].iter().all(|w| *w < 0.05), "{worst:?}");
 }

@@ -19,7 +19,7 @@
 //!   the live loop, and sleeps (`wfi`) when both are empty.
 //! - Output (defmt over RTT, `probe-rs run` decodes it): the start, `nav` per GNSS epoch
 //!   (time, position, NED velocity, position sigmas, flags; the run's, [`LATENCY_S`] behind
-//!   the newest sample), `now` every [`PRESENT_EVERY`] samples (the solution at the newest
+//!   the newest sample), `now` every `PRESENT_EVERY` samples (the solution at the newest
 //!   sample: time, position, NED velocity, roll, pitch, yaw [rad]; the output predictor,
 //!   `imu_ident::nav::predictor`), `online` per decision of the bank
 //!   (each coordinate's factor, Cramér-Rao sd, identifiable flag), refused inputs, and the
@@ -52,7 +52,9 @@ mod nav_support;
 #[cfg(all(target_arch = "arm", target_os = "none"))]
 mod firmware {
     use super::board_support::{drain, park, QueueRx, RxCounts};
-    use super::nav_support::{decisions_of, report_decision, send_epoch, start_bank, Bank};
+    use super::nav_support::{
+        decisions_of, report_decision, send_epoch, send_present, start_bank, Bank, PRESENT_EVERY,
+    };
     use core::cell::RefCell;
     use core::mem::MaybeUninit;
     use core::sync::atomic::{AtomicBool, Ordering};
@@ -103,9 +105,6 @@ mod firmware {
     /// The receiver's latency budget [s]: a `NAV-PVT` arrives after its epoch (PX4's default
     /// GNSS delay is 0.11 s); the samples wait this long so that its fix is taken in time order.
     const LATENCY_S: f64 = 0.15;
-
-    /// The present solution is sent every this many IMU samples (10 Hz at 100 Hz).
-    const PRESENT_EVERY: u32 = 10;
 
     type Live = LiveNav<f32, NAV_N, Option<&'static mut Bank>, LIVE_BUFFER>;
 
@@ -320,29 +319,6 @@ mod firmware {
         refused
     }
 
-    /// Sends the solution at the newest sample (`now`), once the run has started.
-    fn send_present(live: &Live) {
-        let Some(now) = live.present() else {
-            return;
-        };
-        let ins = now.ins();
-        let (p, v) = (ins.position(), ins.velocity());
-        let (roll, pitch, yaw) = ins.attitude_f64().euler();
-        defmt::info!(
-            "now t={=f64} lat={=f64} lon={=f64} h={=f64} vn={=f32} ve={=f32} vd={=f32} roll={=f32} pitch={=f32} yaw={=f32}",
-            now.time(),
-            p.lat,
-            p.lon,
-            p.h,
-            v.x,
-            v.y,
-            v.z,
-            roll as f32,
-            pitch as f32,
-            yaw as f32
-        );
-    }
-
     /// The loop: both ports into the live loop, in the order their bytes are read.
     fn run(live: &'static mut Live, ports: Ports) -> ! {
         let (mut imu, mut gnss) = ports;
@@ -355,7 +331,9 @@ mod firmware {
                 if matches!(i, NavInput::Imu(_)) {
                     samples = samples.wrapping_add(1);
                     if samples % PRESENT_EVERY == 0 {
-                        send_present(live);
+                        if let Some(now) = live.present() {
+                            send_present(&now);
+                        }
                     }
                 }
             };

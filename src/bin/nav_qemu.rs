@@ -22,7 +22,9 @@
 //! - Input: the file named by the first semihosting argument after the program name (default
 //!   `nav.bin`), relative to QEMU's working directory.
 //! - Output (defmt on semihosting stdout): `nav` per GNSS epoch (time, position f64 rad/m,
-//!   NED velocity, position sigmas N/E/D, flags); first, `icount clock_stamp` and
+//!   NED velocity, position sigmas N/E/D, flags); in a live run, `now` every tenth sample
+//!   (the solution at the newest sample, the output predictor's: time, position, NED
+//!   velocity, roll, pitch, yaw; the navigation board's frame); first, `icount clock_stamp` and
 //!   `clock_pulse` and `clock worst_ns=...`, the GPS clock's start-up bench (`clock_bench`);
 //!   then `icount` per class: `imu` (an IMU sample
 //!   mechanised, no filter step), `step` (an IMU sample whose end starts the 1 Hz filter step:
@@ -64,7 +66,10 @@ mod nav_support;
 
 #[cfg(all(target_arch = "arm", target_os = "none"))]
 mod firmware {
-    use super::nav_support::{decisions_of, report_decision, send_epoch, start_bank, Bank, Run};
+    use super::nav_support::{
+        decisions_of, report_decision, send_epoch, send_present, start_bank, Bank, Run,
+        PRESENT_EVERY,
+    };
     use core::ffi::CStr;
     use core::mem::MaybeUninit;
 
@@ -123,6 +128,8 @@ mod firmware {
         live: Counts,
         n_imu: u32,
         live_calls: u32,
+        /// IMU samples given to the live loop (the board's count for its `now` frames).
+        live_samples: u32,
         epochs: u32,
         chunks: u32,
     }
@@ -293,6 +300,15 @@ mod firmware {
         if let Some(run) = live.run() {
             if decisions_of(run) != decisions {
                 report_decision(run, run.time());
+            }
+        }
+        // The solution at the newest sample, at the board's pace (`imu-ident-nav-board`).
+        if matches!(r, NavInput::Imu(_)) {
+            tally.live_samples = tally.live_samples.wrapping_add(1);
+            if tally.live_samples % PRESENT_EVERY == 0 {
+                if let Some(now) = live.present() {
+                    send_present(&now);
+                }
             }
         }
         Ok(())

@@ -1,10 +1,12 @@
 //! What the navigation firmwares share (`imu-ident-nav-qemu`, `imu-ident-nav-board`): the
 //! online identification's bank in the core-coupled memory and its start, the telemetry of an
-//! epoch and of a decision. Wiring only; the navigator and the bank are the library's.
+//! epoch, of the solution at the newest sample and of a decision. Wiring only; the navigator
+//! and the bank are the library's.
 
 use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicBool, Ordering};
 
+use imu_ident::nav::predictor::Present;
 use imu_ident::nav::{Epoch, NavError, NavReplay, NavSetup, OnlineIdent, NAV_N};
 
 /// Shadow filters of the online identification (the core's count for the firmware).
@@ -80,5 +82,29 @@ pub fn send_epoch(e: &Epoch<f32>) {
     defmt::info!(
         "nav t={=f64} lat={=f64} lon={=f64} h={=f64} vn={=f32} ve={=f32} vd={=f32} sdn={=f32} sde={=f32} sdd={=f32} flags={=u8}",
         e.t, e.pos.lat, e.pos.lon, e.pos.h, vn, ve, vd, sn, se, sd, e.flags
+    );
+}
+
+/// The solution at the newest sample is sent every this many IMU samples (10 Hz at 100 Hz).
+pub const PRESENT_EVERY: u32 = 10;
+
+/// The solution at the newest sample (the output predictor's, `imu_ident::nav::predictor`),
+/// as telemetry: time, position, NED velocity, roll, pitch, yaw [rad].
+pub fn send_present(now: &Present<'_, f32>) {
+    let ins = now.ins();
+    let (p, v) = (ins.position(), ins.velocity());
+    let (roll, pitch, yaw) = ins.attitude_f64().euler();
+    defmt::info!(
+        "now t={=f64} lat={=f64} lon={=f64} h={=f64} vn={=f32} ve={=f32} vd={=f32} roll={=f32} pitch={=f32} yaw={=f32}",
+        now.time(),
+        p.lat,
+        p.lon,
+        p.h,
+        v.x,
+        v.y,
+        v.z,
+        roll as f32,
+        pitch as f32,
+        yaw as f32
     );
 }
