@@ -318,3 +318,53 @@ fn strapdown_model_needs_no_squaring() {
     let (p, q) = e.orders();
     assert!(p <= 12 && q <= 20, "orders {p}, {q}");
 }
+
+/// Benchmark (ignored; BENCHMARKS.md "The discretisation's series without temporaries"): the
+/// moving 18-state strapdown model discretised `DISC_REPS` times (20 000 by default) at steps
+/// of 1.00-1.06 s, in `f64` and `f32`; prints the time per call (min, median, p95) and a hash
+/// of the first seven results' bits, which a change meant to be exact must leave alone.
+/// `cargo test --release --test discretisation discretisation_cost -- --ignored --nocapture`
+#[test]
+#[ignore = "benchmark: prints the time per discretisation"]
+fn discretisation_cost() {
+    fn run<T: imu_ident::Real>(label: &str, reps: usize) {
+        use imu_ident::model::discretise::discretise_block;
+        use imu_ident::model::error_model::ErrorModel;
+        const N: usize = 24;
+        let model = strapdown_model();
+        let scale: [f64; N] = ErrorModel::<f64, N, 6>::scaling(&model).unwrap();
+        let sys = ErrorModel::<f64, N, 6>::system(&model, &scale).unwrap();
+        let a: [[T; N]; N] = sys.A.map(|r| r.map(T::lit));
+        let q: [[T; N]; N] = sys.Qc.map(|r| r.map(T::lit));
+        // FNV-1a over the bits of the first seven results.
+        let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+        let mut times = Vec::with_capacity(reps);
+        for k in 0..reps {
+            let dt = T::lit(1.0 + (k % 7) as f64 * 0.01);
+            let start = std::time::Instant::now();
+            let (phi, qd) = discretise_block(&a, &q, dt, sys.n).unwrap();
+            times.push(start.elapsed().as_secs_f64() * 1e6);
+            if k < 7 {
+                for v in phi.iter().chain(qd.iter()).flatten() {
+                    hash = (hash ^ v.as_f64().to_bits()).wrapping_mul(0x0100_0000_01b3);
+                }
+            }
+        }
+        times.sort_by(f64::total_cmp);
+        let at = |f: f64| times[((reps - 1) as f64 * f) as usize];
+        println!(
+            "{label}: n {}, {reps} calls: min {:.1} us, median {:.1} us, p95 {:.1} us; hash {hash:016x}",
+            sys.n,
+            at(0.0),
+            at(0.5),
+            at(0.95)
+        );
+    }
+    let reps = std::env::var("DISC_REPS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(20_000usize)
+        .max(1);
+    run::<f64>("f64", reps);
+    run::<f32>("f32", reps);
+}

@@ -95,14 +95,30 @@ pub fn axpy<T: Real>(y: &mut [T], k: T, x: &[T], n: usize) {
 /// finite).
 pub fn mul<T: Real, const N: usize>(a: &Arr<T, N>, b: &Arr<T, N>, n: usize) -> Arr<T, N> {
     let mut c = zeros();
-    for (ci, ai) in head_mut(&mut c, n).iter_mut().zip(head(a, n)) {
+    mul_into(&mut c, a, b, n);
+    c
+}
+
+/// [`mul`] into `c`: its leading `n x n` block is overwritten with `a b` (the same bits), the
+/// rest untouched. A series that multiplies every term reuses one `c` instead of zeroing and
+/// moving a fresh `N x N` array per product (BENCHMARKS.md "The discretisation's series
+/// without temporaries").
+pub fn mul_into<T: Real, const N: usize>(
+    c: &mut Arr<T, N>,
+    a: &Arr<T, N>,
+    b: &Arr<T, N>,
+    n: usize,
+) {
+    for (ci, ai) in head_mut(c, n).iter_mut().zip(head(a, n)) {
+        for v in head_mut(ci, n).iter_mut() {
+            *v = T::zero();
+        }
         for (aik, bk) in head(ai, n).iter().zip(head(b, n)) {
             if *aik != T::zero() {
                 axpy(ci, *aik, bk, n);
             }
         }
     }
-    c
 }
 
 /// `out = a b^T + d` over the leading block, upper half computed and mirrored (the result is
@@ -158,6 +174,17 @@ pub(crate) fn dot_c<T: Real, const K: usize, const A: usize, const B: usize>(
         k += 1;
     }
     s
+}
+
+/// The leading `n x n` block of `a` transposed into `t` (the rest of `t` untouched).
+pub fn transpose_into<T: Real, const N: usize>(t: &mut Arr<T, N>, a: &Arr<T, N>, n: usize) {
+    for (i, row) in head(a, n).iter().enumerate() {
+        for (j, v) in head(row, n).iter().enumerate() {
+            if let Some(x) = t.get_mut(j).and_then(|r| r.get_mut(i)) {
+                *x = *v;
+            }
+        }
+    }
 }
 
 /// `A^T`.

@@ -34,7 +34,7 @@
 //! This is the crate's one discretisation: [`discretise_block`] on row-major arrays (the
 //! filters' form) and [`discretise`] on nalgebra matrices (all states active) share it.
 
-use crate::linalg::{axpy, from_mat, mul, mul_t_sym, to_mat, transpose, zeros, Arr};
+use crate::linalg::{from_mat, mul, mul_into, mul_t_sym, to_mat, transpose_into, zeros, Arr};
 use crate::model::ModelError;
 use crate::Real;
 use nalgebra::SMatrix;
@@ -269,10 +269,12 @@ impl<T: Real, const N: usize> Expm<T, N> {
         }
         // k counted down in T (see `series_order`).
         let mut kk = T::lit(order as f64);
+        // One product buffer for the whole series (`mul_into`).
+        let mut m = zeros();
         for _ in 0..order {
             let inv_k = T::one() / kk;
             kk -= T::one();
-            let m = mul(&ah, &phi, n);
+            mul_into(&mut m, &ah, &phi, n);
             // Scale, then add the identity: a branch on `i == j` inside the row loop kept it
             // from vectorising (a third of this function's time, perf).
             for (i, (pr, mr)) in phi.iter_mut().zip(m.iter()).enumerate().take(n) {
@@ -328,40 +330,63 @@ impl<T: Real, const N: usize> Expm<T, N> {
         let mut c = *Qc;
         let mut coef = h;
         let mut q = zeros();
-        add_scaled(&mut q, &c, coef, n);
+        for (qr, cr) in q.iter_mut().zip(c.iter()).take(n) {
+            for (v, x) in qr.iter_mut().zip(cr.iter()).take(n) {
+                *v += coef * *x;
+            }
+        }
         // k + 1 counted in T (see `series_order`).
         let mut k1 = T::one();
+        // `A C_{k-1}` and its transpose, one buffer each for the whole series (`mul_into`).
+        let (mut ac, mut act) = (zeros(), zeros());
         for _ in 1..=order {
-            let ac = mul(A, &c, n);
-            let act = transpose(&ac);
-            for ((cr, ar), tr) in c.iter_mut().zip(ac.iter()).zip(act.iter()).take(n) {
-                for ((v, x), y) in cr.iter_mut().zip(ar.iter()).zip(tr.iter()).take(n) {
-                    *v = *x + *y;
-                }
-            }
+            mul_into(&mut ac, A, &c, n);
+            transpose_into(&mut act, &ac, n);
             k1 += T::one();
             coef = coef * h / k1;
-            add_scaled(&mut q, &c, coef, n);
+            // C_k = A C + (A C)^T, and Q_h += coef C_k, in one pass over the rows.
+            for ((cr, qr), (ar, tr)) in c
+                .iter_mut()
+                .zip(q.iter_mut())
+                .zip(ac.iter().zip(act.iter()))
+                .take(n)
+            {
+                for ((v, qv), (x, y)) in cr
+                    .iter_mut()
+                    .zip(qr.iter_mut())
+                    .zip(ar.iter().zip(tr.iter()))
+                    .take(n)
+                {
+                    *v = *x + *y;
+                    *qv += coef * *v;
+                }
+            }
         }
         for _ in 0..self.s {
             let pq = mul(&phi, &q, n);
             q = mul_t_sym(&pq, &phi, &q, n);
             phi = mul(&phi, &phi, n);
         }
-        // Symmetrise (the series is symmetric term by term; this removes rounding asymmetry).
-        let qt = transpose(&q);
-        for (qr, tr) in q.iter_mut().zip(qt.iter()).take(n) {
-            for (v, t) in qr.iter_mut().zip(tr.iter()).take(n) {
-                *v = (*v + *t) * T::lit(0.5);
+        // Symmetrise (the series is symmetric term by term; this removes rounding asymmetry):
+        // each pair from both old values, in place (`a + b` and `b + a` are the same bits); the
+        // diagonal stays as it is (`(x + x) / 2 = x`).
+        let half = T::lit(0.5);
+        for i in 0..n {
+            for j in i + 1..n {
+                let (Some(a), Some(b)) = (
+                    q.get(i).and_then(|r| r.get(j)).copied(),
+                    q.get(j).and_then(|r| r.get(i)).copied(),
+                ) else {
+                    continue;
+                };
+                let v = (a + b) * half;
+                for (r, k) in [(i, j), (j, i)] {
+                    if let Some(x) = q.get_mut(r).and_then(|row| row.get_mut(k)) {
+                        *x = v;
+                    }
+                }
             }
         }
         Ok((phi, q))
-    }
-}
-
-/// `q += k c` over the leading block.
-fn add_scaled<T: Real, const N: usize>(q: &mut Arr<T, N>, c: &Arr<T, N>, k: T, n: usize) {
-    for (qr, cr) in q.iter_mut().zip(c.iter()).take(n) {
-        axpy(qr, k, cr, n);
     }
 }
