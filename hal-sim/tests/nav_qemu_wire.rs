@@ -166,6 +166,19 @@ fn apart(at: &imu_ident::strapdown::Geodetic, [lat, lon, h]: [f64; 3], sd: &[f64
         .fold(0.0f64, |w, (d, s)| w.max(d.abs() / s))
 }
 
+/// The emulated board on the wire of `args`' log with every fix `delay` s late, and the
+/// inputs the wire carried (for the host's live runs).
+fn late_wire(elf: &std::path::Path, args: &NavArgs, delay: f64) -> (NavFirmwareRun, Vec<NavInput>) {
+    let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));
+    let fixes = read_gnss_csv(&args.gnss).unwrap_or_else(|e| panic!("{e:#}"));
+    let wire = wire_of(args, &imu, &fixes, delay).unwrap_or_else(|e| panic!("{e:#}"));
+    let fw = run_nav_firmware_wire(elf, args, &wire, &QemuConfig::default())
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    assert!(fw.success(), "{:?} {:?}", fw.status, fw.messages);
+    let (inputs, _) = hal_sim::nav_io::ubx::wire_inputs(&wire, None);
+    (fw, inputs)
+}
+
 /// A receiver 0.25 s late and no latency budget (the board's other choice): every fix reaches
 /// the live loop 25 samples after its time and is compared with the solution moved back
 /// along the velocities the navigator keeps (`imu_ident::nav::navigator::history`). The
@@ -177,13 +190,7 @@ fn qemu_firmware_takes_late_fixes_as_the_host_live_loop() {
     let Some(elf) = firmware_elf() else { return };
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let args = streamed(&drive_nhc(dir.path()));
-    let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));
-    let fixes = read_gnss_csv(&args.gnss).unwrap_or_else(|e| panic!("{e:#}"));
-    let wire = wire_of(&args, &imu, &fixes, 0.25).unwrap_or_else(|e| panic!("{e:#}"));
-    let fw = run_nav_firmware_wire(&elf, &args, &wire, &QemuConfig::default())
-        .unwrap_or_else(|e| panic!("{e:#}"));
-    assert!(fw.success(), "{:?} {:?}", fw.status, fw.messages);
-    let (inputs, _) = hal_sim::nav_io::ubx::wire_inputs(&wire, None);
+    let (fw, inputs) = late_wire(&elf, &args, 0.25);
     let (h32, h64) = (
         host_live::<f32>(&args, &inputs),
         host_live::<f64>(&args, &inputs),
@@ -250,13 +257,7 @@ fn qemu_firmware_sends_the_present_solution_as_the_host_predictor() {
         latency: 0.15,
         ..streamed(&drive_nhc(dir.path()))
     };
-    let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));
-    let fixes = read_gnss_csv(&args.gnss).unwrap_or_else(|e| panic!("{e:#}"));
-    let wire = wire_of(&args, &imu, &fixes, 0.1).unwrap_or_else(|e| panic!("{e:#}"));
-    let fw = run_nav_firmware_wire(&elf, &args, &wire, &QemuConfig::default())
-        .unwrap_or_else(|e| panic!("{e:#}"));
-    assert!(fw.success(), "{:?} {:?}", fw.status, fw.messages);
-    let (inputs, _) = hal_sim::nav_io::ubx::wire_inputs(&wire, None);
+    let (fw, inputs) = late_wire(&elf, &args, 0.1);
     assert!(fw.present.len() > 3000, "{} frames", fw.present.len());
     let worst = [
         present_apart(&fw, &host_live::<f32>(&args, &inputs)),
