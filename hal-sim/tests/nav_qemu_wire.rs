@@ -212,20 +212,12 @@ fn qemu_firmware_takes_late_fixes_as_the_host_live_loop() {
 /// positions and attitudes, and its epochs' positions, in units of the host run's sigmas.
 fn present_apart<T: imu_ident::Real>(fw: &NavFirmwareRun, h: &HostLive<T>) -> [f64; 3] {
     // The firmware sends a frame after every tenth sample when there is a present
-    // (`PRESENT_EVERY` in `src/bin/nav_support`): as many as the host has.
-    let expected = h.present.iter().filter(|p| p.k % 10 == 0).count();
-    assert_eq!(fw.present.len(), expected);
+    // (`PRESENT_EVERY` in `src/bin/nav_support`): as many as the host has, at the same times.
+    let host: Vec<&HostPresent> = h.present.iter().filter(|p| p.k % 10 == 0).collect();
+    assert_eq!(fw.present.len(), host.len());
     let mut w = [0.0f64; 3];
-    let mut k = 0;
-    for f in &fw.present {
-        while h.present.get(k).is_some_and(|p| p.t < f.t) {
-            k += 1;
-        }
-        let p = h
-            .present
-            .get(k)
-            .filter(|p| p.t.to_bits() == f.t.to_bits())
-            .unwrap_or_else(|| panic!("no host present at t = {}", f.t));
+    for (f, p) in fw.present.iter().zip(host) {
+        assert_eq!(f.t.to_bits(), p.t.to_bits());
         w[0] = w[0].max(apart(&p.pos, [f.lat, f.lon, f.h], &p.sd_pos));
         // Roll and pitch over the smaller level tilt sigma, yaw over the heading's.
         let level = p.sd_att[0].min(p.sd_att[1]);

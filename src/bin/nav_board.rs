@@ -19,7 +19,7 @@
 //!   the live loop, and sleeps (`wfi`) when both are empty.
 //! - Output (defmt over RTT, `probe-rs run` decodes it): the start, `nav` per GNSS epoch
 //!   (time, position, NED velocity, position sigmas, flags; the run's, [`LATENCY_S`] behind
-//!   the newest sample), `now` every `PRESENT_EVERY` samples (the solution at the newest
+//!   the newest sample), `now` every tenth sample (the solution at the newest
 //!   sample: time, position, NED velocity, roll, pitch, yaw [rad]; the output predictor,
 //!   `imu_ident::nav::predictor`), `online` per decision of the bank
 //!   (each coordinate's factor, Cramér-Rao sd, identifiable flag), refused inputs, and the
@@ -53,7 +53,7 @@ mod nav_support;
 mod firmware {
     use super::board_support::{drain, park, QueueRx, RxCounts};
     use super::nav_support::{
-        decisions_of, report_decision, send_epoch, send_present, start_bank, Bank, PRESENT_EVERY,
+        count_sample, decisions_of, report_decision, send_epoch, start_bank, Bank,
     };
     use core::cell::RefCell;
     use core::mem::MaybeUninit;
@@ -329,12 +329,7 @@ mod firmware {
             let mut on = |i: NavInput| {
                 refused = refused.saturating_add(u32::from(take(live, &i)));
                 if matches!(i, NavInput::Imu(_)) {
-                    samples = samples.wrapping_add(1);
-                    if samples % PRESENT_EVERY == 0 {
-                        if let Some(now) = live.present() {
-                            send_present(&now);
-                        }
-                    }
+                    count_sample(&mut samples, || live.present());
                 }
             };
             let n = match (

@@ -67,8 +67,7 @@ mod nav_support;
 #[cfg(all(target_arch = "arm", target_os = "none"))]
 mod firmware {
     use super::nav_support::{
-        decisions_of, report_decision, send_epoch, send_present, start_bank, Bank, Run,
-        PRESENT_EVERY,
+        count_sample, decisions_of, report_decision, send_epoch, start_bank, Bank, Run,
     };
     use core::ffi::CStr;
     use core::mem::MaybeUninit;
@@ -304,12 +303,7 @@ mod firmware {
         }
         // The solution at the newest sample, at the board's pace (`imu-ident-nav-board`).
         if matches!(r, NavInput::Imu(_)) {
-            tally.live_samples = tally.live_samples.wrapping_add(1);
-            if tally.live_samples % PRESENT_EVERY == 0 {
-                if let Some(now) = live.present() {
-                    send_present(&now);
-                }
-            }
+            count_sample(&mut tally.live_samples, || live.present());
         }
         Ok(())
     }

@@ -34,7 +34,7 @@
 //! This is the crate's one discretisation: [`discretise_block`] on row-major arrays (the
 //! filters' form) and [`discretise`] on nalgebra matrices (all states active) share it.
 
-use crate::linalg::{from_mat, mul, mul_into, mul_t_sym, to_mat, transpose_into, zeros, Arr};
+use crate::linalg::{axpy, from_mat, mul, mul_into, mul_t_sym, to_mat, transpose_into, zeros, Arr};
 use crate::model::ModelError;
 use crate::Real;
 use nalgebra::SMatrix;
@@ -331,9 +331,7 @@ impl<T: Real, const N: usize> Expm<T, N> {
         let mut coef = h;
         let mut q = zeros();
         for (qr, cr) in q.iter_mut().zip(c.iter()).take(n) {
-            for (v, x) in qr.iter_mut().zip(cr.iter()).take(n) {
-                *v += coef * *x;
-            }
+            axpy(qr, coef, cr, n);
         }
         // k + 1 counted in T (see `series_order`).
         let mut k1 = T::one();
@@ -367,24 +365,12 @@ impl<T: Real, const N: usize> Expm<T, N> {
             q = mul_t_sym(&pq, &phi, &q, n);
             phi = mul(&phi, &phi, n);
         }
-        // Symmetrise (the series is symmetric term by term; this removes rounding asymmetry):
-        // each pair from both old values, in place (`a + b` and `b + a` are the same bits); the
-        // diagonal stays as it is (`(x + x) / 2 = x`).
-        let half = T::lit(0.5);
-        for i in 0..n {
-            for j in i + 1..n {
-                let (Some(a), Some(b)) = (
-                    q.get(i).and_then(|r| r.get(j)).copied(),
-                    q.get(j).and_then(|r| r.get(i)).copied(),
-                ) else {
-                    continue;
-                };
-                let v = (a + b) * half;
-                for (r, k) in [(i, j), (j, i)] {
-                    if let Some(x) = q.get_mut(r).and_then(|row| row.get_mut(k)) {
-                        *x = v;
-                    }
-                }
+        // Symmetrise (the series is symmetric term by term; this removes rounding asymmetry),
+        // the transpose in the series' buffer.
+        transpose_into(&mut act, &q, n);
+        for (qr, tr) in q.iter_mut().zip(act.iter()).take(n) {
+            for (v, t) in qr.iter_mut().zip(tr.iter()).take(n) {
+                *v = (*v + *t) * T::lit(0.5);
             }
         }
         Ok((phi, q))

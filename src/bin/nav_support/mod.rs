@@ -86,11 +86,22 @@ pub fn send_epoch(e: &Epoch<f32>) {
 }
 
 /// The solution at the newest sample is sent every this many IMU samples (10 Hz at 100 Hz).
-pub const PRESENT_EVERY: u32 = 10;
+const PRESENT_EVERY: u32 = 10;
+
+/// Counts an IMU sample given to the live loop in `samples` and, every [`PRESENT_EVERY`]-th,
+/// sends the solution at the newest sample when there is one (`present`, asked only then).
+pub fn count_sample<'a>(samples: &mut u32, present: impl FnOnce() -> Option<Present<'a, f32>>) {
+    *samples = samples.wrapping_add(1);
+    if *samples % PRESENT_EVERY == 0 {
+        if let Some(now) = present() {
+            send_present(&now);
+        }
+    }
+}
 
 /// The solution at the newest sample (the output predictor's, `imu_ident::nav::predictor`),
 /// as telemetry: time, position, NED velocity, roll, pitch, yaw [rad].
-pub fn send_present(now: &Present<'_, f32>) {
+fn send_present(now: &Present<'_, f32>) {
     let ins = now.ins();
     let (p, v) = (ins.position(), ins.velocity());
     let (roll, pitch, yaw) = ins.attitude_f64().euler();
