@@ -24,7 +24,7 @@
 //! independent axes (diagonal `R`), and each scalar update is Joseph-form.
 
 use crate::filter::kalman::{Kalman, UpdateStatus};
-use crate::linalg::{cholesky, Arr};
+use crate::linalg::{cholesky, dot, Arr};
 use crate::model::discretise::discretise_block;
 use crate::model::{ContinuousSystem, ErrorModel, ModelError};
 use crate::Real;
@@ -260,26 +260,32 @@ pub fn joint<T: Real, const N: usize, const Z: usize>(
     }
     out.dof = m;
     let n = kf.active();
-    for a in 0..m {
-        for b in 0..m {
-            // Checked and zipped rather than indexed: the same sums in the same order, and no
-            // bounds check left for the firmware's no-panic link check (the axis numbers in
-            // `idx` are data to the optimiser).
+    for b in 0..m {
+        // Checked and zipped rather than indexed: no bounds check left for the firmware's
+        // no-panic link check (the axis numbers in `idx` are data to the optimiser).
+        let Some(hb) = idx.get(b).and_then(|&ib| H.get(ib)) else {
+            continue;
+        };
+        // P H_b^T over the active block, once per column of S: each entry the same sum in the
+        // same order as the row-by-row H_a P H_b^T it replaces, so S is the same bit for bit,
+        // at n^2 per axis instead of n^2 per pair of axes (BENCHMARKS.md "CI time: bit-exact
+        // kernels").
+        let mut ph = [T::zero(); N];
+        for (v, prow) in ph.iter_mut().zip(kf.P.iter()).take(n) {
+            *v = dot(prow, hb, n);
+        }
+        for a in 0..m {
             let (Some(&ia), Some(&ib)) = (idx.get(a), idx.get(b)) else {
                 continue;
             };
-            let (Some(ha), Some(hb)) = (H.get(ia), H.get(ib)) else {
+            let Some(ha) = H.get(ia) else {
                 continue;
             };
             let r = R.get(ia).copied().unwrap_or_else(T::zero);
             let mut v = if ia == ib { r } else { T::zero() };
-            // H_a P H_b^T over the active block.
-            for (prow, hk) in kf.P.iter().zip(ha.iter()).take(n) {
-                let mut ph = T::zero();
-                for (p, hl) in prow.iter().zip(hb.iter()).take(n) {
-                    ph += *p * *hl;
-                }
-                v += *hk * ph;
+            // H_a (P H_b^T), summed from v as before.
+            for (hk, phk) in ha.iter().zip(ph.iter()).take(n) {
+                v += *hk * *phk;
             }
             if let Some(slot) = s.get_mut(a).and_then(|row| row.get_mut(b)) {
                 *slot = v;
@@ -394,4 +400,91 @@ pub fn fuse<T: Real, const N: usize, const Z: usize>(
         out.axes[i] = r.status.into();
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::linalg::zeros;
+    use rand::{Rng, SeedableRng};
+
+    /// [`joint`]'s vector NIS from `S` formed pair by pair as before (`H_a P H_b^T` with the
+    /// row sums of `P H_b^T` recomputed for every pair): the same bits, on random covariances,
+    /// observation rows with zeros and missing axes.
+    #[test]
+    #[allow(non_snake_case, clippy::needless_range_loop)]
+    fn the_joint_nis_has_the_bits_of_the_pairwise_sums() {
+        const N: usize = 24;
+        const Z: usize = 6;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(66_003);
+        for n in [9, 15, 18, 21, 24] {
+            for _ in 0..50 {
+                let mut b = zeros::<f64, N>();
+                for row in b.iter_mut().take(n) {
+                    for v in row.iter_mut().take(n) {
+                        *v = rng.gen_range(-1.0..1.0);
+                    }
+                }
+                let mut p = crate::linalg::mul_t_sym(&b, &b, &zeros(), n);
+                for (i, row) in p.iter_mut().enumerate().take(n) {
+                    row[i] += 1e-3;
+                }
+                let mut kf = Kalman::<f64, N>::new(&p, n);
+                for x in kf.x.iter_mut().take(n) {
+                    *x = rng.gen_range(-1.0..1.0);
+                }
+                let mut H = [[0.0; N]; Z];
+                for row in H.iter_mut() {
+                    for v in row.iter_mut().take(n) {
+                        if rng.gen_bool(0.3) {
+                            *v = rng.gen_range(-2.0..2.0);
+                        }
+                    }
+                }
+                let R = [0.5, 0.7, 1.1, 0.05, 0.06, 0.08];
+                let mut z = [0.0; Z];
+                for v in z.iter_mut() {
+                    *v = if rng.gen_bool(0.2) {
+                        f64::NAN
+                    } else {
+                        rng.gen_range(-3.0..3.0)
+                    };
+                }
+                let j = joint(&kf, &z, &H, &R);
+                // The reference: S pair by pair, then the same factor and substitution.
+                let idx = &j.axes[..j.dof];
+                let mut s = [[0.0; Z]; Z];
+                for (a, &ia) in idx.iter().enumerate() {
+                    for (bb, &ib) in idx.iter().enumerate() {
+                        let mut v = if ia == ib { R[ia] } else { 0.0 };
+                        for k in 0..n {
+                            let mut ph = 0.0;
+                            for l in 0..n {
+                                ph += kf.P[k][l] * H[ib][l];
+                            }
+                            v += H[ia][k] * ph;
+                        }
+                        s[a][bb] = v;
+                    }
+                }
+                let m = j.dof;
+                let want = if m == 0 {
+                    f64::NAN
+                } else {
+                    let l = cholesky(&s, m).expect("S positive definite");
+                    let (mut y, mut nis) = ([0.0; Z], 0.0);
+                    for a in 0..m {
+                        let mut v = j.innovation[idx[a]];
+                        for bb in 0..a {
+                            v -= l[a][bb] * y[bb];
+                        }
+                        y[a] = v / l[a][a];
+                        nis += y[a] * y[a];
+                    }
+                    nis
+                };
+                assert_eq!(j.nis.to_bits(), want.to_bits(), "n = {n}, dof = {m}");
+            }
+        }
+    }
 }

@@ -136,6 +136,12 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     ///
     /// Dispatched to a kernel with the active size as a compile-time constant up to 8, so that
     /// the dot products are unrolled (callgrind: ~3x fewer instructions than a run-time loop).
+    /// Above 8, to the active size rounded up to a multiple of 4 (12, 16, 20; else `N`): the
+    /// same blocks of four in [`dot_c`] as the `N`-state kernel over `Phi` and `Qd` zero
+    /// outside the active block (as the discretisation leaves them), whose further blocks only
+    /// add `+-0` to a sum that starts at `+0` and so is never `-0`: the same bits, at
+    /// `(20/24)^3` of the work for up to 20 states (BENCHMARKS.md "CI time: bit-exact kernels").
+    /// The inactive part of `x` and `P` past that size is left as it is (zero).
     #[allow(non_snake_case)]
     pub fn predict(&mut self, Phi: &Arr<T, N>, Qd: &Arr<T, N>) {
         let (x, p) = (&mut self.x, &mut self.P);
@@ -149,6 +155,9 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             6 => predict_c::<T, 6, N>(x, p, Phi, Qd),
             7 => predict_c::<T, 7, N>(x, p, Phi, Qd),
             8 => predict_c::<T, 8, N>(x, p, Phi, Qd),
+            9..=12 if 12 < N => predict_c::<T, 12, N>(x, p, Phi, Qd),
+            13..=16 if 16 < N => predict_c::<T, 16, N>(x, p, Phi, Qd),
+            17..=20 if 20 < N => predict_c::<T, 20, N>(x, p, Phi, Qd),
             _ => predict_c::<T, N, N>(x, p, Phi, Qd),
         }
     }
@@ -343,6 +352,54 @@ mod tests {
                 }
                 let xi: f64 = (0..n).map(|k| phi[(i, k)]).sum();
                 assert!((kf.x[i] - xi).abs() < 1e-12);
+            }
+        }
+    }
+
+    /// The kernel at the active size rounded up to a multiple of 4 gives the bits of the
+    /// `N`-state kernel when `Phi`, `Qd`, `x` and `P` are zero outside the active block (the
+    /// argument in [`Kalman::predict`]'s docs), at every active size above 8, on products
+    /// with cancellations (entries of both signs over eight decades) and exact zeros.
+    #[test]
+    fn rounded_kernels_give_the_bits_of_the_full_kernel() {
+        use rand::{Rng, SeedableRng};
+        const N: usize = 24;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(66_001);
+        let entry = |rng: &mut rand_chacha::ChaCha8Rng| -> f64 {
+            if rng.gen_bool(0.3) {
+                0.0
+            } else {
+                let sign = if rng.gen_bool(0.5) { -1.0 } else { 1.0 };
+                sign * 10f64.powf(rng.gen_range(-4.0..4.0))
+            }
+        };
+        for n in 9..=N {
+            for _ in 0..20 {
+                let mut phi = [[0.0f64; N]; N];
+                let mut qd = [[0.0f64; N]; N];
+                let mut p = [[0.0f64; N]; N];
+                let mut kf = Kalman::<f64, N>::new(&p, n);
+                for i in 0..n {
+                    kf.x[i] = entry(&mut rng);
+                    for j in 0..n {
+                        phi[i][j] = entry(&mut rng);
+                        p[i][j] = entry(&mut rng);
+                    }
+                    for j in 0..=i {
+                        let q = entry(&mut rng).abs();
+                        qd[i][j] = q;
+                        qd[j][i] = q;
+                    }
+                }
+                kf.P = p;
+                let (mut x_full, mut p_full) = (kf.x, kf.P);
+                predict_c::<f64, N, N>(&mut x_full, &mut p_full, &phi, &qd);
+                kf.predict(&phi, &qd);
+                let bits = |v: &[f64; N]| v.map(f64::to_bits);
+                assert_eq!(bits(&kf.x), bits(&x_full), "x, n = {n}");
+                for (a, b) in kf.P.iter().zip(p_full.iter()) {
+                    assert_eq!(bits(a), bits(b), "P, n = {n}");
+                }
             }
         }
     }

@@ -121,6 +121,54 @@ pub fn mul_into<T: Real, const N: usize>(
     }
 }
 
+/// The non-zero pattern of `a`'s leading `n x n` block, a bit mask per row (bit `k` of row `i`
+/// set when `a[i][k] != 0`, NaN included), for [`mul_pattern_into`]; `None` when `N > 64`.
+/// Built once for a factor that multiplies many times (the discretisation's series: 10-15
+/// products by the same sparse `A`), it replaces a test per entry per product, a branch on an
+/// irregular pattern that was the series' largest cost (perf; BENCHMARKS.md "CI time: bit-exact
+/// kernels"). Building it inside every product was measured no faster (session 62).
+pub fn row_pattern<T: Real, const N: usize>(a: &Arr<T, N>, n: usize) -> Option<[u64; N]> {
+    if N > 64 {
+        return None;
+    }
+    let mut rows = [0u64; N];
+    for (mask, ai) in rows.iter_mut().zip(head(a, n)) {
+        for (k, v) in head(ai, n).iter().enumerate() {
+            *mask |= u64::from(*v != T::zero()).wrapping_shl(k as u32);
+        }
+    }
+    Some(rows)
+}
+
+/// [`mul_into`] with `a`'s non-zero pattern given ([`row_pattern`] of the same `a` and `n`):
+/// the same products in the same order, so the same bits; without a pattern, [`mul_into`].
+pub fn mul_pattern_into<T: Real, const N: usize>(
+    c: &mut Arr<T, N>,
+    a: &Arr<T, N>,
+    pattern: Option<&[u64; N]>,
+    b: &Arr<T, N>,
+    n: usize,
+) {
+    let Some(rows) = pattern else {
+        mul_into(c, a, b, n);
+        return;
+    };
+    let b = head(b, n);
+    for ((ci, ai), mask) in head_mut(c, n).iter_mut().zip(head(a, n)).zip(rows) {
+        for v in head_mut(ci, n).iter_mut() {
+            *v = T::zero();
+        }
+        let mut mask = *mask;
+        while mask != 0 {
+            let k = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            if let (Some(aik), Some(bk)) = (ai.get(k), b.get(k)) {
+                axpy(ci, *aik, bk, n);
+            }
+        }
+    }
+}
+
 /// `out = a b^T + d` over the leading block, upper half computed and mirrored (the result is
 /// symmetric when `a b^T` is, as in `(Phi P) Phi^T`). Entries outside the block are untouched.
 pub fn mul_t_sym_into<T: Real, const N: usize>(
@@ -219,5 +267,41 @@ mod tests {
         let q = mul_t_sym(&from_mat(&a), &from_mat(&a), &zeros(), 8);
         assert_eq!(to_mat(&q), to_mat(&s));
         assert_eq!(transpose(&from_mat(&a)), from_mat(&a.transpose()));
+    }
+
+    /// The product through the row pattern is the zero-testing product, bit for bit, at every
+    /// active size, on sparse factors with entries of both signs, NaN and infinities included.
+    #[test]
+    fn the_pattern_product_is_the_plain_product() {
+        use rand::{Rng, SeedableRng};
+        const N: usize = 24;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(66_002);
+        let entry = |rng: &mut rand_chacha::ChaCha8Rng, zeros: f64| -> f64 {
+            match rng.gen_range(0.0..1.0) {
+                u if u < zeros => 0.0,
+                u if u < zeros + 0.01 => f64::NAN,
+                u if u < zeros + 0.02 => f64::NEG_INFINITY,
+                _ => rng.gen_range(-1e3..1e3),
+            }
+        };
+        for n in 0..=N {
+            let mut a = zeros::<f64, N>();
+            let mut b = zeros::<f64, N>();
+            for i in 0..n {
+                for j in 0..n {
+                    a[i][j] = entry(&mut rng, 0.8);
+                    b[i][j] = entry(&mut rng, 0.1);
+                }
+            }
+            let pattern = row_pattern(&a, n);
+            assert!(pattern.is_some());
+            let (mut want, mut got) = ([[7.0; N]; N], [[7.0; N]; N]);
+            mul_into(&mut want, &a, &b, n);
+            mul_pattern_into(&mut got, &a, pattern.as_ref(), &b, n);
+            for (w, g) in want.iter().zip(got.iter()) {
+                let bits = |r: &[f64; N]| r.map(f64::to_bits);
+                assert_eq!(bits(w), bits(g), "n = {n}");
+            }
+        }
     }
 }

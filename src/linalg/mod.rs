@@ -20,8 +20,8 @@ pub mod dense;
 
 pub use cholesky::{chol_solve, cholesky, inverse_diagonal, is_positive_definite};
 pub use dense::{
-    axpy, dot, from_mat, from_vec, head, head_mut, mul, mul_into, mul_t_sym, mul_t_sym_into,
-    to_mat, to_vec, transpose, transpose_into, zeros, Arr,
+    axpy, dot, from_mat, from_vec, head, head_mut, mul, mul_into, mul_pattern_into, mul_t_sym,
+    mul_t_sym_into, row_pattern, to_mat, to_vec, transpose, transpose_into, zeros, Arr,
 };
 
 use crate::Real;

@@ -34,7 +34,10 @@
 //! This is the crate's one discretisation: [`discretise_block`] on row-major arrays (the
 //! filters' form) and [`discretise`] on nalgebra matrices (all states active) share it.
 
-use crate::linalg::{axpy, from_mat, mul, mul_into, mul_t_sym, to_mat, transpose_into, zeros, Arr};
+use crate::linalg::{
+    axpy, from_mat, head, mul, mul_pattern_into, mul_t_sym, row_pattern, to_mat, transpose_into,
+    zeros, Arr,
+};
 use crate::model::ModelError;
 use crate::Real;
 use nalgebra::SMatrix;
@@ -114,20 +117,24 @@ fn balance<T: Real, const N: usize>(A: &Arr<T, N>, n: usize) -> Balanced<T, N> {
         for (i, ra) in A.iter().enumerate().take(n) {
             let di = d.get(i).copied().unwrap_or_else(T::one);
             let ii = inv.get(i).copied().unwrap_or_else(T::one);
-            // Row: B_ij = A_ij d_j / d_i; column: B_ji = A_ji d_i / d_j (j != i).
+            // Row: B_ij = A_ij d_j / d_i; column: B_ji = A_ji d_i / d_j (j != i). Each sum
+            // in the order j = 0, 1, ..., n - 1, over j < i and then j > i: no branch on
+            // `j == i` in the loop (BENCHMARKS.md "CI time: bit-exact kernels").
             let mut r = T::zero();
             let mut c = T::zero();
-            for (j, ((aij, rj), (dj, ij))) in ra
-                .iter()
-                .zip(A.iter())
-                .zip(d.iter().zip(inv.iter()))
-                .enumerate()
-                .take(n)
-            {
-                if j != i {
-                    r += aij.abs() * *dj;
-                    c += rj.get(i).map_or(T::zero(), |v| v.abs()) * *ij;
-                }
+            let row = head(ra, n);
+            let (rows, ds, invs) = (head(A, n), head(&d, n), head(&inv, n));
+            for (aij, dj) in row.iter().zip(ds).take(i) {
+                r += aij.abs() * *dj;
+            }
+            for (aij, dj) in row.iter().zip(ds).skip(i + 1) {
+                r += aij.abs() * *dj;
+            }
+            for (rj, ij) in rows.iter().zip(invs).take(i) {
+                c += rj.get(i).map_or(T::zero(), |v| v.abs()) * *ij;
+            }
+            for (rj, ij) in rows.iter().zip(invs).skip(i + 1) {
+                c += rj.get(i).map_or(T::zero(), |v| v.abs()) * *ij;
             }
             let (r, c) = (r * ii, c * di);
             let ei = e.get(i).copied().unwrap_or(0);
@@ -269,12 +276,14 @@ impl<T: Real, const N: usize> Expm<T, N> {
         }
         // k counted down in T (see `series_order`).
         let mut kk = T::lit(order as f64);
-        // One product buffer for the whole series (`mul_into`).
+        // One product buffer for the whole series (`mul_into`), and `A h`'s non-zero pattern
+        // found once for all its products.
         let mut m = zeros();
+        let pattern = row_pattern(&ah, n);
         for _ in 0..order {
             let inv_k = T::one() / kk;
             kk -= T::one();
-            mul_into(&mut m, &ah, &phi, n);
+            mul_pattern_into(&mut m, &ah, pattern.as_ref(), &phi, n);
             // Scale, then add the identity: a branch on `i == j` inside the row loop kept it
             // from vectorising (a third of this function's time, perf).
             for (i, (pr, mr)) in phi.iter_mut().zip(m.iter()).enumerate().take(n) {
@@ -337,8 +346,9 @@ impl<T: Real, const N: usize> Expm<T, N> {
         let mut k1 = T::one();
         // `A C_{k-1}` and its transpose, one buffer each for the whole series (`mul_into`).
         let (mut ac, mut act) = (zeros(), zeros());
+        let pattern = row_pattern(A, n);
         for _ in 1..=order {
-            mul_into(&mut ac, A, &c, n);
+            mul_pattern_into(&mut ac, A, pattern.as_ref(), &c, n);
             transpose_into(&mut act, &ac, n);
             k1 += T::one();
             coef = coef * h / k1;

@@ -333,7 +333,11 @@ pub fn run_with<T: Real>(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -
     run_observed::<T>(args, imu, fixes, &indicatif::ProgressBar::hidden())
 }
 
-/// [`run_with`] advancing `bar` by one per IMU sample ([`records::imu_progress`]).
+/// IMU samples per advance of the progress bar.
+const PROGRESS_BATCH: u64 = 100;
+
+/// [`run_with`] advancing `bar` by the IMU samples mechanised, `PROGRESS_BATCH` at a time
+/// ([`records::imu_progress`]).
 pub fn run_observed<T: Real>(
     args: &NavArgs,
     imu: &[ImuSample],
@@ -366,6 +370,9 @@ pub fn run_observed<T: Real>(
         .adapt
         .filter(|c| c.method == adapt::AdaptMethod::Replay)
         .map(|c| adapt::Adapter::new(args, c, &lp, t_start));
+    // Samples mechanised and not yet added to the bar: `inc` reads the clock, and once per
+    // sample that was 2 % of a diagnosis run (perf, BENCHMARKS.md "CI time: bit-exact kernels").
+    let unshown = std::cell::Cell::new(0u64);
     loop {
         let t_end = adapter.as_ref().map_or(f64::INFINITY, |a| a.next_time());
         // With the switch pending, advances of a minute, the switch between them.
@@ -375,7 +382,15 @@ pub fn run_observed<T: Real>(
         } else {
             t_end
         };
-        lp.advance(imu, fixes, t_end, &mut epochs, &name, &|| bar.inc(1))?;
+        lp.advance(imu, fixes, t_end, &mut epochs, &name, &|| {
+            let k = unshown.get() + 1;
+            if k >= PROGRESS_BATCH {
+                bar.inc(k);
+                unshown.set(0);
+            } else {
+                unshown.set(k);
+            }
+        })?;
         if pending {
             let t = lp.time(imu);
             adapt::switch_if_settled(lp.nav_mut(), t)?;
@@ -388,6 +403,7 @@ pub fn run_observed<T: Real>(
             _ => break,
         }
     }
+    bar.inc(unshown.get());
     bar.finish_and_clear();
     let heading_known = lp.planner.heading_known();
     let scores = args.outages.map(|_| {
