@@ -121,14 +121,20 @@ pub fn mul_into<T: Real, const N: usize>(
     }
 }
 
+/// Up to this many active states [`row_pattern`] gives `None`: on the one-channel model (4-8
+/// states) the pattern's walk cost the Cortex-M4 more than the zero tests it saves (the worst
+/// re-identification tick +3.5 %, QEMU icount).
+pub const PATTERN_MIN: usize = 8;
+
 /// The non-zero pattern of `a`'s leading `n x n` block, a bit mask per row (bit `k` of row `i`
-/// set when `a[i][k] != 0`, NaN included), for [`mul_pattern_into`]; `None` when `N > 64`.
+/// set when `a[i][k] != 0`, NaN included), for [`mul_pattern_into`]; `None` when `N > 64`,
+/// and for blocks of at most [`PATTERN_MIN`] states, where the plain product is cheaper.
 /// Built once for a factor that multiplies many times (the discretisation's series: 10-15
 /// products by the same sparse `A`), it replaces a test per entry per product, a branch on an
 /// irregular pattern that was the series' largest cost (perf; BENCHMARKS.md "CI time: bit-exact
 /// kernels"). Building it inside every product was measured no faster (session 62).
 pub fn row_pattern<T: Real, const N: usize>(a: &Arr<T, N>, n: usize) -> Option<[u64; N]> {
-    if N > 64 {
+    if N > 64 || n <= PATTERN_MIN {
         return None;
     }
     let mut rows = [0u64; N];
@@ -294,7 +300,7 @@ mod tests {
                 }
             }
             let pattern = row_pattern(&a, n);
-            assert!(pattern.is_some());
+            assert_eq!(pattern.is_some(), n > PATTERN_MIN);
             let (mut want, mut got) = ([[7.0; N]; N], [[7.0; N]; N]);
             mul_into(&mut want, &a, &b, n);
             mul_pattern_into(&mut got, &a, pattern.as_ref(), &b, n);

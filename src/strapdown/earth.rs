@@ -37,23 +37,85 @@ pub const GAMMA_E: f64 = 9.780_325_335_9;
 /// Normal gravity at the poles [m/s^2].
 pub const GAMMA_P: f64 = 9.832_184_937_8;
 
-/// `1 - e^2 sin^2(lat)`, the common factor of the radii.
-fn one_minus_e2_sin2<T: Real>(lat: T) -> T {
-    let s = lat.sin();
+/// `1 - e^2 sin^2(lat)`, the common factor of the radii, from `sin(lat)`.
+fn one_minus_e2_sin2<T: Real>(s: T) -> T {
     T::one() - T::lit(E2) * s * s
+}
+
+/// The functions of the latitude the mechanisation needs at every IMU sample (the sine, cosine
+/// and tangent, the two radii and Somigliana's gravity on the ellipsoid), each evaluated once:
+/// the free functions below evaluate the same expressions, so the values are the same bit for
+/// bit, but one step had evaluated the sine seven times and the tangent twice (perf: the
+/// trigonometry was a third of the mechanisation; BENCHMARKS.md "CI time: bit-exact kernels").
+#[derive(Debug, Clone, Copy)]
+pub struct Latitude<T> {
+    sin: T,
+    cos: T,
+    tan: T,
+    /// `R_N` and `R_E` [m].
+    rn: T,
+    re: T,
+    /// `gamma_0(L)` [m/s^2].
+    g0: T,
+}
+
+impl<T: Real> Latitude<T> {
+    /// The functions of `lat` [rad].
+    pub fn new(lat: T) -> Self {
+        let s = lat.sin();
+        let d = one_minus_e2_sin2(s);
+        let sqrt_d = d.sqrt();
+        Self {
+            sin: s,
+            cos: lat.cos(),
+            tan: lat.tan(),
+            rn: T::lit(A * (1.0 - E2)) / (d * sqrt_d),
+            re: T::lit(A) / sqrt_d,
+            g0: T::lit(GAMMA_E) * (T::one() + T::lit(SOMIGLIANA_K) * s * s) / sqrt_d,
+        }
+    }
+
+    /// [`normal_gravity`] at height `h` [m].
+    pub fn normal_gravity(&self, h: T) -> T {
+        self.g0 * free_air(h)
+    }
+
+    /// [`earth_rate_ned`].
+    pub fn earth_rate_ned(&self) -> Vector3<T> {
+        let w = T::lit(OMEGA_IE);
+        Vector3::new(w * self.cos, T::zero(), -w * self.sin)
+    }
+
+    /// [`transport_rate_ned`] at velocity `v` and height `h`.
+    pub fn transport_rate_ned(&self, v: &Vector3<T>, h: T) -> Vector3<T> {
+        let re = self.re + h;
+        let rn = self.rn + h;
+        Vector3::new(v.y / re, -v.x / rn, -v.y * self.tan / re)
+    }
 }
 
 /// Meridian (north-south) radius of curvature `R_N = a (1 - e^2) / (1 - e^2 sin^2 L)^(3/2)`
 /// (Groves eq. 2.105) [m].
 pub fn radius_north<T: Real>(lat: T) -> T {
-    let d = one_minus_e2_sin2(lat);
+    let d = one_minus_e2_sin2(lat.sin());
     T::lit(A * (1.0 - E2)) / (d * d.sqrt())
 }
 
 /// Transverse (east-west) radius of curvature `R_E = a / sqrt(1 - e^2 sin^2 L)`
 /// (Groves eq. 2.106) [m].
 pub fn radius_east<T: Real>(lat: T) -> T {
-    T::lit(A) / one_minus_e2_sin2(lat).sqrt()
+    T::lit(A) / one_minus_e2_sin2(lat.sin()).sqrt()
+}
+
+/// Somigliana's `k = b gamma_p / (a gamma_e) - 1`.
+const SOMIGLIANA_K: f64 = B * GAMMA_P / (A * GAMMA_E) - 1.0;
+
+/// The free-air factor `1 - 2/a (1 + f + omega^2 a^2 b / mu) h + 3 h^2 / a^2`.
+fn free_air<T: Real>(h: T) -> T {
+    const M: f64 = OMEGA_IE * OMEGA_IE * A * A * B / GM;
+    let lin = T::lit(2.0 / A * (1.0 + F + M));
+    let quad = T::lit(3.0 / (A * A));
+    T::one() - lin * h + quad * h * h
 }
 
 /// Normal gravity on the ellipsoid by Somigliana's closed form (Groves eq. 2.134):
@@ -61,13 +123,10 @@ pub fn radius_east<T: Real>(lat: T) -> T {
 /// then the free-air height correction to second order (Groves eq. 2.139):
 /// `gamma(L, h) = gamma_0(L) [1 - 2/a (1 + f + omega^2 a^2 b / mu) h + 3 h^2 / a^2]` [m/s^2].
 pub fn normal_gravity<T: Real>(lat: T, h: T) -> T {
-    const K: f64 = B * GAMMA_P / (A * GAMMA_E) - 1.0;
-    const M: f64 = OMEGA_IE * OMEGA_IE * A * A * B / GM;
     let s = lat.sin();
-    let g0 = T::lit(GAMMA_E) * (T::one() + T::lit(K) * s * s) / one_minus_e2_sin2(lat).sqrt();
-    let lin = T::lit(2.0 / A * (1.0 + F + M));
-    let quad = T::lit(3.0 / (A * A));
-    g0 * (T::one() - lin * h + quad * h * h)
+    let g0 =
+        T::lit(GAMMA_E) * (T::one() + T::lit(SOMIGLIANA_K) * s * s) / one_minus_e2_sin2(s).sqrt();
+    g0 * free_air(h)
 }
 
 /// Gravity vector in NED, `g^n = (0, 0, gamma(L, h))` (down positive).
@@ -118,6 +177,32 @@ mod tests {
         assert!(
             (f64::from(normal_gravity(0.7f32, 300.0)) - normal_gravity(0.7, 300.0)).abs() < 2e-6
         );
+    }
+
+    /// The functions evaluated once per latitude are the free functions' values, bit for bit,
+    /// in both precisions, from pole to pole.
+    #[test]
+    fn latitude_gives_the_free_functions_bits() {
+        fn check<T: Real>(lat: T, h: T, v: Vector3<T>) {
+            let at = Latitude::new(lat);
+            let bits = |x: Vector3<T>| x.map(|c| c.as_f64().to_bits());
+            assert_eq!(
+                at.normal_gravity(h).as_f64().to_bits(),
+                normal_gravity(lat, h).as_f64().to_bits()
+            );
+            assert_eq!(bits(at.earth_rate_ned()), bits(earth_rate_ned(lat)));
+            assert_eq!(
+                bits(at.transport_rate_ned(&v, h)),
+                bits(transport_rate_ned(&v, lat, h))
+            );
+        }
+        for k in -89..=89 {
+            let lat = f64::from(k) * 0.0175 + 1e-3 * f64::from(k % 7);
+            let h = f64::from(k) * 37.0;
+            let v = Vector3::new(12.5 - f64::from(k), 0.3 * f64::from(k), -1.5);
+            check(lat, h, v);
+            check(lat as f32, h as f32, v.map(|x| x as f32));
+        }
     }
 
     #[test]

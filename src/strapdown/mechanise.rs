@@ -414,10 +414,15 @@ impl<T: Real> Strapdown<T> {
         if lat.abs() > T::lit(MAX_LAT) {
             return Err(StrapdownError::Polar);
         }
-        let w_ie = earth::earth_rate_ned(lat);
+        let at = earth::Latitude::new(lat);
+        let w_ie = at.earth_rate_ned();
         // Gravity at the mid-interval height: at the start height the vertical channel gets a
         // first-order error (g/R) dt per metre climbed, which its instability then amplifies.
-        let g = earth::gravity_ned(lat, h - self.v.z * dt * T::lit(0.5));
+        let g = Vector3::new(
+            T::zero(),
+            T::zero(),
+            at.normal_gravity(h - self.v.z * dt * T::lit(0.5)),
+        );
         let half = T::lit(0.5);
 
         let (alpha, dv_b) = body_increments(self.prev.as_ref(), inc, self.corr);
@@ -429,7 +434,7 @@ impl<T: Real> Strapdown<T> {
         // Specific-force increment in NED with the frame rotation zeta over the interval, and
         // the gravity and Coriolis increment, for a transport rate at velocity `v`.
         let terms = |v: &Vector3<T>| {
-            let w_en = earth::transport_rate_ned(v, lat, h);
+            let w_en = at.transport_rate_ned(v, h);
             let zeta = (w_ie + w_en) * dt;
             // int C_b^n(t) f dt for constant rates to second order in the combined rotation
             // C(t) = exp(-s [zeta x]) C0 exp(s [alpha x]): the nav-frame terms are
