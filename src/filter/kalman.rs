@@ -137,7 +137,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// Dispatched to a kernel with the active size as a compile-time constant up to 8, so that
     /// the dot products are unrolled (callgrind: ~3x fewer instructions than a run-time loop).
     /// Above 8, to the active size rounded up to a multiple of 4 (12, 16, 20; else `N`): the
-    /// same blocks of four in [`dot_c`] as the `N`-state kernel over `Phi` and `Qd` zero
+    /// same blocks of four in `dot_c` as the `N`-state kernel over `Phi` and `Qd` zero
     /// outside the active block (as the discretisation leaves them), whose further blocks only
     /// add `+-0` to a sum that starts at `+0` and so is never `-0`: the same bits, at
     /// `(20/24)^3` of the work for up to 20 states (BENCHMARKS.md "CI time: bit-exact kernels").

@@ -13,7 +13,8 @@
 //!
 //! # Dynamics (Groves 2013 eq. 14.64-14.66 with `dp` in metres; Titterton & Weston §12.2)
 //! With `w_in = w_ie + w_en`, and the rate errors `dw_ie = M_ie dp`, `dw_en = M_en_v dv + M_en_p dp`
-//! (derivatives of [`earth_rate_ned`] and [`transport_rate_ned`]):
+//! (derivatives of [`earth_rate_ned`](earth::earth_rate_ned) and
+//! [`transport_rate_ned`](earth::transport_rate_ned)):
 //!
 //! ```text
 //! phi' = -[w_in x] phi - M_en_v dv - (M_ie + M_en_p) dp + C_b^n (b_g + w_g)
@@ -40,7 +41,7 @@ use super::imu_model::{ImuErrorModel, ImuSensor};
 use crate::linalg::Arr;
 use crate::model::ins::pow2_near;
 use crate::model::{ContinuousSystem, ErrorModel, ModelError, StateBlock};
-use crate::strapdown::earth::{self, earth_rate_ned, transport_rate_ned};
+use crate::strapdown::earth;
 use crate::strapdown::skew;
 use crate::Real;
 use nalgebra::{Matrix2, Matrix3, Vector3};
@@ -257,13 +258,15 @@ impl<T: Real> StrapdownErrorModel<T> {
         self.imu.validate()?;
         let p = &self.point;
         let (lat, h) = (p.lat, p.h);
-        let rn = earth::radius_north(lat) + h;
-        let re = earth::radius_east(lat) + h;
-        let (sl, cl) = (lat.sin(), lat.cos());
+        // The latitude's functions evaluated once (the same values as the free functions).
+        let at = earth::Latitude::new(lat);
+        let rn = at.radius_north() + h;
+        let re = at.radius_east() + h;
+        let (sl, cl) = (at.sin(), at.cos());
         let tl = sl / cl;
         let w = T::lit(earth::OMEGA_IE);
-        let w_ie = earth_rate_ned(lat);
-        let w_en = transport_rate_ned(&p.v, lat, h);
+        let w_ie = at.earth_rate_ned();
+        let w_en = at.transport_rate_ned(&p.v, h);
         let w_in = w_ie + w_en;
         let (vn, ve) = (p.v.x, p.v.y);
         let z = T::zero();
@@ -282,7 +285,7 @@ impl<T: Real> StrapdownErrorModel<T> {
             z,
             -ve * tl / (re * re),
         );
-        let g = earth::normal_gravity(lat, h);
+        let g = at.normal_gravity(h);
         let r_mean = (rn * re).sqrt();
 
         let f_pp = -skew(&w_in);

@@ -75,6 +75,26 @@ impl<T: Real> Latitude<T> {
         }
     }
 
+    /// `sin L`.
+    pub fn sin(&self) -> T {
+        self.sin
+    }
+
+    /// `cos L`.
+    pub fn cos(&self) -> T {
+        self.cos
+    }
+
+    /// [`radius_north`].
+    pub fn radius_north(&self) -> T {
+        self.rn
+    }
+
+    /// [`radius_east`].
+    pub fn radius_east(&self) -> T {
+        self.re
+    }
+
     /// [`normal_gravity`] at height `h` [m].
     pub fn normal_gravity(&self, h: T) -> T {
         self.g0 * free_air(h)
@@ -191,6 +211,9 @@ mod tests {
                 normal_gravity(lat, h).as_f64().to_bits()
             );
             assert_eq!(bits(at.earth_rate_ned()), bits(earth_rate_ned(lat)));
+            let radii = (at.radius_north(), at.radius_east());
+            assert_eq!(radii, (radius_north(lat), radius_east(lat)));
+            assert_eq!((at.sin(), at.cos()), (lat.sin(), lat.cos()));
             assert_eq!(
                 bits(at.transport_rate_ned(&v, h)),
                 bits(transport_rate_ned(&v, lat, h))
