@@ -263,7 +263,10 @@ pub fn joint<T: Real, const N: usize, const Z: usize>(
     for b in 0..m {
         // Checked and zipped rather than indexed: no bounds check left for the firmware's
         // no-panic link check (the axis numbers in `idx` are data to the optimiser).
-        let Some(hb) = idx.get(b).and_then(|&ib| H.get(ib)) else {
+        let Some(&ib) = idx.get(b) else {
+            continue;
+        };
+        let Some(hb) = H.get(ib) else {
             continue;
         };
         // P H_b^T over the active block, once per column of S: each entry the same sum in the
@@ -275,7 +278,7 @@ pub fn joint<T: Real, const N: usize, const Z: usize>(
             *v = dot(prow, hb, n);
         }
         for a in 0..m {
-            let (Some(&ia), Some(&ib)) = (idx.get(a), idx.get(b)) else {
+            let Some(&ia) = idx.get(a) else {
                 continue;
             };
             let Some(ha) = H.get(ia) else {

@@ -42,10 +42,26 @@ fn one_minus_e2_sin2<T: Real>(s: T) -> T {
     T::one() - T::lit(E2) * s * s
 }
 
+/// `R_N` from `d = 1 - e^2 sin^2 L` and its square root (the one expression of [`Latitude`]
+/// and [`radius_north`]).
+fn radius_north_of<T: Real>(d: T, sqrt_d: T) -> T {
+    T::lit(A * (1.0 - E2)) / (d * sqrt_d)
+}
+
+/// `R_E` from `sqrt(1 - e^2 sin^2 L)`.
+fn radius_east_of<T: Real>(sqrt_d: T) -> T {
+    T::lit(A) / sqrt_d
+}
+
+/// Somigliana's `gamma_0(L)` from `sin L` and `sqrt(1 - e^2 sin^2 L)`.
+fn gamma0_of<T: Real>(s: T, sqrt_d: T) -> T {
+    T::lit(GAMMA_E) * (T::one() + T::lit(SOMIGLIANA_K) * s * s) / sqrt_d
+}
+
 /// The functions of the latitude the mechanisation needs at every IMU sample (the sine, cosine
 /// and tangent, the two radii and Somigliana's gravity on the ellipsoid), each evaluated once:
-/// the free functions below evaluate the same expressions, so the values are the same bit for
-/// bit, but one step had evaluated the sine seven times and the tangent twice (perf: the
+/// the free functions below give the same values bit for bit
+/// bit (they share the expressions, or are this type's), but one step had evaluated the sine seven times and the tangent twice (perf: the
 /// trigonometry was a third of the mechanisation; BENCHMARKS.md "CI time: bit-exact kernels").
 #[derive(Debug, Clone, Copy)]
 pub struct Latitude<T> {
@@ -69,9 +85,9 @@ impl<T: Real> Latitude<T> {
             sin: s,
             cos: lat.cos(),
             tan: lat.tan(),
-            rn: T::lit(A * (1.0 - E2)) / (d * sqrt_d),
-            re: T::lit(A) / sqrt_d,
-            g0: T::lit(GAMMA_E) * (T::one() + T::lit(SOMIGLIANA_K) * s * s) / sqrt_d,
+            rn: radius_north_of(d, sqrt_d),
+            re: radius_east_of(sqrt_d),
+            g0: gamma0_of(s, sqrt_d),
         }
     }
 
@@ -118,13 +134,13 @@ impl<T: Real> Latitude<T> {
 /// (Groves eq. 2.105) [m].
 pub fn radius_north<T: Real>(lat: T) -> T {
     let d = one_minus_e2_sin2(lat.sin());
-    T::lit(A * (1.0 - E2)) / (d * d.sqrt())
+    radius_north_of(d, d.sqrt())
 }
 
 /// Transverse (east-west) radius of curvature `R_E = a / sqrt(1 - e^2 sin^2 L)`
 /// (Groves eq. 2.106) [m].
 pub fn radius_east<T: Real>(lat: T) -> T {
-    T::lit(A) / one_minus_e2_sin2(lat.sin()).sqrt()
+    radius_east_of(one_minus_e2_sin2(lat.sin()).sqrt())
 }
 
 /// Somigliana's `k = b gamma_p / (a gamma_e) - 1`.
@@ -144,9 +160,7 @@ fn free_air<T: Real>(h: T) -> T {
 /// `gamma(L, h) = gamma_0(L) [1 - 2/a (1 + f + omega^2 a^2 b / mu) h + 3 h^2 / a^2]` [m/s^2].
 pub fn normal_gravity<T: Real>(lat: T, h: T) -> T {
     let s = lat.sin();
-    let g0 =
-        T::lit(GAMMA_E) * (T::one() + T::lit(SOMIGLIANA_K) * s * s) / one_minus_e2_sin2(s).sqrt();
-    g0 * free_air(h)
+    gamma0_of(s, one_minus_e2_sin2(s).sqrt()) * free_air(h)
 }
 
 /// Gravity vector in NED, `g^n = (0, 0, gamma(L, h))` (down positive).
@@ -157,17 +171,14 @@ pub fn gravity_ned<T: Real>(lat: T, h: T) -> Vector3<T> {
 /// Earth rate resolved in NED, `omega_ie^n = omega_ie (cos L, 0, -sin L)` (Groves eq. 2.123)
 /// [rad/s].
 pub fn earth_rate_ned<T: Real>(lat: T) -> Vector3<T> {
-    let w = T::lit(OMEGA_IE);
-    Vector3::new(w * lat.cos(), T::zero(), -w * lat.sin())
+    Latitude::new(lat).earth_rate_ned()
 }
 
 /// Transport rate (rotation of NED over the Earth) from the NED velocity and position
 /// (Groves eq. 5.44):
 /// `omega_en^n = (v_E / (R_E + h), -v_N / (R_N + h), -v_E tan L / (R_E + h))` [rad/s].
 pub fn transport_rate_ned<T: Real>(v: &Vector3<T>, lat: T, h: T) -> Vector3<T> {
-    let re = radius_east(lat) + h;
-    let rn = radius_north(lat) + h;
-    Vector3::new(v.y / re, -v.x / rn, -v.y * lat.tan() / re)
+    Latitude::new(lat).transport_rate_ned(v, h)
 }
 
 /// Rates of the curvilinear position `(L', lambda', h')` from the NED velocity
