@@ -319,6 +319,72 @@ fn strapdown_model_needs_no_squaring() {
     assert!(p <= 12 && q <= 20, "orders {p}, {q}");
 }
 
+/// The prediction's part of the strapdown system (`ErrorModel::dynamics`, `dynamics_into`,
+/// built without `P0`, `H`, `R`: BENCHMARKS.md "The filter step in place") is the full system's `A`, `Qc`, `n`, bit for bit, every entry of the caller's
+/// arrays written (zero outside the block), with and without scale-factor states (24 states,
+/// the capacity). The full system's `P0`, built apart since, holds each block's initial
+/// covariance: the navigation errors' deviations, each component's stationary covariance, the
+/// scale factors' deviations, zero elsewhere. A model too large for `N` is an error that
+/// leaves the caller's arrays alone.
+#[test]
+fn the_prediction_takes_the_full_systems_dynamics() {
+    use imu_ident::model::error_model::ErrorModel;
+    const N: usize = 24;
+    for sf in [None, Some([3e-4, 1e-3])] {
+        let mut model = strapdown_model();
+        model.scale_factor_sd = sf;
+        let scale: [f64; N] = ErrorModel::<f64, N, 6>::scaling(&model).unwrap();
+        let sys = ErrorModel::<f64, N, 6>::system(&model, &scale).unwrap();
+        let mut a = [[f64::NAN; N]; N];
+        let mut qc = [[f64::NAN; N]; N];
+        let n = model.dynamics_into(&scale, &mut a, &mut qc).unwrap();
+        assert_eq!(n, if sf.is_some() { 24 } else { 18 });
+        assert_eq!(n, sys.n);
+        let bits = |m: &[[f64; N]; N]| m.map(|r| r.map(f64::to_bits));
+        assert_eq!(bits(&a), bits(&sys.A));
+        assert_eq!(bits(&qc), bits(&sys.Qc));
+        let (a2, qc2, n2) = ErrorModel::<f64, N, 6>::dynamics(&model, &scale).unwrap();
+        assert_eq!((bits(&a2), bits(&qc2), n2), (bits(&a), bits(&qc), n));
+        // P0 in physical units, P0'_ij s_i s_j, against each block's own covariance.
+        let mut want = [[0.0; N]; N];
+        for i in 0..3 {
+            want[i][i] = 0.01 * 0.01;
+            want[3 + i][3 + i] = 0.1 * 0.1;
+            want[6 + i][6 + i] = 1.0;
+        }
+        model.for_each_component(&mut |_, _, k, c| {
+            let b = c.block();
+            for i in 0..b.states {
+                for j in 0..b.states {
+                    want[k + i][k + j] = b.p0[(i, j)];
+                }
+            }
+        });
+        if let Some(sd) = sf {
+            for j in 0..3 {
+                want[18 + j][18 + j] = sd[0] * sd[0];
+                want[21 + j][21 + j] = sd[1] * sd[1];
+            }
+        }
+        for i in 0..N {
+            for j in 0..N {
+                let got = sys.P0[i][j] * scale[i] * scale[j];
+                let tol = 1e-15 * want[i][j].abs();
+                assert!(
+                    (got - want[i][j]).abs() <= tol,
+                    "P0[{i},{j}] {got:e} vs {:e}",
+                    want[i][j]
+                );
+            }
+        }
+    }
+    let model = strapdown_model();
+    let scale = [1.0f64; 12];
+    let (mut a, mut qc) = ([[7.0f64; 12]; 12], [[7.0f64; 12]; 12]);
+    assert!(model.dynamics_into(&scale, &mut a, &mut qc).is_err());
+    assert!(a.iter().chain(qc.iter()).flatten().all(|v| *v == 7.0));
+}
+
 /// Benchmark (ignored; BENCHMARKS.md "The discretisation's series without temporaries"): the
 /// moving 18-state strapdown model discretised `DISC_REPS` times (20 000 by default) at steps
 /// of 1.00-1.06 s, in `f64` and `f32`; prints the time per call (min, median, p95) and a hash

@@ -208,6 +208,19 @@ pub fn discretise_block<T: Real, const N: usize>(
     e.discretise(A, Qc)
 }
 
+/// [`discretise_block`] into the caller's `phi` and `q` ([`Expm::discretise_into`]).
+#[allow(non_snake_case)]
+pub fn discretise_block_into<T: Real, const N: usize>(
+    A: &Arr<T, N>,
+    Qc: &Arr<T, N>,
+    dt: T,
+    n: usize,
+    phi: &mut Arr<T, N>,
+    q: &mut Arr<T, N>,
+) -> Result<(), ModelError> {
+    Expm::new(A, dt, n)?.discretise_into(A, Qc, phi, q)
+}
+
 /// The part of the discretisation that depends on `A` and `dt` only (steps 1 and 2's
 /// `Phi_h`): several noise intensities `Qc` over one `A` share it
 /// ([`discretise`](Self::discretise) for each), and `Qd` is linear in `Qc`, so the
@@ -323,6 +336,23 @@ impl<T: Real, const N: usize> Expm<T, N> {
         A: &Arr<T, N>,
         Qc: &Arr<T, N>,
     ) -> Result<(Arr<T, N>, Arr<T, N>), ModelError> {
+        let (mut phi, mut q) = (zeros(), zeros());
+        self.discretise_into(A, Qc, &mut phi, &mut q)?;
+        Ok((phi, q))
+    }
+
+    /// [`discretise`](Self::discretise) into the caller's `phi` and `q` (every entry written;
+    /// untouched on error): the firmware's filter step keeps its `N x N` arrays in place
+    /// instead of moving them through return values (BENCHMARKS.md "The filter step in
+    /// place").
+    #[allow(non_snake_case)]
+    pub fn discretise_into(
+        &self,
+        A: &Arr<T, N>,
+        Qc: &Arr<T, N>,
+        phi: &mut Arr<T, N>,
+        q: &mut Arr<T, N>,
+    ) -> Result<(), ModelError> {
         let (n, h) = (self.n, self.h);
         let mut qcol = [T::zero(); N];
         for rq in Qc.iter().take(n) {
@@ -334,11 +364,13 @@ impl<T: Real, const N: usize> Expm<T, N> {
             return Err(ModelError::NonFinite);
         }
         let order = self.q_order;
-        let mut phi = self.phi_h;
+        *phi = self.phi_h;
         // Q_h = sum_k C_k h^{k+1} / (k+1)!, C_0 = Qc, C_k = A C_{k-1} + (A C_{k-1})^T.
         let mut c = *Qc;
         let mut coef = h;
-        let mut q = zeros();
+        for row in q.iter_mut() {
+            row.fill(T::zero());
+        }
         for (qr, cr) in q.iter_mut().zip(c.iter()).take(n) {
             axpy(qr, coef, cr, n);
         }
@@ -371,18 +403,18 @@ impl<T: Real, const N: usize> Expm<T, N> {
             }
         }
         for _ in 0..self.s {
-            let pq = mul(&phi, &q, n);
-            q = mul_t_sym(&pq, &phi, &q, n);
-            phi = mul(&phi, &phi, n);
+            let pq = mul(phi, q, n);
+            *q = mul_t_sym(&pq, phi, q, n);
+            *phi = mul(phi, phi, n);
         }
         // Symmetrise (the series is symmetric term by term; this removes rounding asymmetry),
         // the transpose in the series' buffer.
-        transpose_into(&mut act, &q, n);
+        transpose_into(&mut act, q, n);
         for (qr, tr) in q.iter_mut().zip(act.iter()).take(n) {
             for (v, t) in qr.iter_mut().zip(tr.iter()).take(n) {
                 *v = (*v + *t) * T::lit(0.5);
             }
         }
-        Ok((phi, q))
+        Ok(())
     }
 }

@@ -64,13 +64,22 @@ pub trait ErrorModel<T: Real, const N: usize, const Z: usize> {
     fn scaling(&self) -> Result<[T; N], ModelError>;
     /// The continuous system in the states scaled by `scale`.
     fn system(&self, scale: &[T; N]) -> Result<ContinuousSystem<T, N, Z>, ModelError>;
+    /// `(A', Qc', n)`: the part of [`system`](Self::system) a prediction needs. A model may
+    /// override it to skip building `P0`, `H` and `R` (the strapdown error model does: the
+    /// navigator relinearises it at every filter step, and the bank's shadows each take it).
+    #[allow(non_snake_case, clippy::type_complexity)]
+    fn dynamics(&self, scale: &[T; N]) -> Result<(Arr<T, N>, Arr<T, N>, usize), ModelError> {
+        let ContinuousSystem { A, Qc, n, .. } = self.system(scale)?;
+        Ok((A, Qc, n))
+    }
     /// `(Phi, Qd)` over the active block in the states scaled by `scale`: the crate's one
-    /// discretisation ([`discretise_block`]) of [`system`](Self::system) at [`dt`](Self::dt).
-    /// A model may override it to skip building the parts of the system it does not need (the
-    /// identification bank calls it once per member and parameter move).
+    /// discretisation ([`discretise_block`]) of [`dynamics`](Self::dynamics) at
+    /// [`dt`](Self::dt). A model may override it to skip building the parts of the system it
+    /// does not need (the identification bank calls it once per member and parameter move).
+    #[allow(non_snake_case)]
     fn discrete(&self, scale: &[T; N]) -> Result<(Arr<T, N>, Arr<T, N>), ModelError> {
-        let sys = self.system(scale)?;
-        discretise_block(&sys.A, &sys.Qc, self.dt(), sys.n)
+        let (A, Qc, n) = self.dynamics(scale)?;
+        discretise_block(&A, &Qc, self.dt(), n)
     }
     /// Calls `f` with each named state block, in state order.
     fn blocks(&self, f: &mut dyn FnMut(StateBlock));

@@ -248,9 +248,15 @@ impl<T: Real> StrapdownErrorModel<T> {
         (b[0], b[1])
     }
 
-    /// Physical `(A, Qc, P0)` over the active states, and the observation rows `H`.
-    #[allow(non_snake_case, clippy::type_complexity)]
-    fn physical<const N: usize>(&self) -> Result<(Arr<T, N>, Arr<T, N>, Arr<T, N>), ModelError> {
+    /// Physical `A` and `Qc` over the active states, written into `a` and `qc` (zero elsewhere):
+    /// what a prediction needs, at every 1-Hz step and for every shadow of the bank
+    /// ([`Self::initial_covariance`] is built apart). Into the caller's arrays, not returned:
+    /// the firmware's deepest stack runs through here.
+    fn physical_into<const N: usize>(
+        &self,
+        a: &mut Arr<T, N>,
+        qc: &mut Arr<T, N>,
+    ) -> Result<(), ModelError> {
         let n = self.states();
         if n > N {
             return Err(ModelError::TooManyStates);
@@ -296,9 +302,9 @@ impl<T: Real> StrapdownErrorModel<T> {
         let mut f_vr = skew(&p.v) * (m_ie * T::lit(2.0) + m_en_p);
         f_vr[(2, 2)] += T::lit(2.0) * g / r_mean;
 
-        let mut a = [[T::zero(); N]; N];
-        let mut qc = [[T::zero(); N]; N];
-        let mut p0 = [[T::zero(); N]; N];
+        for row in a.iter_mut().chain(qc.iter_mut()) {
+            row.fill(T::zero());
+        }
         let put = |m: &mut Arr<T, N>, r0: usize, c0: usize, b: &Matrix3<T>| {
             for i in 0..3 {
                 for j in 0..3 {
@@ -307,13 +313,13 @@ impl<T: Real> StrapdownErrorModel<T> {
             }
         };
         use nav_idx::{ATT, POS, VEL};
-        put(&mut a, ATT, ATT, &f_pp);
-        put(&mut a, ATT, VEL, &f_pv);
-        put(&mut a, ATT, POS, &f_pr);
-        put(&mut a, VEL, ATT, &f_vp);
-        put(&mut a, VEL, VEL, &f_vv);
-        put(&mut a, VEL, POS, &f_vr);
-        put(&mut a, POS, VEL, &Matrix3::identity());
+        put(a, ATT, ATT, &f_pp);
+        put(a, ATT, VEL, &f_pv);
+        put(a, ATT, POS, &f_pr);
+        put(a, VEL, ATT, &f_vp);
+        put(a, VEL, VEL, &f_vv);
+        put(a, VEL, POS, &f_vr);
+        put(a, POS, VEL, &Matrix3::identity());
 
         // White noise: C diag(N^2) C^T on phi (gyro) and dv (accel).
         let c = p.c_bn;
@@ -324,7 +330,7 @@ impl<T: Real> StrapdownErrorModel<T> {
             }
             let q = c * d * c.transpose();
             put(
-                &mut qc,
+                qc,
                 if si == 0 { ATT } else { VEL },
                 if si == 0 { ATT } else { VEL },
                 &q,
@@ -337,27 +343,73 @@ impl<T: Real> StrapdownErrorModel<T> {
             let at = |m: &Matrix2<T>, i: usize, j: usize| m.get((i, j)).copied();
             for i in 0..blk.states {
                 for j in 0..blk.states {
-                    set(&mut a, k + i, k + j, at(&blk.a, i, j));
-                    set(&mut qc, k + i, k + j, at(&blk.qc, i, j));
-                    set(&mut p0, k + i, k + j, at(&blk.p0, i, j));
+                    set(a, k + i, k + j, at(&blk.a, i, j));
+                    set(qc, k + i, k + j, at(&blk.qc, i, j));
                 }
                 for r in 0..3 {
                     let v = c.get((r, axis)).zip(blk.c.get(i)).map(|(x, y)| *x * *y);
-                    set(&mut a, row0 + r, k + i, v);
+                    set(a, row0 + r, k + i, v);
                 }
             }
         });
         // Scale factors: phi' += C diag(w_b) s_g, dv' += C diag(f_b) s_a (Groves eq. 14.64
         // with the scale-factor terms of eq. 4.18).
-        if let Some(sd) = self.scale_factor_sd {
+        if self.scale_factor_sd.is_some() {
             let k = self.scale_factor_start();
             for j in 0..3 {
                 for r in 0..3 {
                     let cw = c.get((r, j)).zip(p.mean_w_b.get(j)).map(|(x, y)| *x * *y);
                     let cf = c.get((r, j)).zip(p.mean_f_b.get(j)).map(|(x, y)| *x * *y);
-                    set(&mut a, ATT + r, k + j, cw);
-                    set(&mut a, VEL + r, k + 3 + j, cf);
+                    set(a, ATT + r, k + j, cw);
+                    set(a, VEL + r, k + 3 + j, cf);
                 }
+            }
+        }
+        Ok(())
+    }
+
+    /// [`ErrorModel::dynamics`] into the caller's `a`, `qc`: `A'`, `Qc'` in the states scaled
+    /// by `scale`; returns the number of active states.
+    #[allow(non_snake_case)]
+    pub fn dynamics_into<const N: usize>(
+        &self,
+        scale: &[T; N],
+        A: &mut Arr<T, N>,
+        Qc: &mut Arr<T, N>,
+    ) -> Result<usize, ModelError> {
+        self.physical_into(A, Qc)?;
+        let n = self.states();
+        // Zipped rather than indexed (no bounds checks left for the no-panic link check).
+        for ((ra, rq), si) in A.iter_mut().zip(Qc.iter_mut()).zip(scale.iter()).take(n) {
+            for ((a, q), sj) in ra.iter_mut().zip(rq.iter_mut()).zip(scale.iter()).take(n) {
+                *a = *a * *sj / *si;
+                *q /= *si * *sj;
+            }
+        }
+        let finite = A.iter().chain(Qc.iter()).flatten().all(|v| v.is_finite());
+        if !finite {
+            return Err(ModelError::NonFinite);
+        }
+        Ok(n)
+    }
+
+    /// Physical `P0` over the active states: the navigation errors' initial deviations, each
+    /// component's stationary covariance and the scale factors' deviations.
+    fn initial_covariance<const N: usize>(&self) -> Arr<T, N> {
+        use nav_idx::{ATT, POS, VEL};
+        let mut p0 = [[T::zero(); N]; N];
+        self.for_each_component(&mut |_, _, k, comp| {
+            let blk = comp.block();
+            let at = |m: &Matrix2<T>, i: usize, j: usize| m.get((i, j)).copied();
+            for i in 0..blk.states {
+                for j in 0..blk.states {
+                    set(&mut p0, k + i, k + j, at(&blk.p0, i, j));
+                }
+            }
+        });
+        if let Some(sd) = self.scale_factor_sd {
+            let k = self.scale_factor_start();
+            for j in 0..3 {
                 set(&mut p0, k + j, k + j, Some(sd[0] * sd[0]));
                 set(&mut p0, k + 3 + j, k + 3 + j, Some(sd[1] * sd[1]));
             }
@@ -368,7 +420,7 @@ impl<T: Real> StrapdownErrorModel<T> {
             p0[VEL + i][VEL + i] = ini.sd_vel * ini.sd_vel;
             p0[POS + i][POS + i] = ini.sd_pos * ini.sd_pos;
         }
-        Ok((a, qc, p0))
+        p0
     }
 
     /// The observation rows `H` in the states scaled by `scale` and the default variances
@@ -444,24 +496,23 @@ impl<T: Real, const N: usize> ErrorModel<T, N, NAV_Z> for StrapdownErrorModel<T>
 
     #[allow(non_snake_case)]
     fn system(&self, scale: &[T; N]) -> Result<ContinuousSystem<T, N, NAV_Z>, ModelError> {
-        let (mut A, mut Qc, mut P0) = self.physical::<N>()?;
-        let n = self.states();
-        // Zipped rather than indexed (no bounds checks left for the no-panic link check).
-        let rows = A.iter_mut().zip(Qc.iter_mut()).zip(P0.iter_mut());
-        for (((ra, rq), rp), si) in rows.zip(scale.iter()).take(n) {
-            let cols = ra.iter_mut().zip(rq.iter_mut()).zip(rp.iter_mut());
-            for (((a, q), p), sj) in cols.zip(scale.iter()).take(n) {
-                *a = *a * *sj / *si;
-                *q /= *si * *sj;
+        let (A, Qc, n) = self.dynamics(scale)?;
+        let mut P0 = self.initial_covariance::<N>();
+        for (rp, si) in P0.iter_mut().zip(scale.iter()).take(n) {
+            for (p, sj) in rp.iter_mut().zip(scale.iter()).take(n) {
                 *p /= *si * *sj;
             }
         }
         let (H, R) = self.observation(scale);
-        let finite = A.iter().chain(Qc.iter()).flatten().all(|v| v.is_finite());
-        if !finite {
-            return Err(ModelError::NonFinite);
-        }
         Ok(ContinuousSystem { A, Qc, P0, H, R, n })
+    }
+
+    #[allow(non_snake_case)]
+    fn dynamics(&self, scale: &[T; N]) -> Result<(Arr<T, N>, Arr<T, N>, usize), ModelError> {
+        let mut A = [[T::zero(); N]; N];
+        let mut Qc = [[T::zero(); N]; N];
+        let n = self.dynamics_into(scale, &mut A, &mut Qc)?;
+        Ok((A, Qc, n))
     }
 
     fn blocks(&self, f: &mut dyn FnMut(StateBlock)) {

@@ -4,8 +4,8 @@
 
 use crate::filter::{fuse, Kalman};
 use crate::linalg::Arr;
-use crate::model::discretise::discretise_block;
-use crate::model::{ContinuousSystem, ErrorModel, ModelError};
+use crate::model::discretise::discretise_block_into;
+use crate::model::ModelError;
 use crate::nav::error_model::{nav_idx, StrapdownErrorModel, NAV_Z};
 use crate::nav::ImuErrorModel;
 use crate::Real;
@@ -43,21 +43,28 @@ impl<T: Real, const N: usize> Shadow<T, N> {
         x_run: &[T; N],
         p0: &Arr<T, N>,
     ) -> Result<(), ModelError> {
-        let sys = self.system(run, scale)?;
-        let (Phi, Qd) = discretise_block(&sys.A, &sys.Qc, self.model.dt, sys.n)?;
+        let mut A = [[T::zero(); N]; N];
+        let mut Qc = [[T::zero(); N]; N];
+        let n = self.dynamics_into(run, scale, &mut A, &mut Qc)?;
+        let mut Phi = [[T::zero(); N]; N];
+        let mut Qd = [[T::zero(); N]; N];
+        discretise_block_into(&A, &Qc, self.model.dt, n, &mut Phi, &mut Qd)?;
         self.predict(&Phi, &Qd, x_run, p0);
         Ok(())
     }
 
-    /// This shadow's continuous system at the running filter's point and step.
-    pub(super) fn system(
+    /// This shadow's continuous `A'`, `Qc'` at the running filter's point and step, into `a`,
+    /// `qc`; returns the number of active states.
+    pub(super) fn dynamics_into(
         &mut self,
         run: &StrapdownErrorModel<T>,
         scale: &[T; N],
-    ) -> Result<ContinuousSystem<T, N, NAV_Z>, ModelError> {
+        a: &mut Arr<T, N>,
+        qc: &mut Arr<T, N>,
+    ) -> Result<usize, ModelError> {
         self.model.point = run.point;
         self.model.dt = run.dt;
-        <StrapdownErrorModel<T> as ErrorModel<T, N, NAV_Z>>::system(&self.model, scale)
+        self.model.dynamics_into(scale, a, qc)
     }
 
     /// The prediction with this shadow's discrete `(Phi, Qd)`, less the drive of `x_run`.

@@ -17,7 +17,6 @@
 use super::shadow::Shadow;
 use crate::linalg::Arr;
 use crate::model::discretise::Expm;
-use crate::model::ContinuousSystem;
 use crate::nav::error_model::StrapdownErrorModel;
 use crate::Real;
 
@@ -48,9 +47,9 @@ impl<T: Real, const N: usize> Centre<T, N> {
         x_run: &[T; N],
         p0: &Arr<T, N>,
     ) -> Option<Self> {
-        let ContinuousSystem {
-            A: a, Qc: qc, n, ..
-        } = sh.system(run, scale).ok()?;
+        let mut a = [[T::zero(); N]; N];
+        let mut qc = [[T::zero(); N]; N];
+        let n = sh.dynamics_into(run, scale, &mut a, &mut qc).ok()?;
         let expm = Expm::new(&a, run.dt, n).ok()?;
         let (phi, qd) = expm.discretise(&a, &qc).ok()?;
         sh.predict(&phi, &qd, x_run, p0);
@@ -146,12 +145,9 @@ impl<T: Real, const N: usize> Centre<T, N> {
         run: &StrapdownErrorModel<T>,
         scale: &[T; N],
     ) -> Option<Arr<T, N>> {
-        let ContinuousSystem {
-            A: a,
-            Qc: mut qc,
-            n,
-            ..
-        } = sh.system(run, scale).ok()?;
+        let mut a = [[T::zero(); N]; N];
+        let mut qc = [[T::zero(); N]; N];
+        let n = sh.dynamics_into(run, scale, &mut a, &mut qc).ok()?;
         if n != self.n || a != self.a {
             return None;
         }
