@@ -392,17 +392,50 @@ pub fn fuse<T: Real, const N: usize, const Z: usize>(
         }
         return out;
     }
-    for (i, zi) in z.iter().enumerate() {
+    out.loglik = sequential(kf, z, H, R, |i, status| {
+        if let Some(a) = out.axes.get_mut(i) {
+            *a = status.into();
+        }
+    });
+    out
+}
+
+/// [`fuse`] without a gate and without the vector NIS it reports: the same sequential scalar
+/// updates, so the same `x`, `P` and summed log-likelihood, bit for bit. For a bank's shadow
+/// filters, which fuse every observation ungated and keep only the sum: the joint innovation
+/// covariance (`P H^T` for every axis and its Cholesky factor) was a third of their fusion.
+#[allow(non_snake_case)]
+pub fn fuse_ungated<T: Real, const N: usize, const Z: usize>(
+    kf: &mut Kalman<T, N>,
+    z: &[T; Z],
+    H: &[[T; N]; Z],
+    R: &[T; Z],
+) -> T {
+    sequential(kf, z, H, R, |_, _| {})
+}
+
+/// Sequential scalar updates of `z`'s finite axes in order (PX4's fusion), `axis(i, status)`
+/// told of each; returns the summed log-likelihood of the axes updated.
+#[allow(non_snake_case)]
+fn sequential<T: Real, const N: usize, const Z: usize>(
+    kf: &mut Kalman<T, N>,
+    z: &[T; Z],
+    H: &[[T; N]; Z],
+    R: &[T; Z],
+    mut axis: impl FnMut(usize, UpdateStatus),
+) -> T {
+    let mut loglik = T::zero();
+    for (i, ((zi, h), r)) in z.iter().zip(H.iter()).zip(R.iter()).enumerate() {
         if !zi.is_finite() {
             continue;
         }
-        let r = kf.update(*zi, &H[i], R[i], None);
-        if r.status == UpdateStatus::Updated {
-            out.loglik += r.loglik();
+        let u = kf.update(*zi, h, *r, None);
+        if u.status == UpdateStatus::Updated {
+            loglik += u.loglik();
         }
-        out.axes[i] = r.status.into();
+        axis(i, u.status);
     }
-    out
+    loglik
 }
 
 #[cfg(test)]
@@ -411,48 +444,91 @@ mod tests {
     use crate::linalg::zeros;
     use rand::{Rng, SeedableRng};
 
+    const N: usize = 24;
+    const Z: usize = 6;
+
+    /// A random filter of `n` active states (a covariance `B B^T + 1e-3 I`), six observation
+    /// rows with zeros, and an observation with missing axes.
+    #[allow(non_snake_case, clippy::type_complexity)]
+    fn random_case(
+        rng: &mut rand_chacha::ChaCha8Rng,
+        n: usize,
+    ) -> (Kalman<f64, N>, [[f64; N]; Z], [f64; Z], [f64; Z]) {
+        let mut b = zeros::<f64, N>();
+        for row in b.iter_mut().take(n) {
+            for v in row.iter_mut().take(n) {
+                *v = rng.gen_range(-1.0..1.0);
+            }
+        }
+        let mut p = crate::linalg::mul_t_sym(&b, &b, &zeros(), n);
+        for (i, row) in p.iter_mut().enumerate().take(n) {
+            row[i] += 1e-3;
+        }
+        let mut kf = Kalman::<f64, N>::new(&p, n);
+        for x in kf.x.iter_mut().take(n) {
+            *x = rng.gen_range(-1.0..1.0);
+        }
+        let mut H = [[0.0; N]; Z];
+        for row in H.iter_mut() {
+            for v in row.iter_mut().take(n) {
+                if rng.gen_bool(0.3) {
+                    *v = rng.gen_range(-2.0..2.0);
+                }
+            }
+        }
+        let R = [0.5, 0.7, 1.1, 0.05, 0.06, 0.08];
+        let mut z = [0.0; Z];
+        for v in z.iter_mut() {
+            *v = if rng.gen_bool(0.2) {
+                f64::NAN
+            } else {
+                rng.gen_range(-3.0..3.0)
+            };
+        }
+        (kf, H, R, z)
+    }
+
+    /// The shadows' [`fuse_ungated`] is [`fuse`] without a gate, bit for bit: the state, the
+    /// covariance and the summed log-likelihood, with missing axes, and on one axis (where
+    /// `fuse` takes its scalar path).
+    #[test]
+    #[allow(non_snake_case)]
+    fn ungated_fusion_has_the_bits_of_fuse() {
+        let bits =
+            |kf: &Kalman<f64, N>| (kf.x.map(f64::to_bits), kf.P.map(|r| r.map(f64::to_bits)));
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(66_101);
+        let mut updated = 0;
+        for n in [4, 9, 15, 21, 24] {
+            for _ in 0..40 {
+                let (kf, H, R, z) = random_case(&mut rng, n);
+                let (mut a, mut b) = (kf.clone(), kf.clone());
+                let f = fuse(&mut a, &z, &H, &R, None);
+                let l = fuse_ungated(&mut b, &z, &H, &R);
+                assert_eq!(bits(&a), bits(&b), "n = {n}");
+                assert_eq!(f.loglik.to_bits(), l.to_bits(), "n = {n}");
+                updated += f.axes.iter().filter(|s| **s == AxisStatus::Used).count();
+                let (mut a, mut b) = (kf.clone(), kf);
+                let (z1, H1, R1) = ([z[0]], [H[0]], [R[0]]);
+                let f = fuse(&mut a, &z1, &H1, &R1, None);
+                let l = fuse_ungated(&mut b, &z1, &H1, &R1);
+                assert_eq!(bits(&a), bits(&b), "n = {n}, one axis");
+                assert_eq!(f.loglik.to_bits(), l.to_bits(), "n = {n}, one axis");
+            }
+        }
+        // Most axes were fused (a fifth are missing): the comparison is not of untouched filters.
+        assert!(updated > 700, "{updated} axes updated");
+    }
+
     /// [`joint`]'s vector NIS from `S` formed pair by pair as before (`H_a P H_b^T` with the
     /// row sums of `P H_b^T` recomputed for every pair): the same bits, on random covariances,
     /// observation rows with zeros and missing axes.
     #[test]
     #[allow(non_snake_case, clippy::needless_range_loop)]
     fn the_joint_nis_has_the_bits_of_the_pairwise_sums() {
-        const N: usize = 24;
-        const Z: usize = 6;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(66_003);
         for n in [9, 15, 18, 21, 24] {
             for _ in 0..50 {
-                let mut b = zeros::<f64, N>();
-                for row in b.iter_mut().take(n) {
-                    for v in row.iter_mut().take(n) {
-                        *v = rng.gen_range(-1.0..1.0);
-                    }
-                }
-                let mut p = crate::linalg::mul_t_sym(&b, &b, &zeros(), n);
-                for (i, row) in p.iter_mut().enumerate().take(n) {
-                    row[i] += 1e-3;
-                }
-                let mut kf = Kalman::<f64, N>::new(&p, n);
-                for x in kf.x.iter_mut().take(n) {
-                    *x = rng.gen_range(-1.0..1.0);
-                }
-                let mut H = [[0.0; N]; Z];
-                for row in H.iter_mut() {
-                    for v in row.iter_mut().take(n) {
-                        if rng.gen_bool(0.3) {
-                            *v = rng.gen_range(-2.0..2.0);
-                        }
-                    }
-                }
-                let R = [0.5, 0.7, 1.1, 0.05, 0.06, 0.08];
-                let mut z = [0.0; Z];
-                for v in z.iter_mut() {
-                    *v = if rng.gen_bool(0.2) {
-                        f64::NAN
-                    } else {
-                        rng.gen_range(-3.0..3.0)
-                    };
-                }
+                let (kf, H, R, z) = random_case(&mut rng, n);
                 let j = joint(&kf, &z, &H, &R);
                 // The reference: S pair by pair, then the same factor and substitution.
                 let idx = &j.axes[..j.dof];

@@ -8,6 +8,6 @@ pub mod ins_filter;
 pub mod kalman;
 
 pub use crate::linalg::is_positive_definite;
-pub use error_state::{fuse, joint, AxisStatus, ErrorStateFilter, Fused, Joint};
+pub use error_state::{fuse, fuse_ungated, joint, AxisStatus, ErrorStateFilter, Fused, Joint};
 pub use ins_filter::{Estimates, InsFilter};
 pub use kalman::{Innovation, Kalman, UpdateStatus};

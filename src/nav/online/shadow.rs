@@ -2,7 +2,7 @@
 //! under another noise model, following its predictions, observations and corrections
 //! ([`super`] module docs).
 
-use crate::filter::{fuse, Kalman};
+use crate::filter::{fuse_ungated, Kalman};
 use crate::linalg::Arr;
 use crate::model::discretise::discretise_block_into;
 use crate::model::ModelError;
@@ -111,8 +111,7 @@ impl<T: Real, const N: usize> Shadow<T, N> {
                 *v *= if i < 3 { gp } else { gv };
             }
         }
-        let f = fuse(&mut self.kf, z, H, &r, None);
-        self.loglik = f.loglik.as_f64();
+        self.loglik = fuse_ungated(&mut self.kf, z, H, &r).as_f64();
     }
 
     /// The running filter closed its loop with its estimate `x_run`: the navigation errors of
