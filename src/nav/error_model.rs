@@ -39,6 +39,7 @@
 
 use super::imu_model::{ImuErrorModel, ImuSensor};
 use crate::linalg::Arr;
+use crate::model::discretise::discretise_block_into;
 use crate::model::ins::pow2_near;
 use crate::model::{ContinuousSystem, ErrorModel, ModelError, StateBlock};
 use crate::strapdown::earth;
@@ -391,6 +392,22 @@ impl<T: Real> StrapdownErrorModel<T> {
             return Err(ModelError::NonFinite);
         }
         Ok(n)
+    }
+
+    /// `(Phi, Qd)` of [`Self::dynamics_into`] over the step `dt`, into the caller's arrays
+    /// ([`discretise_block_into`]): the filter step of the navigator and of each shadow of the
+    /// bank, with `A'`, `Qc'` in this frame only.
+    #[allow(non_snake_case)]
+    pub fn discrete_into<const N: usize>(
+        &self,
+        scale: &[T; N],
+        Phi: &mut Arr<T, N>,
+        Qd: &mut Arr<T, N>,
+    ) -> Result<(), ModelError> {
+        let mut A = [[T::zero(); N]; N];
+        let mut Qc = [[T::zero(); N]; N];
+        let n = self.dynamics_into(scale, &mut A, &mut Qc)?;
+        discretise_block_into(&A, &Qc, self.dt, n, Phi, Qd)
     }
 
     /// Physical `P0` over the active states: the navigation errors' initial deviations, each

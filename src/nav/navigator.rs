@@ -36,7 +36,6 @@
 use super::error_model::{nav_idx, NavPoint, StrapdownErrorModel, NAV_Z};
 use crate::filter::Kalman;
 use crate::linalg::Arr;
-use crate::model::discretise::discretise_block_into;
 use crate::model::{ErrorModel, ModelError};
 use crate::strapdown::{Geodetic, Increment, Strapdown, StrapdownError};
 use crate::Real;
@@ -478,12 +477,9 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>> Navigator<T, N, O> {
             self.model.point.mean_f_b = self.sum_dv / self.sum_dt;
         }
         self.model.dt = T::lit(dt64);
-        let mut A = [[T::zero(); N]; N];
-        let mut Qc = [[T::zero(); N]; N];
-        let n = self.model.dynamics_into(&self.scale, &mut A, &mut Qc)?;
         let mut Phi = [[T::zero(); N]; N];
         let mut Qd = [[T::zero(); N]; N];
-        discretise_block_into(&A, &Qc, self.model.dt, n, &mut Phi, &mut Qd)?;
+        self.model.discrete_into(&self.scale, &mut Phi, &mut Qd)?;
         self.obs
             .propagated(&self.model, &self.scale, &self.kf.x, &self.p0);
         self.kf.predict(&Phi, &Qd);

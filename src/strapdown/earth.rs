@@ -60,9 +60,10 @@ fn gamma0_of<T: Real>(s: T, sqrt_d: T) -> T {
 
 /// The functions of the latitude the mechanisation needs at every IMU sample (the sine, cosine
 /// and tangent, the two radii and Somigliana's gravity on the ellipsoid), each evaluated once:
-/// the free functions below give the same values bit for bit
-/// bit (they share the expressions, or are this type's), but one step had evaluated the sine seven times and the tangent twice (perf: the
-/// trigonometry was a third of the mechanisation; BENCHMARKS.md "CI time: bit-exact kernels").
+/// the free functions below give the same values bit for bit (they share the expressions, or
+/// are this type's), but one step had evaluated the sine seven times and the tangent twice
+/// (perf: the trigonometry was a third of the mechanisation; BENCHMARKS.md "CI time:
+/// bit-exact kernels").
 #[derive(Debug, Clone, Copy)]
 pub struct Latitude<T> {
     sin: T,

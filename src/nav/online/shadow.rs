@@ -4,7 +4,6 @@
 
 use crate::filter::{fuse_ungated, Kalman};
 use crate::linalg::Arr;
-use crate::model::discretise::discretise_block_into;
 use crate::model::ModelError;
 use crate::nav::error_model::{nav_idx, StrapdownErrorModel, NAV_Z};
 use crate::nav::ImuErrorModel;
@@ -43,12 +42,10 @@ impl<T: Real, const N: usize> Shadow<T, N> {
         x_run: &[T; N],
         p0: &Arr<T, N>,
     ) -> Result<(), ModelError> {
-        let mut A = [[T::zero(); N]; N];
-        let mut Qc = [[T::zero(); N]; N];
-        let n = self.dynamics_into(run, scale, &mut A, &mut Qc)?;
+        self.follow(run);
         let mut Phi = [[T::zero(); N]; N];
         let mut Qd = [[T::zero(); N]; N];
-        discretise_block_into(&A, &Qc, self.model.dt, n, &mut Phi, &mut Qd)?;
+        self.model.discrete_into(scale, &mut Phi, &mut Qd)?;
         self.predict(&Phi, &Qd, x_run, p0);
         Ok(())
     }
@@ -62,9 +59,14 @@ impl<T: Real, const N: usize> Shadow<T, N> {
         a: &mut Arr<T, N>,
         qc: &mut Arr<T, N>,
     ) -> Result<usize, ModelError> {
+        self.follow(run);
+        self.model.dynamics_into(scale, a, qc)
+    }
+
+    /// Takes the running filter's linearisation point and step.
+    fn follow(&mut self, run: &StrapdownErrorModel<T>) {
         self.model.point = run.point;
         self.model.dt = run.dt;
-        self.model.dynamics_into(scale, a, qc)
     }
 
     /// The prediction with this shadow's discrete `(Phi, Qd)`, less the drive of `x_run`.
