@@ -385,6 +385,74 @@ fn the_prediction_takes_the_full_systems_dynamics() {
     assert!(a.iter().chain(qc.iter()).flatten().all(|v| *v == 7.0));
 }
 
+/// The navigation errors' variances carried ahead of the filter (`nav::navigator::spread`:
+/// the second-order transition, its noise integrated exactly) against the exact
+/// discretisation, `diag(Phi P Phi^T + Qd)`, on the turning 18-state model with a covariance
+/// of a filter in its steady state with fixes every second (correlated attitude, velocity,
+/// position and sensor errors). The truncation is the transition's third-order term, so it
+/// grows as `dt^3`: in position, 2.8e-6, 2.5e-5 and 5.2e-5 of a standard deviation at 0.5, 1
+/// and 1.25 s (measured 2026-12-02; asserted `1e-4 (dt / 1.25 s)^3`). 1.25 s is more than a
+/// live run carries (a step and its budget). The first-order transition fails it from 0.1 s
+/// on (1.3e-4 at 0.25 s). At `dt = 0` it is the covariance's diagonal, bit for bit.
+#[test]
+fn the_carried_variances_match_the_exact_discretisation() {
+    use imu_ident::model::discretise::discretise_block_into;
+    use imu_ident::model::error_model::ErrorModel;
+    use imu_ident::nav::navigator::spread::carried_variances;
+    const N: usize = 24;
+    let model = strapdown_model();
+    let scale: [f64; N] = ErrorModel::<f64, N, 6>::scaling(&model).unwrap();
+    let sys = ErrorModel::<f64, N, 6>::system(&model, &scale).unwrap();
+    let propagated = |p: &[[f64; N]; N], dt: f64| {
+        let (mut phi, mut qd) = ([[0.0; N]; N], [[0.0; N]; N]);
+        discretise_block_into(&sys.A, &sys.Qc, dt, sys.n, &mut phi, &mut qd).unwrap();
+        let (phi_m, p_m) = (
+            SMatrix::<f64, N, N>::from_fn(|i, j| phi[i][j]),
+            SMatrix::<f64, N, N>::from_fn(|i, j| p[i][j]),
+        );
+        let out = phi_m * p_m * phi_m.transpose() + SMatrix::<f64, N, N>::from_fn(|i, j| qd[i][j]);
+        core::array::from_fn::<[f64; N], N, _>(|i| core::array::from_fn(|j| out[(i, j)]))
+    };
+    // A filter in its steady state: 1-s steps, each ending with a fix of position (0.5 m)
+    // and velocity (0.05 m/s) on every axis, in the scaled states (`x_si = s x`).
+    let mut p = propagated(&sys.P0, 300.0);
+    let r = [0.25, 0.25, 0.25, 0.0025, 0.0025, 0.0025];
+    for _ in 0..120 {
+        p = propagated(&p, 1.0);
+        let mut pm = SMatrix::<f64, N, N>::from_fn(|i, j| p[i][j]);
+        for (k, rk) in r.iter().enumerate() {
+            let i = if k < 3 { 6 + k } else { k };
+            let h = SMatrix::<f64, 1, N>::from_fn(|_, j| if j == i { scale[i] } else { 0.0 });
+            let a = pm * h.transpose();
+            let s_inv = 1.0 / ((h * a)[(0, 0)] + rk);
+            pm -= a * a.transpose() * s_inv;
+        }
+        p = core::array::from_fn(|i| core::array::from_fn(|j| 0.5 * (pm[(i, j)] + pm[(j, i)])));
+    }
+    let at_zero = carried_variances(&sys.A, &sys.Qc, &p, sys.n, 0.0);
+    for (i, v) in at_zero.iter().enumerate() {
+        assert_eq!(v.to_bits(), p[i][i].to_bits(), "state {i} at dt = 0");
+    }
+    let mut worst = 0.0f64;
+    for dt in [0.01, 0.1, 0.25, 0.5, 1.0, 1.25] {
+        let exact = propagated(&p, dt);
+        let got = carried_variances(&sys.A, &sys.Qc, &p, sys.n, dt);
+        for (i, v) in got.iter().enumerate() {
+            let rel = (v.sqrt() - exact[i][i].sqrt()).abs() / exact[i][i].sqrt();
+            worst = worst.max(rel);
+            let bound = 1e-4 * (dt / 1.25f64).powi(3) + 1e-8;
+            assert!(
+                rel <= bound,
+                "state {i}, dt {dt}: {v:e} against {:e}",
+                exact[i][i]
+            );
+        }
+        // The carried spread grows: the solution drifts with no fix between.
+        assert!(got[6] > p[6][6] && got[3] > p[3][3], "dt {dt}");
+    }
+    eprintln!("carried sd against the exact discretisation: worst relative {worst:.2e}");
+}
+
 /// Benchmark (ignored; BENCHMARKS.md "The discretisation's series without temporaries"): the
 /// moving 18-state strapdown model discretised `DISC_REPS` times (20 000 by default) at steps
 /// of 1.00-1.06 s, in `f64` and `f32`; prints the time per call (min, median, p95) and a hash

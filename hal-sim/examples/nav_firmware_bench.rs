@@ -49,7 +49,7 @@ fn main() -> Result<()> {
         minutes / 60.0,
         100.0,
         7,
-        vec![(600.0, 660.0)],
+        (vec![(600.0, 660.0)], [0.0; 3]),
         dir.path(),
     )?;
     let truth = read_truth_csv(&dir.path().join("truth.csv"))?;

@@ -7,6 +7,10 @@
 //! cases over the seeds, the predictions compared bit for bit, and the predictor's cost in
 //! samples mechanised per sample. Also, with or without a truth, the horizontal distance of the
 //! present and of the stale solution from the run's own when it reaches the same time.
+//! With a truth, also the present's standard deviations (`LiveNav::present_sd`): per seed the
+//! largest RMS over the nine axes of the normalised error (attitude, velocity, position N, E,
+//! D) and the largest fraction outside 3 sd, carried to the present and as the filter had them
+//! at its last propagation; over the seeds, median / p95 / worst of both.
 //! `real=1`: the real drive (`../shared/data/real/rtklib-drive-0708`, 100 Hz and 4-Hz RTK
 //! fixes, no outage), which has no truth at the IMU's rate: only that distance.
 //!
@@ -121,6 +125,10 @@ fn main() -> anyhow::Result<()> {
     let (mut compared, mut differ, mut cost) = (0, 0, vec![]);
     // Per quantity: the run's per-seed RMS over the on-time run's.
     let mut over_on_time = [vec![], vec![], vec![]];
+    // Per seed, carried and not: the largest RMS of the normalised error over the nine axes,
+    // and the largest fraction outside 3 sd.
+    let mut z_worst = [vec![], vec![]];
+    let mut out_worst = [vec![], vec![]];
     for seed in first..first + seeds {
         let dir = tempfile::tempdir()?;
         let args = simulated_drive(dir.path(), minutes / 60.0, seed, false, nhc)?;
@@ -145,6 +153,21 @@ fn main() -> anyhow::Result<()> {
                 line += &format!(" {:.3}/{:.3}", rms(&v), worst(&v));
             }
         }
+        for w in 0..2 {
+            let n = r.normalised.len().max(1) as f64;
+            let zr = (0..9).map(|k| rms(&r.normalised.iter().map(|z| z[w][k]).collect::<Vec<_>>()));
+            let out = (0..9)
+                .map(|k| r.normalised.iter().filter(|z| z[w][k].abs() > 3.0).count() as f64 / n);
+            z_worst[w].push(zr.fold(0.0f64, f64::max));
+            out_worst[w].push(out.fold(0.0f64, f64::max));
+        }
+        line += &format!(
+            "; sd: max RMS z {:.3} (not carried {:.3}), outside 3 sd {:.4} ({:.4})",
+            z_worst[0][z_worst[0].len() - 1],
+            z_worst[1][z_worst[1].len() - 1],
+            out_worst[0][out_worst[0].len() - 1],
+            out_worst[1][out_worst[1].len() - 1]
+        );
         compared += r.compared;
         differ += r.differ;
         cost.push(r.predicted as f64 / r.samples as f64);
@@ -206,6 +229,22 @@ fn main() -> anyhow::Result<()> {
         );
     }
     println!("{line}");
+    for (w, name) in ["carried to the present", "the filter's, not carried"]
+        .iter()
+        .enumerate()
+    {
+        let (z, o) = (&mut z_worst[w], &mut out_worst[w]);
+        println!(
+            "standard deviations {name}: per seed the largest RMS z over 9 axes {:.3}/{:.3}/{:.3}, \
+             the largest fraction outside 3 sd {:.4}/{:.4}/{:.4} (median / p95 / worst)",
+            pct(z, 0.5),
+            pct(z, 0.95),
+            pct(z, 1.0),
+            pct(o, 0.5),
+            pct(o, 0.95),
+            pct(o, 1.0)
+        );
+    }
     println!(
         "bit for bit: {compared} predictions compared, {differ} differ; predictor cost \
          {:.2}/{:.2}/{:.2} samples mechanised per sample",

@@ -247,6 +247,10 @@ pub enum Command {
         /// GNSS outage window START:END [s] (repeatable).
         #[arg(long, value_parser = crate::trajectory::write::parse_outage)]
         outage: Vec<(f64, f64)>,
+        /// GNSS antenna from the IMU, forward,right,down [m] (give the same to `nav
+        /// --lever-arm`).
+        #[arg(long, value_delimiter = ',', allow_negative_numbers = true, num_args = 3, default_values_t = [0.0, 0.0, 0.0])]
+        lever_arm: Vec<f64>,
         /// Output directory.
         #[arg(long)]
         out: PathBuf,

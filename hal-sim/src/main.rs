@@ -304,10 +304,18 @@ fn main() -> Result<()> {
             rate,
             seed,
             outage,
+            lever_arm,
             out,
         } => {
-            let (n, g) =
-                hal_sim::trajectory::write::simulate_drive_files(hours, rate, seed, outage, &out)?;
+            let arm = <[f64; 3]>::try_from(lever_arm.as_slice())
+                .map_err(|_| anyhow::anyhow!("--lever-arm takes three numbers"))?;
+            let (n, g) = hal_sim::trajectory::write::simulate_drive_files(
+                hours,
+                rate,
+                seed,
+                (outage, arm),
+                &out,
+            )?;
             eprintln!("wrote {n} IMU rows and {g} GNSS fixes to {}", out.display());
         }
         Command::Run {

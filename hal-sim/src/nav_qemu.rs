@@ -75,8 +75,9 @@ const NAV_FIELDS: [&str; 11] = [
     "t", "lat", "lon", "h", "vn", "ve", "vd", "sdn", "sde", "sdd", "flags",
 ];
 /// Fields of the firmware's `now` frame (the solution at the newest sample).
-const NOW_FIELDS: [&str; 10] = [
-    "t", "lat", "lon", "h", "vn", "ve", "vd", "roll", "pitch", "yaw",
+const NOW_FIELDS: [&str; 19] = [
+    "t", "lat", "lon", "h", "vn", "ve", "vd", "roll", "pitch", "yaw", "san", "sae", "sad", "svn",
+    "sve", "svd", "spn", "spe", "spd",
 ];
 
 /// The setup and records of a run with `args` on `imu` and `fixes` (module docs).
@@ -215,6 +216,13 @@ pub struct NavPresent {
     pub vel: [f32; 3],
     /// Roll, pitch, yaw [rad].
     pub euler: [f32; 3],
+    /// Standard deviations of the attitude error N, E, D [rad] (`LiveNav::present_sd`; NaN
+    /// when there are none).
+    pub sd_att: [f32; 3],
+    /// Standard deviations of the velocity error N, E, D [m/s].
+    pub sd_vel: [f32; 3],
+    /// Standard deviations of the position error N, E, D [m].
+    pub sd_pos: [f32; 3],
 }
 
 /// What one navigation firmware run produced.
@@ -344,7 +352,11 @@ fn decode_nav(elf_bytes: &[u8], stream: &[u8]) -> Result<NavFirmwareRun> {
                 flags: field("flags", &flags)?,
             });
         } else if let Some(v) = tagged(&frame, "now", &NOW_FIELDS)? {
-            let [t, lat, lon, h, vn, ve, vd, roll, pitch, yaw] = v;
+            let [t, lat, lon, h, vn, ve, vd, roll, pitch, yaw, sd @ ..] = v;
+            let mut sds = [0.0f32; 9];
+            for ((s, text), name) in sds.iter_mut().zip(&sd).zip(&NOW_FIELDS[10..]) {
+                *s = field(name, text)?;
+            }
             run.present.push(NavPresent {
                 t: field("t", &t)?,
                 lat: field("lat", &lat)?,
@@ -356,6 +368,9 @@ fn decode_nav(elf_bytes: &[u8], stream: &[u8]) -> Result<NavFirmwareRun> {
                     field("pitch", &pitch)?,
                     field("yaw", &yaw)?,
                 ],
+                sd_att: [sds[0], sds[1], sds[2]],
+                sd_vel: [sds[3], sds[4], sds[5]],
+                sd_pos: [sds[6], sds[7], sds[8]],
             });
         } else if let Some(v) = tagged(&frame, "icount", &ICOUNT_FIELDS)? {
             let [class, n, mean, worst, worst_k] = v;

@@ -27,22 +27,26 @@ use nalgebra::Vector3;
 use std::collections::HashMap;
 use std::path::Path;
 
-/// A simulated drive of `hours` (seed, 100 Hz, 1-Hz GNSS, the MEMS errors) written to `dir`,
-/// and the options of its run ([`drive_options`]).
+/// The GNSS antenna of [`simulated_drive`] from the IMU, body forward, right, down [m].
+pub const LEVER_ARM: [f64; 3] = [0.3, 0.0, -0.8];
+
+/// A simulated drive of `hours` (seed, 100 Hz, 1-Hz GNSS at the antenna [`LEVER_ARM`], the
+/// MEMS errors) written to `dir`, and the options of its run ([`drive_options`]).
 pub fn simulated_drive(dir: &Path, hours: f64, seed: u64, yaw: bool, nhc: bool) -> Result<NavArgs> {
-    crate::trajectory::write::simulate_drive_files(hours, 100.0, seed, vec![], dir)?;
+    crate::trajectory::write::simulate_drive_files(hours, 100.0, seed, (vec![], LEVER_ARM), dir)?;
     drive_options(dir, yaw, nhc)
 }
 
 /// The options of a run on the simulated drive in `dir`: no outage schedule (a live run
-/// withholds nothing), a lever arm, the gyro bias seeded from the 50-s window, the MEMS model
+/// withholds nothing), the antenna at [`LEVER_ARM`] (as [`simulated_drive`] writes it), the
+/// gyro bias seeded from the 50-s window, the MEMS model
 /// (the truth's); the heading given when `yaw` (else from the course), the non-holonomic
 /// constraint on when `nhc` (0.05 m/s, 0.65 m below the IMU).
 pub fn drive_options(dir: &Path, yaw: bool, nhc: bool) -> Result<NavArgs> {
     let truth = crate::nav_io::read_truth_csv(&dir.join("truth.csv"))?;
     let mems = crate::trajectory::errors::ImuErrorModel::mems().to_core()?;
     Ok(NavArgs {
-        lever_arm: [0.3, 0.0, -0.8],
+        lever_arm: LEVER_ARM,
         align: 50.0,
         yaw_deg: yaw.then(|| truth[0].rpy_deg[2]),
         nhc: nhc.then_some(0.05),
@@ -80,6 +84,11 @@ pub struct PresentRun {
     pub samples: usize,
     /// Per sample from `settle` on, with a truth: present, stale, run.
     pub errors: Vec<[SolutionError; 3]>,
+    /// Per sample from `settle` on, with a truth: the present's errors of attitude, velocity
+    /// and position (N, E, D each) over their standard deviations, as [`LiveNav::present_sd`]
+    /// gives them (`[0]`) and as the filter's own at its last propagation, not carried
+    /// (`[1]`).
+    pub normalised: Vec<[[f64; 9]; 3]>,
     /// Per sample from `settle` on, without a truth: the horizontal distance [m] of the
     /// present and of the stale solution read at a sample's time from the run's solution when
     /// the run reaches that time (the later, better-informed answer about the same instant).
@@ -132,8 +141,9 @@ fn bits(ins: &Strapdown<f32>) -> [u64; 10] {
     ]
 }
 
-/// The errors of `ins` against the truth at `t` (none outside the truth's span).
-fn error_at(ins: &Strapdown<f32>, truth: &[TruthRow], t: f64) -> Option<SolutionError> {
+/// The errors of `ins` against the truth at `t`, the filter's states: attitude `phi` [rad],
+/// velocity [m/s] and position [m], N, E, D each (none outside the truth's span).
+fn axis_errors(ins: &Strapdown<f32>, truth: &[TruthRow], t: f64) -> Option<[f64; 9]> {
     let tr = truth_at(truth, t)?;
     let p: Geodetic = ins.position();
     let ne = north_east(
@@ -144,13 +154,31 @@ fn error_at(ins: &Strapdown<f32>, truth: &[TruthRow], t: f64) -> Option<Solution
         p.lon.to_degrees(),
     );
     let v = ins.velocity();
-    let dv = [0, 1, 2].map(|k| f64::from(v[k]) - tr.vel_ned[k]);
     let (r, pi, y) = ins.attitude_f64().euler();
     let phi = phi_error([r, pi, y].map(f64::to_degrees), tr.rpy_deg);
+    let dv = |k: usize| f64::from(v[k]) - tr.vel_ned[k];
+    Some([
+        phi.x,
+        phi.y,
+        phi.z,
+        dv(0),
+        dv(1),
+        dv(2),
+        ne[0],
+        ne[1],
+        tr.h - p.h,
+    ])
+}
+
+/// The errors of `ins` against the truth at `t` (none outside the truth's span): the norms of
+/// [`axis_errors`]' horizontal position, velocity and attitude.
+fn error_at(ins: &Strapdown<f32>, truth: &[TruthRow], t: f64) -> Option<SolutionError> {
+    let e = axis_errors(ins, truth, t)?;
+    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
     Some(SolutionError {
-        horizontal: ne[0].hypot(ne[1]),
-        velocity: dv.iter().map(|x| x * x).sum::<f64>().sqrt(),
-        attitude: phi.norm().to_degrees(),
+        horizontal: e[6].hypot(e[7]),
+        velocity: norm(&e[3..6]),
+        attitude: norm(&e[0..3]).to_degrees(),
     })
 }
 
@@ -230,6 +258,34 @@ pub fn present_run(
         if let (Some(a), Some(b), Some(c)) = errs {
             out.errors.push([a, b, c]);
         }
+        let carried = nav.present_sd().map(|sd| {
+            let mut all = [0.0; 9];
+            for (k, v) in sd.att.iter().chain(&sd.vel).chain(&sd.pos).enumerate() {
+                all[k] = f64::from(*v);
+            }
+            all
+        });
+        let own = run.navigator().sigma_si();
+        let at_run = run.navigator().sd_at(run.time()).ok();
+        let both = (
+            axis_errors(now.ins(), truth, now.time()),
+            axis_errors(ins, truth, run.time()),
+        );
+        if let ((Some(e), Some(er)), Some(sd), Some(sr)) = (both, carried, at_run) {
+            let z = |k: usize, s: f64| e[k] / s;
+            let sr: Vec<f64> = sr
+                .att
+                .iter()
+                .chain(&sr.vel)
+                .chain(&sr.pos)
+                .map(|v| f64::from(*v))
+                .collect();
+            out.normalised.push([
+                core::array::from_fn(|k| z(k, sd[k])),
+                core::array::from_fn(|k| z(k, f64::from(own[k]))),
+                core::array::from_fn(|k| er[k] / sr[k]),
+            ]);
+        }
     }
     out.predicted = nav.predicted_samples();
     out.changes = changes.get();
@@ -246,6 +302,34 @@ fn stats(v: &[f64]) -> serde_json::Value {
     };
     let rms = (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
     serde_json::json!({ "median": at(0.5), "p95": at(0.95), "worst": at(1.0), "rms": rms })
+}
+
+/// Per state (attitude, velocity, position; N, E, D) the RMS of the present's normalised
+/// errors and their fraction outside 3 sd, with its standard deviations carried to its time
+/// (`carried`) and as the filter had them (`not_carried`); null without a truth.
+fn sd_consistency(r: &PresentRun) -> serde_json::Value {
+    if r.normalised.is_empty() {
+        return serde_json::Value::Null;
+    }
+    let names = [
+        "phi_n", "phi_e", "phi_d", "v_n", "v_e", "v_d", "p_n", "p_e", "p_d",
+    ];
+    let n = r.normalised.len() as f64;
+    let mut out = serde_json::Map::new();
+    for (w, label) in ["carried", "not_carried"].iter().enumerate() {
+        let mut axes = serde_json::Map::new();
+        for (k, name) in names.iter().enumerate() {
+            let z = r.normalised.iter().map(|z| z[w][k]);
+            let rms = (z.clone().map(|v| v * v).sum::<f64>() / n).sqrt();
+            let outside = z.filter(|v| v.abs() > 3.0).count() as f64 / n;
+            axes.insert(
+                (*name).into(),
+                serde_json::json!({ "rms_z": rms, "outside_3sd": outside }),
+            );
+        }
+        out.insert((*label).into(), axes.into());
+    }
+    out.into()
 }
 
 /// `hal-sim nav --present DELAY,LATENCY`: the log of `args` streamed live (module docs), every
@@ -292,6 +376,7 @@ pub fn write_present(
         "compared_bit_for_bit": r.compared,
         "differ": r.differ,
         "errors_against_truth": if r.errors.is_empty() { serde_json::Value::Null } else { errors.into() },
+        "sd_against_truth": sd_consistency(&r),
         "distance_from_the_run_m": {
             "present": stats(&r.to_run.iter().map(|d| d[0]).collect::<Vec<_>>()),
             "stale": stats(&r.to_run.iter().map(|d| d[1]).collect::<Vec<_>>()),

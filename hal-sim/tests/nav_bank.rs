@@ -34,7 +34,7 @@ fn drive() -> (
     Vec<hal_sim::nav_io::GnssFix>,
 ) {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    simulate_drive_files(25.0 / 60.0, 100.0, 12, vec![], dir.path())
+    simulate_drive_files(25.0 / 60.0, 100.0, 12, (vec![], [0.0; 3]), dir.path())
         .unwrap_or_else(|e| panic!("{e:#}"));
     let read = |name: &str| dir.path().join(name);
     let imu = read_imu_csv(&read("imu.csv")).unwrap_or_else(|e| panic!("{e:#}"));

@@ -582,7 +582,7 @@ fn simulated_drive_files_read_back_through_nav_io() {
         0.02,
         100.0,
         1,
-        vec![(20.0, 30.0)],
+        (vec![(20.0, 30.0)], [0.0; 3]),
         dir.path(),
     )
     .unwrap();

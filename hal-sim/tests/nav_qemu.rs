@@ -122,9 +122,11 @@ fn drive_zupt(dir: &std::path::Path) -> NavArgs {
     }
 }
 
-/// A simulated drive of `hours` (seed, GNSS gaps) written into `dir`, and the run's options.
+/// A simulated drive of `hours` (seed, GNSS gaps, the antenna at `hal_sim::present`'s lever
+/// arm) written into `dir`, and the run's options.
 fn drive_of(dir: &std::path::Path, hours: f64, seed: u64, gaps: Vec<(f64, f64)>) -> NavArgs {
-    hal_sim::trajectory::write::simulate_drive_files(hours, 100.0, seed, gaps, dir)
+    let arm = hal_sim::present::LEVER_ARM;
+    hal_sim::trajectory::write::simulate_drive_files(hours, 100.0, seed, (gaps, arm), dir)
         .unwrap_or_else(|e| panic!("{e:#}"));
     drive_of_files(dir)
 }
@@ -563,8 +565,14 @@ fn qemu_firmware_nav_rejects_a_corrupt_replay() {
     let Some(elf) = firmware_elf() else { return };
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     // A short log: the simulator's first minute (the static window and a little driving).
-    hal_sim::trajectory::write::simulate_drive_files(1.0 / 60.0, 100.0, 3, vec![], dir.path())
-        .unwrap_or_else(|e| panic!("{e:#}"));
+    hal_sim::trajectory::write::simulate_drive_files(
+        1.0 / 60.0,
+        100.0,
+        3,
+        (vec![], [0.0; 3]),
+        dir.path(),
+    )
+    .unwrap_or_else(|e| panic!("{e:#}"));
     let mut args = drive_args_static(dir.path());
     args.align = 20.0;
     let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));

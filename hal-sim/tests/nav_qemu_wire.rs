@@ -98,6 +98,9 @@ struct HostPresent {
     /// The run's sigmas of position N, E, D [m] and attitude [rad].
     sd_pos: [f64; 3],
     sd_att: [f64; 3],
+    /// The present's standard deviations (`LiveNav::present_sd`): attitude, velocity and
+    /// position, N, E, D each.
+    present_sd: [f64; 9],
 }
 
 /// [`HostLive`] of `args` (its latency budget) on `inputs`.
@@ -121,6 +124,16 @@ fn host_live<T: imu_ident::Real>(args: &NavArgs, inputs: &[NavInput]) -> HostLiv
         k += usize::from(matches!(i, NavInput::Imu(_)));
         if let (NavInput::Imu(_), Some(now), Some(run)) = (i, nav.present(), nav.run()) {
             let sd = run.navigator().sigma_si().map(|v| v.as_f64());
+            let s = nav
+                .present_sd()
+                .unwrap_or_else(|| panic!("no sd at {}", now.time()));
+            let mut present_sd = [0.0; 9];
+            for (o, v) in present_sd
+                .iter_mut()
+                .zip(s.att.iter().chain(&s.vel).chain(&s.pos))
+            {
+                *o = v.as_f64();
+            }
             let (roll, pitch, yaw) = now.ins().attitude_f64().euler();
             present.push(HostPresent {
                 k,
@@ -129,6 +142,7 @@ fn host_live<T: imu_ident::Real>(args: &NavArgs, inputs: &[NavInput]) -> HostLiv
                 euler: [roll, pitch, yaw],
                 sd_pos: [sd[POS], sd[POS + 1], sd[POS + 2]],
                 sd_att: [sd[ATT], sd[ATT + 1], sd[ATT + 2]],
+                present_sd,
             });
         }
     }
@@ -209,15 +223,20 @@ fn qemu_firmware_takes_late_fixes_as_the_host_live_loop() {
 }
 
 /// The worst differences of the firmware run `fw` from the host's `h`: its `now` frames'
-/// positions and attitudes, and its epochs' positions, in units of the host run's sigmas.
-fn present_apart<T: imu_ident::Real>(fw: &NavFirmwareRun, h: &HostLive<T>) -> [f64; 3] {
+/// positions and attitudes, and its epochs' positions, in units of the host run's sigmas; and
+/// the frames' standard deviations relative to the host's.
+fn present_apart<T: imu_ident::Real>(fw: &NavFirmwareRun, h: &HostLive<T>) -> [f64; 4] {
     // The firmware sends a frame after every tenth sample when there is a present
     // (`PRESENT_EVERY` in `src/bin/nav_support`): as many as the host has, at the same times.
     let host: Vec<&HostPresent> = h.present.iter().filter(|p| p.k % 10 == 0).collect();
     assert_eq!(fw.present.len(), host.len());
-    let mut w = [0.0f64; 3];
+    let mut w = [0.0f64; 4];
     for (f, p) in fw.present.iter().zip(host) {
         assert_eq!(f.t.to_bits(), p.t.to_bits());
+        let sent = f.sd_att.iter().chain(&f.sd_vel).chain(&f.sd_pos);
+        for (a, b) in sent.zip(p.present_sd) {
+            w[3] = w[3].max((f64::from(*a) - b).abs() / b);
+        }
         w[0] = w[0].max(apart(&p.pos, [f.lat, f.lon, f.h], &p.sd_pos));
         // Roll and pitch over the smaller level tilt sigma, yaw over the heading's.
         let level = p.sd_att[0].min(p.sd_att[1]);
@@ -258,15 +277,25 @@ fn qemu_firmware_sends_the_present_solution_as_the_host_predictor() {
     eprintln!(
         "the present on the M4 ({} frames; fixes 0.1 s late, 0.15-s budget): worst position \
          {:.2e} sigma, attitude {:.2e} sigma from the host's f32 live run ({:.2e} sigma at the \
-         epochs); {:.2e}, {:.2e} ({:.2e}) from f64",
+         epochs); {:.2e}, {:.2e} ({:.2e}) from f64; standard deviations {:.2e} ({:.2e} from \
+         f64) relative",
         fw.present.len(),
         worst[0][0],
         worst[0][2],
         worst[0][1],
         worst[1][0],
         worst[1][2],
-        worst[1][1]
+        worst[1][1],
+        worst[0][3],
+        worst[1][3]
     );
     assert!(worst[0].iter().all(|w| *w < 1e-3), "{worst:?}");
     assert!(worst[1].iter().all(|w| *w < 0.05), "{worst:?}");
+    let cost = fw.icount.iter().find(|c| c.class == "present");
+    let cost = cost.unwrap_or_else(|| panic!("no icount present: {:?}", fw.icount));
+    assert!(cost.n as usize >= fw.present.len(), "{} counted", cost.n);
+    eprintln!(
+        "a now frame's solution and standard deviations: {} instructions mean, {} worst",
+        cost.mean, cost.worst
+    );
 }

@@ -64,8 +64,14 @@ fn mems_toml(k: f64) -> String {
 
 fn simulate(dir: &Path, hours: f64) -> PathBuf {
     let sim = dir.join("sim");
-    hal_sim::trajectory::write::simulate_drive_files(hours, 100.0, 7, vec![(600.0, 660.0)], &sim)
-        .unwrap_or_else(|e| panic!("{e:#}"));
+    hal_sim::trajectory::write::simulate_drive_files(
+        hours,
+        100.0,
+        7,
+        (vec![(600.0, 660.0)], [0.0; 3]),
+        &sim,
+    )
+    .unwrap_or_else(|e| panic!("{e:#}"));
     sim
 }
 

@@ -68,7 +68,7 @@ fn navigator_is_consistent_on_a_simulated_drive() {
         1.0 / 3.0,
         100.0,
         7,
-        vec![(600.0, 660.0)],
+        (vec![(600.0, 660.0)], [0.0; 3]),
         dir.path(),
     )
     .unwrap_or_else(|e| panic!("{e:#}"));

@@ -329,7 +329,9 @@ mod firmware {
             let mut on = |i: NavInput| {
                 refused = refused.saturating_add(u32::from(take(live, &i)));
                 if matches!(i, NavInput::Imu(_)) {
-                    count_sample(&mut samples, || live.present());
+                    count_sample(&mut samples, || {
+                        live.present().map(|p| (p, live.present_sd()))
+                    });
                 }
             };
             let n = match (

@@ -24,7 +24,8 @@
 //! - Output (defmt on semihosting stdout): `nav` per GNSS epoch (time, position f64 rad/m,
 //!   NED velocity, position sigmas N/E/D, flags); in a live run, `now` every tenth sample
 //!   (the solution at the newest sample, the output predictor's: time, position, NED
-//!   velocity, roll, pitch, yaw; the navigation board's frame); first, `icount clock_stamp` and
+//!   velocity, roll, pitch, yaw, and the standard deviations of the attitude, velocity and
+//!   position errors; the navigation board's frame); first, `icount clock_stamp` and
 //!   `clock_pulse` and `clock worst_ns=...`, the GPS clock's start-up bench (`clock_bench`);
 //!   then `icount` per class: `imu` (an IMU sample
 //!   mechanised, no filter step), `step` (an IMU sample whose end starts the 1 Hz filter step:
@@ -35,7 +36,8 @@
 //!   closed-loop correction); in a live run, `live` (every call, whatever it did: the loop's
 //!   whole cost, the output predictor's included; with a latency budget the fixes are fused
 //!   inside the sample calls that pass them, so `imu` and `step` include them and `gnss`
-//!   counts none); `stack` for start-up and for the run.
+//!   counts none) and `present` (the solution at the newest sample and its standard
+//!   deviations for a `now` frame, outside `live`); `stack` for start-up and for the run.
 //! - Exit: status 0 after a complete, checksum-valid replay; 1 otherwise.
 //!
 //! ```text
@@ -125,6 +127,9 @@ mod firmware {
         /// Every call of a live run, whatever it did (`icount live`: the whole loop's cost,
         /// the output predictor's included).
         live: Counts,
+        /// The solution at the newest sample and its standard deviations, for a `now` frame
+        /// (`icount present`; outside `live`: the board asks for it every tenth sample).
+        present: Counts,
         n_imu: u32,
         live_calls: u32,
         /// IMU samples given to the live loop (the board's count for its `now` frames).
@@ -303,7 +308,13 @@ mod firmware {
         }
         // The solution at the newest sample, at the board's pace (`imu-ident-nav-board`).
         if matches!(r, NavInput::Imu(_)) {
-            count_sample(&mut tally.live_samples, || live.present());
+            let (cost, k) = (&mut tally.present, tally.live_samples / 10);
+            count_sample(&mut tally.live_samples, || {
+                let t0 = SYST::get_current();
+                let now = live.present().map(|p| (p, live.present_sd()));
+                cost.add(semihost::instructions(t0, SYST::get_current()), k);
+                now
+            });
         }
         Ok(())
     }
@@ -365,6 +376,7 @@ mod firmware {
         tally.fuse.log("gnss");
         if matches!(nav, Some(Nav::Live(_))) {
             tally.live.log("live");
+            tally.present.log("present");
         }
         let records = decoder.finish().map_err(FirmwareError::Log)?;
         Ok((records, tally.epochs))

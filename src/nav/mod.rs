@@ -26,7 +26,7 @@ pub mod ubx;
 pub use error_model::{nav_idx, NavInit, NavPoint, StrapdownErrorModel, NAV_Z};
 pub use imu_model::{AxisModel, ImuErrorModel, ImuSensor, MAX_AXIS_COMPONENTS};
 pub use navigator::{
-    GnssFix, NavConfig, NavError, NavObserver, Navigator, ObservationKind, CHI2_9999, NHC_Z,
+    GnssFix, NavConfig, NavError, NavObserver, NavSd, Navigator, ObservationKind, CHI2_9999, NHC_Z,
 };
 pub use online::{OnlineConfig, OnlineIdent};
 pub use replay::NavSetup;

@@ -632,7 +632,9 @@ pub fn restart_heading<T: Real, const N: usize>(
 mod aiding;
 pub mod history;
 mod observer;
+pub mod spread;
 use history::VelocityHistory;
 pub use observer::{NavObserver, ObservationKind};
+pub use spread::NavSd;
 #[cfg(test)]
 pub(crate) mod tests;

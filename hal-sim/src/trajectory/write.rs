@@ -191,13 +191,14 @@ pub fn course_start() -> Geodetic {
 
 /// `simulate-drive`: the figure-eight course of [`Profile::figure_eight_course`] (aircraft
 /// banking) for `hours` from 45 N 7 E, 300 m, at `rate_hz`, with the [`ImuErrorModel::mems`]
-/// errors and default 1-Hz GNSS with the given outage windows; writes the three files in `out`.
-/// Returns the numbers of IMU and GNSS rows.
+/// errors and default 1-Hz GNSS with the given outage windows, its antenna at `lever_arm` from
+/// the IMU (body forward, right, down [m]); writes the three files in `out`. Returns the
+/// numbers of IMU and GNSS rows.
 pub fn simulate_drive_files(
     hours: f64,
     rate_hz: f64,
     seed: u64,
-    outages: Vec<(f64, f64)>,
+    (outages, lever_arm): (Vec<(f64, f64)>, [f64; 3]),
     out: &Path,
 ) -> Result<(usize, usize)> {
     if !(hours.is_finite() && hours > 0.0 && rate_hz.is_finite() && rate_hz > 0.0) {
@@ -207,6 +208,7 @@ pub fn simulate_drive_files(
     let start = course_start();
     let gnss = GnssConfig {
         outages,
+        lever_arm,
         ..GnssConfig::default()
     };
     let drive = simulate_drive(

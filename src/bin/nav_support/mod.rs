@@ -7,7 +7,7 @@ use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicBool, Ordering};
 
 use imu_ident::nav::predictor::Present;
-use imu_ident::nav::{Epoch, NavError, NavReplay, NavSetup, OnlineIdent, NAV_N};
+use imu_ident::nav::{Epoch, NavError, NavReplay, NavSd, NavSetup, OnlineIdent, NAV_N};
 
 /// Shadow filters of the online identification (the core's count for the firmware).
 const BANK: usize = imu_ident::nav::online::FIRMWARE_BANK;
@@ -88,25 +88,33 @@ pub fn send_epoch(e: &Epoch<f32>) {
 /// The solution at the newest sample is sent every this many IMU samples (10 Hz at 100 Hz).
 const PRESENT_EVERY: u32 = 10;
 
+/// The solution at the newest sample and its standard deviations (`LiveNav::present`,
+/// `LiveNav::present_sd`).
+pub type PresentWithSd<'a> = (Present<'a, f32>, Option<NavSd<f32>>);
+
 /// Counts an IMU sample given to the live loop in `samples` and, every [`PRESENT_EVERY`]-th,
 /// sends the solution at the newest sample when there is one (`present`, asked only then).
-pub fn count_sample<'a>(samples: &mut u32, present: impl FnOnce() -> Option<Present<'a, f32>>) {
+pub fn count_sample<'a>(samples: &mut u32, present: impl FnOnce() -> Option<PresentWithSd<'a>>) {
     *samples = samples.wrapping_add(1);
     if *samples % PRESENT_EVERY == 0 {
-        if let Some(now) = present() {
-            send_present(&now);
+        if let Some((now, sd)) = present() {
+            send_present(&now, sd.as_ref());
         }
     }
 }
 
 /// The solution at the newest sample (the output predictor's, `imu_ident::nav::predictor`),
-/// as telemetry: time, position, NED velocity, roll, pitch, yaw [rad].
-fn send_present(now: &Present<'_, f32>) {
+/// as telemetry: time, position, NED velocity, roll, pitch, yaw [rad], and the standard
+/// deviations of the attitude [rad], velocity [m/s] and position [m] errors, N, E, D each
+/// (NaN when there are none).
+fn send_present(now: &Present<'_, f32>, sd: Option<&NavSd<f32>>) {
     let ins = now.ins();
     let (p, v) = (ins.position(), ins.velocity());
     let (roll, pitch, yaw) = ins.attitude_f64().euler();
+    let none = [f32::NAN; 3];
+    let (sa, sv, sp) = sd.map_or((none, none, none), |s| (s.att, s.vel, s.pos));
     defmt::info!(
-        "now t={=f64} lat={=f64} lon={=f64} h={=f64} vn={=f32} ve={=f32} vd={=f32} roll={=f32} pitch={=f32} yaw={=f32}",
+        "now t={=f64} lat={=f64} lon={=f64} h={=f64} vn={=f32} ve={=f32} vd={=f32} roll={=f32} pitch={=f32} yaw={=f32} san={=f32} sae={=f32} sad={=f32} svn={=f32} sve={=f32} svd={=f32} spn={=f32} spe={=f32} spd={=f32}",
         now.time(),
         p.lat,
         p.lon,
@@ -116,6 +124,15 @@ fn send_present(now: &Present<'_, f32>) {
         v.z,
         roll as f32,
         pitch as f32,
-        yaw as f32
+        yaw as f32,
+        sa[0],
+        sa[1],
+        sa[2],
+        sv[0],
+        sv[1],
+        sv[2],
+        sp[0],
+        sp[1],
+        sp[2]
     );
 }

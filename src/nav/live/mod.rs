@@ -60,7 +60,7 @@
 
 mod inputs;
 
-use super::navigator::NavObserver;
+use super::navigator::{NavObserver, NavSd};
 use super::predictor::{OutputPredictor, Present};
 use super::replay::{ImuRecord, NavSetup};
 use super::run::NavReplay;
@@ -180,6 +180,18 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
             }
             None => None,
         }
+    }
+
+    /// Standard deviations of the navigation errors of [`present`](Self::present)'s
+    /// solution, at its time: the run's filter covariance carried from its last propagation
+    /// ([`Navigator::sd_at`](super::Navigator::sd_at)). None when there is no present, or
+    /// when the error model cannot be built.
+    pub fn present_sd(&self) -> Option<NavSd<T>> {
+        let t = self.present()?.time();
+        let Phase::Running(run) = &self.phase else {
+            return None;
+        };
+        run.navigator().sd_at(t).ok()
     }
 
     /// Runs the output predictor, or not (on by default): a board that reads only the run's
