@@ -21,7 +21,7 @@ use crate::nav_io::{GnssFix, ImuSample, TruthRow};
 use anyhow::{anyhow, Result};
 use imu_ident::nav::live::{LiveConfig, LiveEvent, LiveNav};
 use imu_ident::nav::predictor::Present;
-use imu_ident::nav::NAV_N;
+use imu_ident::nav::{NavSd, NAV_N};
 use imu_ident::strapdown::{Geodetic, Strapdown};
 use nalgebra::Vector3;
 use std::collections::HashMap;
@@ -103,6 +103,49 @@ pub struct PresentRun {
     pub changes: u64,
     /// The present solution after every sample once running (the truth CSV's columns).
     pub rows: Vec<TruthRow>,
+    /// Its standard deviations at the same samples (`present_sd.csv`; a row for each of
+    /// `rows` that has them).
+    pub sd_rows: Vec<PresentSdRow>,
+}
+
+/// A row of `present_sd.csv`: the standard deviations of the present solution's errors at its
+/// time ([`LiveNav::present_sd`]), attitude `phi` [deg], velocity [m/s] and position [m],
+/// N, E, D each.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PresentSdRow {
+    /// Time of the present [s] (`present.csv`'s `t`).
+    pub t: f64,
+    pub sd_phi_n: f64,
+    pub sd_phi_e: f64,
+    pub sd_phi_d: f64,
+    pub sd_vn: f64,
+    pub sd_ve: f64,
+    pub sd_vd: f64,
+    pub sd_n: f64,
+    pub sd_e: f64,
+    pub sd_d: f64,
+}
+
+impl PresentSdRow {
+    fn new(t: f64, sd: &NavSd<f32>) -> Self {
+        let (a, v, p) = (
+            sd.att.map(|x| f64::from(x).to_degrees()),
+            sd.vel.map(f64::from),
+            sd.pos.map(f64::from),
+        );
+        Self {
+            t,
+            sd_phi_n: a[0],
+            sd_phi_e: a[1],
+            sd_phi_d: a[2],
+            sd_vn: v[0],
+            sd_ve: v[1],
+            sd_vd: v[2],
+            sd_n: p[0],
+            sd_e: p[1],
+            sd_d: p[2],
+        }
+    }
 }
 
 /// The present solution as a row of the truth CSV's columns (no sensor errors).
@@ -226,6 +269,10 @@ pub fn present_run(
             continue;
         };
         out.rows.push(row_of(&now));
+        let now_sd = nav.present_sd();
+        if let Some(sd) = &now_sd {
+            out.sd_rows.push(PresentSdRow::new(now.time(), sd));
+        }
         let c = changes.get();
         let ins = run.navigator().ins();
         let (p, q) = (now.ins().position(), ins.position());
@@ -258,7 +305,7 @@ pub fn present_run(
         if let (Some(a), Some(b), Some(c)) = errs {
             out.errors.push([a, b, c]);
         }
-        let carried = nav.present_sd().map(|sd| {
+        let carried = now_sd.map(|sd| {
             let mut all = [0.0; 9];
             for (k, v) in sd.att.iter().chain(&sd.vel).chain(&sd.pos).enumerate() {
                 all[k] = f64::from(*v);
@@ -334,9 +381,10 @@ fn sd_consistency(r: &PresentRun) -> serde_json::Value {
 
 /// `hal-sim nav --present DELAY,LATENCY`: the log of `args` streamed live (module docs), every
 /// fix `delay` [s] late within the budget `latency` [s]; writes `present.csv` (the present
-/// solution after every sample, the truth CSV's columns) and `present.json` (with a truth,
-/// the three solutions' errors from the first sample on; without, the distances from the
-/// run's own later solution) into `out`. Returns a one-line summary.
+/// solution after every sample, the truth CSV's columns), `present_sd.csv` (its standard
+/// deviations, [`PresentSdRow`]) and `present.json` (with a truth, the three solutions'
+/// errors from the first sample on and the present's against its deviations; without, the
+/// distances from the run's own later solution) into `out`. Returns a one-line summary.
 pub fn write_present(
     args: &NavArgs,
     truth: Option<&[TruthRow]>,
@@ -353,6 +401,7 @@ pub fn write_present(
     let imu = crate::nav::setup::shifted_imu(args, &imu);
     let r = present_run(args, &imu, &fixes, truth, (delay, latency, 0.0))?;
     crate::nav_io::write_truth_csv(&out.join("present.csv"), &r.rows)?;
+    crate::output::write_csv(&out.join("present_sd.csv"), &r.sd_rows)?;
     let names = ["present", "stale", "run"];
     let mut errors = serde_json::Map::new();
     for (k, name) in names.iter().enumerate() {

@@ -182,8 +182,10 @@ fn real_drive_present_solution_stays_with_the_run() {
 
 /// `hal-sim nav --present DELAY,LATENCY` (`hal_sim::present::write_present`): `present.csv`
 /// is read back by the truth CSV's reader, one row per sample once running, the last at the
-/// last sample; `present.json` holds the figures the bench prints; a negative budget is refused
-/// with the option's name, before anything is written.
+/// last sample; `present_sd.csv` has the same times, each standard deviation positive, the
+/// north position's growing between the filter's propagations; `present.json` holds the figures the bench prints, the deviations' consistency
+/// with the truth among them; a negative budget is refused with the option's name, before
+/// anything is written.
 #[test]
 fn nav_present_writes_the_present_solution_in_the_truth_format() {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
@@ -228,4 +230,39 @@ fn nav_present_writes_the_present_solution_in_the_truth_format() {
         matches!((present, stale), (Some(p), Some(s)) if 5.0 * p < s),
         "{present:?} {stale:?}"
     );
+    let mut sd =
+        csv::Reader::from_path(out.join("present_sd.csv")).unwrap_or_else(|e| panic!("{e}"));
+    let sd: Vec<hal_sim::present::PresentSdRow> = sd
+        .deserialize()
+        .collect::<Result<_, _>>()
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(sd.len(), rows.len());
+    let mut grew = 0;
+    for (w, r) in sd.windows(2).zip(rows.iter().skip(1)) {
+        let [a, b] = [w[0], w[1]];
+        assert_eq!(b.t, r.t);
+        let all = [
+            b.sd_phi_n, b.sd_phi_e, b.sd_phi_d, b.sd_vn, b.sd_ve, b.sd_vd, b.sd_n, b.sd_e,
+        ];
+        assert!(
+            all.iter()
+                .chain([&b.sd_d])
+                .all(|v| v.is_finite() && *v > 0.0),
+            "{b:?}"
+        );
+        grew += usize::from(b.sd_n > a.sd_n);
+    }
+    // With 1-Hz fixes and steps at 100 Hz, 99 of 100 samples pass with no step or fix: the
+    // north position's deviation grows at them (asserted at 98 of 100).
+    assert!(
+        50 * grew >= 49 * sd.len(),
+        "grew at {grew} of {} samples",
+        sd.len()
+    );
+    let rms_z = json["sd_against_truth"]["carried"]["p_n"]["rms_z"].as_f64();
+    eprintln!(
+        "present_sd.csv: {} rows, the north deviation grew at {grew}; its RMS z {rms_z:?}",
+        sd.len()
+    );
+    assert!(rms_z.is_some_and(|z| z > 0.2 && z < 1.7), "{rms_z:?}");
 }
