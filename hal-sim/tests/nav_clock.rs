@@ -218,8 +218,12 @@ fn worst_difference(a: &crate::nav_live::Live, b: &crate::nav_live::Live) -> (f6
 
 /// A simulated 10-min drive whose samples a board stamps with an 84-MHz timer 30 ppm fast:
 /// through the clock the run is the run on GPS time within a small fraction of a sigma; on the
-/// timer's nominal rate from the first pulse (what a board without the clock would do) it
-/// drifts 18 ms off in 10 min, and the positions follow.
+/// timer's nominal rate from the first pulse (what a board without the clock would do) the
+/// stamps drift 13 ms off by the end (asserted over 10 ms; the clock's stay under 1 us). With a
+/// fix every second the positions hardly show it yet (0.04 sigma, 13 mm, on 2026-12-02): the
+/// filter re-anchors the solution to the fixes, whose times it reads the IMU's offset by. (It
+/// was 0.73 sigma while the simulated fixes were at the IMU and the run put the antenna
+/// 0.85 m from it, and this test asserted ten times the clock's difference.)
 #[test]
 fn a_drive_stamped_by_a_drifting_timer_navigates_as_on_gps_time() {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
@@ -256,6 +260,11 @@ fn a_drive_stamped_by_a_drifting_timer_navigates_as_on_gps_time() {
         .map(|(s, st)| st.map(|_| s.t))
         .collect();
     let skipped = stamped.iter().filter(|s| s.is_none()).count();
+    let worst_nominal = imu
+        .iter()
+        .zip(&nominal)
+        .filter_map(|(s, n)| n.map(|n| (n - s.t).abs()))
+        .fold(0.0, f64::max);
     let worst_stamp = imu
         .iter()
         .zip(&stamped)
@@ -271,11 +280,13 @@ fn a_drive_stamped_by_a_drifting_timer_navigates_as_on_gps_time() {
     let rms = |l: &crate::nav_live::Live| horizontal_rms(l, &truth);
     let (g, c, n) = (rms(&on_gps), rms(&on_clock), rms(&on_nominal));
     println!(
-        "samples before the lock {skipped}; worst stamp error {:.0} ns; epochs {}; \
+        "samples before the lock {skipped}; worst stamp error {:.0} ns (nominal rate \
+         {:.1} ms); epochs {}; \
          through the clock: worst {c_sig:.2e} sigma ({c_m:.2e} m) over {c_n} epochs; \
          nominal rate: {n_sig:.3} sigma ({n_m:.3} m) over {n_n}; horizontal RMS against the \
          truth: GPS time {g:.4} m, clock {c:.4} m, nominal rate {n:.4} m",
         1e9 * worst_stamp,
+        1e3 * worst_nominal,
         on_gps.epochs.len()
     );
     assert!(skipped < 400 && worst_stamp < 1e-6);
@@ -286,7 +297,7 @@ fn a_drive_stamped_by_a_drifting_timer_navigates_as_on_gps_time() {
     // shifted 1 us late (the same order as on GPS time) it was 2.2e-4 sigma (60 um).
     assert!(c_sig < 0.05, "{c_sig}");
     assert!((c - g).abs() < 0.01 * g, "{c} {g}");
-    assert!(n_sig > 10.0 * c_sig, "{n_sig}");
+    assert!(worst_nominal > 0.01, "{worst_nominal} s");
 }
 
 /// The RMS horizontal position error of a run's epochs against the truth at their times.
