@@ -42,7 +42,7 @@
 //! ```
 
 use super::{NavError, NavObserver, Navigator};
-use crate::linalg::Arr;
+use crate::linalg::{axpy, dot, Arr};
 use crate::nav::error_model::nav_idx;
 use crate::Real;
 
@@ -60,27 +60,17 @@ pub struct NavSd<T> {
     pub pos: [T; 3],
 }
 
-/// `v^T M` over the leading `n` states: the rows of `M` weighted by `v`, skipping the zero
-/// weights (`v` is a sparse row of `A` or of `A^2` here). For a symmetric `M` (`P`, `Qc`) it
-/// is `M v`; for `M = A` and `v` a row of `A`, that row of `A^2`.
+/// `v^T M` over the leading `n` states: the rows of `M` weighted by `v` ([`axpy`]), skipping
+/// the zero weights (`v` is a sparse row of `A` or of `A^2` here). For a symmetric `M` (`P`,
+/// `Qc`) it is `M v`; for `M = A` and `v` a row of `A`, that row of `A^2`.
 fn row_times<T: Real, const N: usize>(v: &[T; N], m: &Arr<T, N>, n: usize) -> [T; N] {
     let mut out = [T::zero(); N];
     for (vk, row) in v.iter().zip(m.iter()).take(n) {
-        if *vk == T::zero() {
-            continue;
-        }
-        for (o, mkj) in out.iter_mut().zip(row.iter()).take(n) {
-            *o += *vk * *mkj;
+        if *vk != T::zero() {
+            axpy(&mut out, *vk, row, n);
         }
     }
     out
-}
-
-fn dot<T: Real, const N: usize>(u: &[T; N], v: &[T; N], n: usize) -> T {
-    u.iter()
-        .zip(v.iter())
-        .take(n)
-        .fold(T::zero(), |s, (a, b)| s + *a * *b)
 }
 
 /// The variances of the first nine states of `x' = A x + w`, `E w w^T = Qc` (white), `dt`
