@@ -59,28 +59,43 @@ impl Crc32 {
 
 /// The search for fixed-length CRC frames in a byte stream: `sync (2) | payload | CRC-32 (LE)`,
 /// the CRC (IEEE, as zlib) over the payload. The observation frames of [`crate::edge`] and the IMU
-/// sample frames of [`crate::nav::imu_frame`] are two lengths of it.
+/// sample frames of [`crate::nav::imu_frame`] are two lengths of it; `K` kinds of frame, each
+/// with its sync and length (at most `LEN`), can share one search
+/// ([`crate::nav::counted::SampleFrames`]).
 ///
-/// It keeps the last `LEN` bytes; when they start with the sync and the CRC matches, the frame
-/// is returned and the buffer cleared. A frame whose CRC fails is counted in
-/// [`rejected`](Self::rejected) and the search continues one byte later, so a sync pattern
-/// inside the payload never locks the decoder out. Constant memory, no panics (a `LEN` below
-/// 6 never yields a frame).
+/// It keeps up to `LEN` bytes from a candidate sync; when they make a frame of the kind that
+/// sync names and the CRC matches, the frame is returned and the buffer cleared. A frame whose
+/// CRC fails is counted in [`rejected`](Self::rejected) and the search continues one byte
+/// later, so a sync pattern inside the payload never locks the decoder out. One search for
+/// every kind on a line (rather than one per kind) never tries the sync patterns inside the
+/// frames it reads: a decoder that sees frames not its own would, and count the failures.
+/// Constant memory, no panics (a kind shorter than 6 bytes never yields a frame).
 #[derive(Debug, Clone)]
-pub struct CrcFrames<const LEN: usize> {
-    sync: [u8; 2],
+pub struct CrcFrames<const LEN: usize, const K: usize = 1> {
+    /// Each kind's sync and frame length.
+    kinds: [([u8; 2], usize); K],
     buf: [u8; LEN],
     len: usize,
+    /// The length of the frame the held sync names (0 before two bytes are held).
+    want: usize,
     rejected: u32,
 }
 
-impl<const LEN: usize> CrcFrames<LEN> {
-    /// An empty search for frames behind `sync`.
+impl<const LEN: usize> CrcFrames<LEN, 1> {
+    /// An empty search for frames of `LEN` bytes behind `sync`.
     pub const fn new(sync: [u8; 2]) -> Self {
+        Self::of_kinds([(sync, LEN)])
+    }
+}
+
+impl<const LEN: usize, const K: usize> CrcFrames<LEN, K> {
+    /// An empty search for frames of `K` kinds: each kind's sync and length (at most `LEN`).
+    pub const fn of_kinds(kinds: [([u8; 2], usize); K]) -> Self {
         Self {
-            sync,
+            kinds,
             buf: [0; LEN],
             len: 0,
+            want: 0,
             rejected: 0,
         }
     }
@@ -90,26 +105,33 @@ impl<const LEN: usize> CrcFrames<LEN> {
         self.rejected
     }
 
-    /// Takes one byte; returns the whole frame (sync and CRC included) when one completes with
-    /// a valid CRC.
+    /// Takes one byte; returns the buffer when a frame completes with a valid CRC: the frame
+    /// (sync and CRC included) in its first bytes, as many as its kind's length (its sync
+    /// names the kind); the bytes after it are not the frame's.
     pub fn push(&mut self, byte: u8) -> Option<[u8; LEN]> {
-        if self.len == 0 && Some(&byte) != self.sync.first() {
+        if self.len == 0 && !self.kinds.iter().any(|(s, _)| s.first() == Some(&byte)) {
             // Not a frame's start: nothing to keep (the common case between frames).
             return None;
         }
         if self.len >= LEN {
-            // Full without a valid frame: drop the oldest byte (a sliding window).
+            // Full without a valid frame (a kind longer than the buffer): drop the oldest byte
+            // (a sliding window).
             self.slide();
+            self.align();
         }
         *self.buf.get_mut(self.len)? = byte;
         self.len += 1;
-        // Drop leading bytes that cannot start a frame, so the window stays aligned on a sync.
-        self.align();
-        if self.len < LEN {
+        if self.len <= 2 {
+            // Drop leading bytes that cannot start a frame, so the window stays aligned on a
+            // sync (a byte after the first two leaves the held sync as it was).
+            self.align();
+        }
+        if self.len < self.want || self.want == 0 {
             return None;
         }
-        if crc_ok(&self.buf) {
+        if self.buf.get(..self.want).is_some_and(crc_ok) {
             self.len = 0;
+            self.want = 0;
             return Some(self.buf);
         }
         self.rejected = self.rejected.saturating_add(1);
@@ -124,15 +146,23 @@ impl<const LEN: usize> CrcFrames<LEN> {
         self.len = drop_first(&mut self.buf, self.len);
     }
 
-    /// Drops leading bytes until the buffer agrees with the sync as far as it goes.
+    /// Drops leading bytes until the buffer agrees with a sync as far as it goes, and takes
+    /// the length of the frame that sync names.
     fn align(&mut self) {
         while self.len > 0 {
-            let n = self.len.min(self.sync.len());
-            if self.buf.get(..n) == self.sync.get(..n) {
+            let n = self.len.min(2);
+            let head = self.buf.get(..n);
+            if self.kinds.iter().any(|(s, _)| s.get(..n) == head) {
                 break;
             }
             self.slide();
         }
+        let head = self.buf.get(..2).filter(|_| self.len >= 2);
+        self.want = self
+            .kinds
+            .iter()
+            .find(|(s, _)| Some(&s[..]) == head)
+            .map_or(0, |&(_, n)| n);
     }
 }
 

@@ -457,6 +457,15 @@ pub enum Command {
         /// Keep .pos epochs with 1 <= Q <= MAX_Q.
         #[arg(long, default_value_t = 2)]
         max_q: u8,
+        /// A hub that counts its samples with its own timer instead of stamping them with GPS
+        /// time (README "Samples counted by a hub's timer"): counted-sample frames, the
+        /// receiver's pulse edges on that timer and its TIM-TP messages. The timer's frequency
+        /// error [ppm]; an 84-MHz counter on an ordinary crystal (its noise drawn, seeded).
+        #[arg(long, allow_negative_numbers = true)]
+        hub_ppm: Option<f64>,
+        /// Seed of the hub timer's noise and pulse jitter.
+        #[arg(long, default_value_t = 1)]
+        hub_seed: u64,
         /// Output file.
         #[arg(long)]
         out: PathBuf,

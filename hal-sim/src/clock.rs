@@ -1,10 +1,17 @@
 //! The GPS clock (`imu_ident::nav::gps_clock`) on a simulated board timer
 //! ([`crate::trajectory::oscillator`]): the scenario the tests and `examples/clock_bench.rs`
 //! share. Each second the receiver's `TIM-TP` (0.6 s before its pulse, through the core's UBX
-//! reader), the pulse's capture, and a sample stamped every 0.1 s; faults on request.
+//! reader), the pulse's capture, and a sample stamped every 0.1 s; faults on request. And
+//! [`counted_stream`]: a log as the serial wire of a hub that stamps its samples with such a
+//! timer (`imu_ident::nav::counted`).
 
+use crate::nav_io::ubx::ubx_fix_bytes;
+use crate::nav_io::{GnssFix, ImuSample};
 use crate::trajectory::oscillator::{Oscillator, OscillatorSpec};
+use anyhow::Result;
+use imu_ident::nav::counted::{encode_counted_sample, encode_edge, CountedSample};
 use imu_ident::nav::gps_clock::{ClockConfig, ClockCounts, GpsClock, PulseUse};
+use imu_ident::nav::serial::{NavInput, TimerStamps, WireCounts};
 use imu_ident::nav::ubx::{encode_tim_tp, tim_tp_at, UbxEvent, UbxFixes};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -181,4 +188,99 @@ pub fn run_on(
     let late = &run.nis[run.nis.len().saturating_sub(1800)..];
     run.late_nis = late.iter().sum::<f64>() / late.len().max(1) as f64;
     run
+}
+
+/// `imu` and `fixes` as the serial wire of a hub whose samples carry the counts of `osc`'s timer
+/// instead of their GPS times ([`imu_ident::nav::counted`]): a counted-sample frame per
+/// sample (rates and specific force in `f32`), the receiver's `TIM-TP` 0.6 s before each whole
+/// GPS second and that pulse's edge captured on the timer, each fix's messages `delay` s after
+/// its time (as [`crate::nav_io::ubx::serial_stream`]); in the order of their times (at the
+/// same time: message, edge, sample, fix). Pulses run from the second before the first sample
+/// to the last sample. `osc` must stand at or before the first sample and is advanced.
+pub fn counted_stream(
+    imu: &[ImuSample],
+    fixes: &[GnssFix],
+    delay: f64,
+    osc: &mut Oscillator,
+) -> Result<Vec<u8>> {
+    enum Item<'a> {
+        TimTp(f64),
+        Edge,
+        Sample(&'a ImuSample),
+        Fix(&'a GnssFix),
+    }
+    let (Some(first), Some(last)) = (imu.first(), imu.last()) else {
+        return Ok(Vec::new());
+    };
+    let mut items: Vec<(f64, u8, Item)> = Vec::with_capacity(imu.len() + 3 * fixes.len());
+    let mut second = first.t.floor();
+    while second <= last.t {
+        items.push((second - 0.6, 0, Item::TimTp(second)));
+        items.push((second, 1, Item::Edge));
+        second += 1.0;
+    }
+    items.extend(imu.iter().map(|s| (s.t, 2, Item::Sample(s))));
+    items.extend(fixes.iter().map(|f| (f.t + delay, 3, Item::Fix(f))));
+    items.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let mut out = Vec::with_capacity(imu.len() * 34 + fixes.len() * 124 + 34 * items.len() / 100);
+    for (t, _, item) in items {
+        osc.advance(t.max(osc.time()));
+        match item {
+            Item::TimTp(at) => out.extend_from_slice(&encode_tim_tp(&tim_tp_at(at))),
+            Item::Edge => out.extend_from_slice(&encode_edge(osc.pulse_count())),
+            Item::Sample(s) => {
+                let c = CountedSample::new(
+                    osc.count(),
+                    s.gyro.map(|x| x as f32),
+                    s.accel.map(|x| x as f32),
+                );
+                out.extend_from_slice(&encode_counted_sample(&c));
+            }
+            Item::Fix(f) => out.extend_from_slice(&ubx_fix_bytes(f)?),
+        }
+    }
+    Ok(out)
+}
+
+/// A wire's inputs, as the core's decoders read them, through a [`TimerStamps`] of `cfg` (what
+/// the navigation firmware does): counted samples on GPS time (the unstamped ones dropped),
+/// edges taken; with what the decoders refused, and the stamps (their clock and counts).
+pub fn stamped_inputs(
+    bytes: &[u8],
+    cfg: ClockConfig,
+) -> Result<(Vec<NavInput>, WireCounts, TimerStamps)> {
+    let (inputs, counts) = crate::nav_io::ubx::wire_inputs(bytes, None);
+    let mut stamps = TimerStamps::new(cfg)
+        .map_err(|e| anyhow::anyhow!("the hub clock's configuration: {e:?}"))?;
+    let out = inputs.into_iter().filter_map(|i| stamps.stamp(i)).collect();
+    Ok((out, counts, stamps))
+}
+
+/// How far two runs' positions are apart at the epochs of the first (`a`) from `from` [s] on
+/// that the second also has: the largest north, east or down difference in `a`'s sigmas and
+/// in metres, and the epochs compared.
+pub fn position_difference(
+    a: &[imu_ident::nav::Epoch<f32>],
+    b: &[imu_ident::nav::Epoch<f32>],
+    from: f64,
+) -> (f64, f64, usize) {
+    let (mut sig, mut m, mut n) = (0f64, 0f64, 0);
+    for e in a.iter().filter(|e| e.t >= from) {
+        let Some(o) = b.iter().find(|o| o.t == e.t) else {
+            continue;
+        };
+        let [dn, de] = crate::nav_io::outages::north_east(
+            e.pos.lat.to_degrees(),
+            e.pos.lon.to_degrees(),
+            e.pos.h,
+            o.pos.lat.to_degrees(),
+            o.pos.lon.to_degrees(),
+        );
+        for (d, sd) in [dn, de, o.pos.h - e.pos.h].iter().zip(e.sd_pos) {
+            sig = sig.max(d.abs() / f64::from(sd));
+            m = m.max(d.abs());
+        }
+        n += 1;
+    }
+    (sig, m, n)
 }

@@ -451,6 +451,8 @@ fn main() -> Result<()> {
             gnss,
             delay,
             max_q,
+            hub_ppm,
+            hub_seed,
             out,
         } => {
             let fixes = hal_sim::nav_io::read_gnss_any(&gnss, max_q)?;
@@ -458,11 +460,33 @@ fn main() -> Result<()> {
                 Some(p) => hal_sim::nav_io::read_imu_csv(p)?,
                 None => vec![],
             };
-            let bytes = hal_sim::nav_io::ubx::serial_stream(&samples, &fixes, delay)
-                .with_context(|| format!("{}", gnss.display()))?;
+            let bytes = match (hub_ppm, samples.first()) {
+                (None, _) => hal_sim::nav_io::ubx::serial_stream(&samples, &fixes, delay),
+                (Some(ppm), Some(first)) => {
+                    use hal_sim::trajectory::oscillator::Oscillator;
+                    use imu_ident::nav::gps_clock::ClockConfig;
+                    if !ppm.is_finite() || ppm.abs() > 1e3 {
+                        anyhow::bail!(
+                            "--hub-ppm {ppm}: a crystal's frequency error within +-1000 ppm"
+                        );
+                    }
+                    let cfg = ClockConfig::crystal(84e6);
+                    let spec = hal_sim::clock::oscillator_spec(&cfg, ppm * 1e-6, 1.0);
+                    let mut osc = Oscillator::new(spec, first.t - 2.0, hub_seed);
+                    hal_sim::clock::counted_stream(&samples, &fixes, delay, &mut osc)
+                }
+                (Some(_), None) => {
+                    anyhow::bail!("--hub-ppm needs --imu (a hub counts IMU samples)")
+                }
+            }
+            .with_context(|| format!("{}", gnss.display()))?;
             std::fs::write(&out, &bytes).with_context(|| format!("writing {}", out.display()))?;
+            let kind = match hub_ppm {
+                Some(_) => "counted-sample frames (and a pulse edge and TIM-TP a second)",
+                None => "IMU frames",
+            };
             println!(
-                "wrote {}: {} IMU frames, {} fixes (NAV-TIMEGPS + NAV-PVT), {} bytes",
+                "wrote {}: {} {kind}, {} fixes (NAV-TIMEGPS + NAV-PVT), {} bytes",
                 out.display(),
                 samples.len(),
                 fixes.len(),

@@ -287,6 +287,23 @@ pub fn wire_of(
     crate::nav_io::ubx::serial_stream(&crate::nav::setup::shifted_imu(args, imu), fixes, delay)
 }
 
+/// [`wire_of`] from a hub that stamps its samples with `osc`'s timer instead of GPS time
+/// ([`crate::clock::counted_stream`]).
+pub fn counted_wire_of(
+    args: &NavArgs,
+    imu: &[ImuSample],
+    fixes: &[GnssFix],
+    delay: f64,
+    osc: &mut crate::trajectory::oscillator::Oscillator,
+) -> Result<Vec<u8>> {
+    crate::clock::counted_stream(
+        &crate::nav::setup::shifted_imu(args, imu),
+        fixes,
+        delay,
+        osc,
+    )
+}
+
 /// Runs the firmware on a serial wire (`wire`, as [`wire_of`] writes it) with the live setup
 /// of `args`: a live replay with no records, then the wire's bytes through the core's
 /// decoders.

@@ -124,6 +124,8 @@ fn item_spans(wire: &[u8]) -> Vec<(usize, usize, NavInput)> {
                 NavInput::Imu(_) => 38,
                 NavInput::Fix(_) => 100,
                 NavInput::Pulse(_) => 24,
+                NavInput::Counted(_) => imu_ident::nav::counted::COUNTED_FRAME_LEN,
+                NavInput::Edge(_) => imu_ident::nav::counted::EDGE_FRAME_LEN,
             };
             out.push((i + 1 - len, i + 1, input));
         });
@@ -137,18 +139,40 @@ fn item_spans(wire: &[u8]) -> Vec<(usize, usize, NavInput)> {
 
 /// A noisy line: seeded bursts of random bytes overwrite parts of the wire. Every sample and
 /// fix whose bytes were not hit is read (a fix also needs an intact week message before it);
-/// every other is refused and counted; the run goes on with what arrived.
+/// every other is refused and counted; the run goes on with what arrived. The same on the
+/// wire of a hub that counts its samples (`imu_ident::nav::counted`: counted samples, pulse
+/// edges and the receiver's `TIM-TP`), put on GPS time by a `TimerStamps`.
 #[test]
 fn a_noisy_line_costs_the_frames_it_hits() {
-    use rand::{Rng, SeedableRng};
+    use hal_sim::trajectory::oscillator::Oscillator;
+    use imu_ident::nav::gps_clock::ClockConfig;
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let args = drive(dir.path(), 16, true, false);
     let (imu, fixes) = load(&args);
-    let clean = wire_of(&args, &imu, &fixes, 0.0).unwrap_or_else(|e| panic!("{e:#}"));
-    let spans = item_spans(&clean);
+    let gps = wire_of(&args, &imu, &fixes, 0.0).unwrap_or_else(|e| panic!("{e:#}"));
+    noisy_line(&args, &gps, None, imu.len(), fixes.len());
+    let cfg = ClockConfig::crystal(84e6);
+    let spec = hal_sim::clock::oscillator_spec(&cfg, -20e-6, 1.0);
+    let mut osc = Oscillator::new(spec, imu[0].t - 2.0, 65_601);
+    let counted = hal_sim::nav_qemu::counted_wire_of(&args, &imu, &fixes, 0.0, &mut osc)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    noisy_line(&args, &counted, Some(cfg), imu.len(), fixes.len());
+}
+
+/// [`a_noisy_line_costs_the_frames_it_hits`] on the wire `clean` (counted samples stamped by a
+/// clock of `hub`, when given).
+fn noisy_line(
+    args: &hal_sim::nav::NavArgs,
+    clean: &[u8],
+    hub: Option<imu_ident::nav::gps_clock::ClockConfig>,
+    n_imu: usize,
+    n_fixes: usize,
+) {
+    use rand::{Rng, SeedableRng};
+    let spans = item_spans(clean);
     for seed in 0..4u64 {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(65_600 + seed);
-        let mut wire = clean.clone();
+        let mut wire = clean.to_vec();
         let mut hit = vec![false; wire.len()];
         // 200 bursts of 1-40 bytes: about 0.05 % of the bytes.
         for _ in 0..200 {
@@ -173,7 +197,20 @@ fn a_noisy_line_costs_the_frames_it_hits() {
         let (inputs, counts) = wire_inputs(&wire, None);
         assert_eq!(inputs, expected, "seed {}", 65_600 + seed);
         assert!(counts.imu_rejected + counts.ubx_rejected > 0, "{counts:?}");
-        let live = live_run(&args, &inputs);
+        let inputs = match hub {
+            Some(cfg) => {
+                let (stamped, _, stamps) =
+                    hal_sim::clock::stamped_inputs(&wire, cfg).unwrap_or_else(|e| panic!("{e}"));
+                // Lost pulses and messages are bridged: every sample after the lock is stamped
+                // and no pulse is refused.
+                let c = stamps.counts();
+                eprintln!("seed {}: the clock's counts {c:?}", 65_600 + seed);
+                assert!(stamps.unstamped() < 400 && c.rejected == 0 && c.restarts == 0);
+                stamped
+            }
+            None => inputs,
+        };
+        let live = live_run(args, &inputs);
         assert_eq!(live.starts_and_drops().0, 1);
         let n_fix = inputs
             .iter()
@@ -182,9 +219,12 @@ fn a_noisy_line_costs_the_frames_it_hits() {
         eprintln!(
             "seed {}: {} of {} samples, {n_fix} of {} fixes, {counts:?}, {} epochs",
             65_600 + seed,
-            inputs.len() - n_fix,
-            imu.len(),
-            fixes.len(),
+            inputs
+                .iter()
+                .filter(|i| matches!(i, NavInput::Imu(_)))
+                .count(),
+            n_imu,
+            n_fixes,
             live.epochs.len()
         );
     }

@@ -10,9 +10,15 @@
 //! - IMU: USART2 RX on PA3 (AF7), [`IMU_BAUD`] 8N1, one frame per sample
 //!   (`imu_ident::nav::imu_frame`: `A5 5B | t f64 | gyro 3 x f32 | accel 3 x f32 | CRC-32`),
 //!   stamped by the sender on the GNSS time scale (GPS seconds since 1980: a sensor hub or an
-//!   IMU with a PPS input). 100 Hz takes 3 800 B/s.
+//!   IMU with a PPS input). 100 Hz takes 3 800 B/s. Or, from a hub with only its own counter,
+//!   counted samples and the receiver's pulse edges captured on that counter
+//!   (`imu_ident::nav::counted`: `A5 5C | count u32 | gyro | accel | CRC-32`,
+//!   `A5 5D | count u32 | CRC-32`), put on GPS time by the board (a `TimerStamps`: the
+//!   receiver's `TIM-TP` on the GNSS port pairs each edge with its second; the hub's counter
+//!   at `HUB_TIMER_HZ`); samples before the clock locks are dropped and counted.
 //! - GNSS: USART3 RX on PB11 (AF7), [`GNSS_BAUD`] 8N1 (a u-blox M8 / F9 UART1's default), the
-//!   receiver's UBX `NAV-TIMEGPS` and `NAV-PVT` (enable both on that port; NMEA and other
+//!   receiver's UBX `NAV-TIMEGPS` and `NAV-PVT`, and `TIM-TP` for a counting hub (enable them
+//!   on that port; NMEA and other
 //!   messages between them are passed over).
 //! - Each port's bytes are moved into a queue by its interrupt; the loop reads both queues
 //!   ([`SerialNav::poll`], a bounded number of bytes per call), gives every sample and fix to
@@ -53,7 +59,7 @@ mod nav_support;
 mod firmware {
     use super::board_support::{drain, park, QueueRx, RxCounts};
     use super::nav_support::{
-        count_sample, decisions_of, report_decision, send_epoch, start_bank, Bank,
+        count_sample, decisions_of, report_decision, send_epoch, start_bank, Bank, HUB_TIMER_HZ,
     };
     use core::cell::RefCell;
     use core::mem::MaybeUninit;
@@ -64,7 +70,9 @@ mod firmware {
     use cortex_m_rt::entry;
     use heapless::spsc::{Producer, Queue};
     use imu_ident::model::{Component, RandomWalk, WhiteNoise};
+    use imu_ident::nav::gps_clock::ClockConfig;
     use imu_ident::nav::live::{LiveConfig, LiveEvent, LiveNav};
+    use imu_ident::nav::serial::TimerStamps;
     use imu_ident::nav::serial::{feed, NavInput, SerialNav, WireCounts};
     use imu_ident::nav::{ImuErrorModel, NavInit, NavSetup, OnlineConfig, NAV_N};
     use nalgebra::Vector3;
@@ -297,6 +305,8 @@ mod firmware {
         line_errors: u32,
         queue_full: u32,
         refused: u32,
+        /// Counted samples not stamped (before the clock's lock, or beyond its `max_sd`).
+        unstamped: u32,
     }
 
     /// One input through the live loop, with its telemetry. Returns whether it was refused.
@@ -325,8 +335,19 @@ mod firmware {
         let mut reported = Losses::default();
         let mut refused = 0u32;
         let mut samples = 0u32;
+        // A hub's counted samples put on GPS time (a wire of GPS-stamped ones passes through).
+        // The configuration is a constant the clock accepts; a refusal would leave the
+        // board without counted samples only.
+        let mut stamps = TimerStamps::new(ClockConfig::crystal(HUB_TIMER_HZ)).ok();
         loop {
             let mut on = |i: NavInput| {
+                let i = match stamps.as_mut() {
+                    Some(s) => match s.stamp(i) {
+                        Some(i) => i,
+                        None => return,
+                    },
+                    None => i,
+                };
                 refused = refused.saturating_add(u32::from(take(live, &i)));
                 if matches!(i, NavInput::Imu(_)) {
                     count_sample(&mut samples, || {
@@ -353,17 +374,19 @@ mod firmware {
                     .load(Ordering::Relaxed)
                     .saturating_add(GNSS_COUNTS.queue_full.load(Ordering::Relaxed)),
                 refused,
+                unstamped: stamps.as_ref().map_or(0, TimerStamps::unstamped),
             };
             if losses != reported {
                 defmt::warn!(
-                    "nav board: imu_crc={=u32} ubx_rejected={=u32} no_fix={=u32} no_week={=u32} line_errors={=u32} queue_full={=u32} refused={=u32}",
+                    "nav board: imu_crc={=u32} ubx_rejected={=u32} no_fix={=u32} no_week={=u32} line_errors={=u32} queue_full={=u32} refused={=u32} unstamped={=u32}",
                     losses.imu_wire.imu_rejected,
                     losses.gnss_wire.ubx_rejected,
                     losses.gnss_wire.no_fix,
                     losses.gnss_wire.no_week,
                     losses.line_errors,
                     losses.queue_full,
-                    losses.refused
+                    losses.refused,
+                    losses.unstamped
                 );
                 reported = losses;
             }

@@ -16,8 +16,11 @@
 //! second file is the serial wire ([`imu_ident::nav::serial`]: IMU sample frames and a u-blox
 //! receiver's `NAV-TIMEGPS` / `NAV-PVT` messages, written by `hal_sim::nav_io::ubx`): its
 //! bytes go through the core's decoders into the live loop, as a board's ports would feed
-//! them. The decoders' refusals are reported at the end (`wire`), and `icount wire` counts
-//! the decoding of each full 256-byte read.
+//! them. A wire of counted samples (a hub that stamps them with its timer, and captures the
+//! receiver's pulses on it: [`imu_ident::nav::counted`]) is put on GPS time by a
+//! [`TimerStamps`] on the way ([`HUB_TIMER_HZ`](nav_support::HUB_TIMER_HZ)). The decoders'
+//! refusals are reported at the end (`wire`), and the clock's (`stamps`); `icount wire`
+//! counts the decoding (and stamping) of each full 256-byte read.
 //!
 //! - Input: the file named by the first semihosting argument after the program name (default
 //!   `nav.bin`), relative to QEMU's working directory.
@@ -70,6 +73,7 @@ mod nav_support;
 mod firmware {
     use super::nav_support::{
         count_sample, decisions_of, report_decision, send_epoch, start_bank, Bank, Run,
+        HUB_TIMER_HZ,
     };
     use core::ffi::CStr;
     use core::mem::MaybeUninit;
@@ -83,6 +87,7 @@ mod firmware {
     use imu_ident::nav::live::{LiveEvent, LiveFix, LiveNav};
     use imu_ident::nav::replay::{Decoder, Event, NavReplayError, Record};
     use imu_ident::nav::run::ImuStep;
+    use imu_ident::nav::serial::TimerStamps;
     use imu_ident::nav::serial::{feed, NavInput, NavWire};
     use imu_ident::nav::{Epoch, NavError, NavReplay, NavSetup, NAV_N};
 
@@ -164,6 +169,8 @@ mod firmware {
         Nav(NavError),
         /// A serial wire file with a setup that is not a live one.
         NotLive,
+        /// The hub's clock configuration was refused (cannot happen with the constant one).
+        Clock,
     }
 
     impl From<HostError> for FirmwareError {
@@ -422,6 +429,8 @@ mod firmware {
     fn read_wire(path: &CStr, live: &mut Live, tally: &mut Tally) -> Result<(), FirmwareError> {
         let mut file = HostFile::open(path)?;
         let mut wire = NavWire::new(None);
+        let mut stamps = TimerStamps::new(ClockConfig::crystal(HUB_TIMER_HZ))
+            .map_err(|_| FirmwareError::Clock)?;
         let mut buf = [0u8; WIRE_CHUNK];
         loop {
             let n = file.read(&mut buf)?;
@@ -437,6 +446,9 @@ mod firmware {
             let t0 = SYST::get_current();
             for &byte in chunk {
                 wire.push(byte, &mut |i| {
+                    let Some(i) = stamps.stamp(i) else {
+                        return;
+                    };
                     if let Err(i) = inputs.push(i) {
                         spill = spill.and_then(|()| {
                             for q in &inputs {
@@ -466,6 +478,15 @@ mod firmware {
             c.ubx_rejected,
             c.no_fix,
             c.no_week
+        );
+        let s = stamps.counts();
+        defmt::info!(
+            "stamps unstamped={=u32} used={=u32} unpaired={=u32} rejected={=u32} restarts={=u32}",
+            stamps.unstamped(),
+            s.used,
+            s.unpaired,
+            s.rejected,
+            s.restarts
         );
         Ok(())
     }

@@ -86,18 +86,22 @@ impl ImuFrameDecoder {
 
     /// Takes one byte; returns a sample when its frame completes with a valid CRC.
     pub fn push(&mut self, byte: u8) -> Option<ImuSample> {
-        let f = self.frames.push(byte)?;
-        let word = |k: usize| -> Option<f32> {
-            Some(f32::from_le_bytes(
-                f.get(10 + 4 * k..14 + 4 * k)?.try_into().ok()?,
-            ))
-        };
-        Some(ImuSample {
-            t: f64::from_le_bytes(f.get(2..10)?.try_into().ok()?),
-            gyro: [word(0)?, word(1)?, word(2)?],
-            accel: [word(3)?, word(4)?, word(5)?],
-        })
+        sample_of(&self.frames.push(byte)?)
     }
+}
+
+/// The sample a frame (sync and CRC included, checked) carries.
+pub(crate) fn sample_of(f: &[u8]) -> Option<ImuSample> {
+    let word = |k: usize| -> Option<f32> {
+        Some(f32::from_le_bytes(
+            f.get(10 + 4 * k..14 + 4 * k)?.try_into().ok()?,
+        ))
+    };
+    Some(ImuSample {
+        t: f64::from_le_bytes(f.get(2..10)?.try_into().ok()?),
+        gyro: [word(0)?, word(1)?, word(2)?],
+        accel: [word(3)?, word(4)?, word(5)?],
+    })
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@
 //! `no_std`, heap-free; the capacity `N` of the filter is a const generic ([`NAV_N`] by
 //! default).
 
+pub mod counted;
 pub mod error_model;
 pub mod gps_clock;
 pub mod imu_frame;

@@ -25,13 +25,15 @@
 //!     wire.push(b, &mut |input| match input {
 //!         NavInput::Imu(_) => samples += 1,
 //!         NavInput::Fix(f) => { fixes += 1; assert_eq!(f.t, 2374.0 * 604_800.0 + 1.0) }
-//!         NavInput::Pulse(_) => {}
+//!         _ => {}
 //!     });
 //! }
 //! assert_eq!((samples, fixes), (1, 1));
 //! ```
 
-use super::imu_frame::{ImuFrameDecoder, ImuSample};
+use super::counted::{CountedSample, SampleFrame, SampleFrames};
+use super::gps_clock::{ClockConfig, ClockCounts, ClockError, GpsClock};
+use super::imu_frame::ImuSample;
 use super::live::{LiveEvent, LiveFix, LiveNav};
 use super::navigator::NavObserver;
 use super::ubx::{TimePulse, UbxEvent, UbxFixes};
@@ -49,12 +51,19 @@ pub enum NavInput {
     /// [`GpsClock`](super::gps_clock::GpsClock) that stamps samples with a local counter; the
     /// navigator does not take it.
     Pulse(TimePulse),
+    /// An IMU sample stamped with a hub's counter
+    /// ([`counted`](super::counted)): [`TimerStamps`] puts it on
+    /// GPS time; the navigator does not take it as it is.
+    Counted(CountedSample),
+    /// A time pulse's edge captured on a hub's counter, at this count: for
+    /// [`TimerStamps`].
+    Edge(u32),
 }
 
 /// What a wire refused so far.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct WireCounts {
-    /// IMU frames with a bad CRC.
+    /// IMU frames with a bad CRC (counted samples and pulse edges included).
     pub imu_rejected: u32,
     /// UBX messages with a bad checksum or length.
     pub ubx_rejected: u32,
@@ -69,7 +78,7 @@ pub struct WireCounts {
 /// Both decoders, fed every byte.
 #[derive(Debug, Clone)]
 pub struct NavWire {
-    imu: ImuFrameDecoder,
+    imu: SampleFrames,
     gnss: UbxFixes,
 }
 
@@ -77,15 +86,18 @@ impl NavWire {
     /// A wire whose GPS week at the start is `week` when known (else a `NAV-TIMEGPS` gives it).
     pub const fn new(week: Option<u16>) -> Self {
         Self {
-            imu: ImuFrameDecoder::new(),
+            imu: SampleFrames::new(),
             gnss: UbxFixes::new(week),
         }
     }
 
     /// Takes one byte; gives `out` the sample or fix it completes.
     pub fn push(&mut self, b: u8, out: &mut impl FnMut(NavInput)) {
-        if let Some(s) = self.imu.push(b) {
-            out(NavInput::Imu(s));
+        match self.imu.push(b) {
+            Some(SampleFrame::Stamped(s)) => out(NavInput::Imu(s)),
+            Some(SampleFrame::Counted(s)) => out(NavInput::Counted(s)),
+            Some(SampleFrame::Edge(c)) => out(NavInput::Edge(c)),
+            None => {}
         }
         match self.gnss.push_any(b) {
             Some(UbxEvent::Fix(f)) => out(NavInput::Fix(f.live())),
@@ -142,7 +154,9 @@ impl<R: embedded_io::Read + embedded_io::ReadReady> SerialNav<R> {
 }
 
 /// Gives a live run one input: [`LiveNav::imu`] for a sample, [`LiveNav::gnss`] for a fix
-/// (a pulse time is not the navigator's: nothing).
+/// (a pulse time, a counted sample and a pulse edge are not the navigator's: nothing; a
+/// [`TimerStamps`] before this call turns counted samples into
+/// samples).
 pub fn feed<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize>(
     nav: &mut LiveNav<T, N, O, B>,
     input: &NavInput,
@@ -151,7 +165,81 @@ pub fn feed<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize>(
     match input {
         NavInput::Imu(s) => nav.imu(s.t, s.gyro.map(f64::from), s.accel.map(f64::from), out),
         NavInput::Fix(f) => nav.gnss(f, out),
-        NavInput::Pulse(_) => Ok(()),
+        NavInput::Pulse(_) | NavInput::Counted(_) | NavInput::Edge(_) => Ok(()),
+    }
+}
+
+/// Counted samples put on GPS time: the wire's inputs in, the navigator's out
+/// ([`counted`](super::counted) has the frames). Each pulse edge is a [`GpsClock::pulse`],
+/// each `TIM-TP` a [`GpsClock::announce`] at the newest count the wire gave (the message's own
+/// arrival is not on the hub's counter; the pairing allows 1.5 pulse periods, and samples
+/// come every few ms), and each counted sample is stamped with [`GpsClock::stamp`] and passed
+/// on as an ordinary sample. Samples before the clock locks (two pulses), or whose stamp's sd
+/// is beyond [`ClockConfig::max_sd`], are counted and dropped: the live loop levels on the
+/// stamped ones.
+#[derive(Debug, Clone)]
+pub struct TimerStamps {
+    clock: GpsClock,
+    /// The newest count the wire gave (a sample's or an edge's).
+    newest: Option<u32>,
+    /// Counted samples dropped: no stamp (before the lock, or beyond the clock's `max_sd`).
+    unstamped: u32,
+}
+
+impl TimerStamps {
+    /// Stamps with a clock of `cfg` (the hub's counter).
+    pub fn new(cfg: ClockConfig) -> Result<Self, ClockError> {
+        Ok(Self {
+            clock: GpsClock::new(cfg)?,
+            newest: None,
+            unstamped: 0,
+        })
+    }
+
+    /// One input of the wire: a counted sample comes back as an ordinary sample on GPS time
+    /// (`None` while it cannot be stamped); an edge goes to the clock (`None`); a `TIM-TP`
+    /// goes to the clock and comes back (the navigator ignores it); samples with their own
+    /// GPS time and fixes come back as they are.
+    pub fn stamp(&mut self, input: NavInput) -> Option<NavInput> {
+        match input {
+            NavInput::Counted(s) => {
+                self.newest = Some(s.count);
+                match self.clock.stamp(s.count) {
+                    Some(st) => Some(NavInput::Imu(s.at(st.t))),
+                    None => {
+                        self.unstamped = self.unstamped.saturating_add(1);
+                        None
+                    }
+                }
+            }
+            NavInput::Edge(count) => {
+                self.newest = Some(count);
+                let _ = self.clock.pulse(count);
+                None
+            }
+            NavInput::Pulse(p) => {
+                if let Some(c) = self.newest {
+                    self.clock.announce(p.t, c);
+                }
+                Some(input)
+            }
+            NavInput::Imu(_) | NavInput::Fix(_) => Some(input),
+        }
+    }
+
+    /// The clock.
+    pub fn clock(&self) -> &GpsClock {
+        &self.clock
+    }
+
+    /// What the clock did so far.
+    pub fn counts(&self) -> ClockCounts {
+        self.clock.counts()
+    }
+
+    /// Counted samples dropped so far (before the lock, or beyond the clock's `max_sd`).
+    pub fn unstamped(&self) -> u32 {
+        self.unstamped
     }
 }
 

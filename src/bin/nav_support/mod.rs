@@ -12,6 +12,12 @@ use imu_ident::nav::{Epoch, NavError, NavReplay, NavSd, NavSetup, OnlineIdent, N
 /// Shadow filters of the online identification (the core's count for the firmware).
 const BANK: usize = imu_ident::nav::online::FIRMWARE_BANK;
 
+/// The counter of a sensor hub that stamps its samples with counts instead of GPS time
+/// (`imu_ident::nav::counted`: counted samples and pulse edges) [Hz]: an 84-MHz timer (an
+/// STM32's APB1 timers at 168 MHz). Set it to the hub's; a wire of GPS-stamped samples never
+/// uses it.
+pub const HUB_TIMER_HZ: f64 = 84e6;
+
 /// The online identification's bank.
 pub type Bank = OnlineIdent<f32, NAV_N, BANK>;
 
