@@ -12,8 +12,9 @@
 //! cargo run --release -p hal-sim --example hub_bench -- [first=66300] [seeds=20]
 //! ```
 
-use hal_sim::clock::{oscillator_spec, position_difference, stamped_inputs};
+use hal_sim::clock::{oscillator_spec, position_difference};
 use hal_sim::nav::setup::{live_config, settings};
+use hal_sim::nav_io::ubx::{stamped_inputs, HUB_TIMER_HZ};
 use hal_sim::nav_qemu::{counted_wire_of, wire_of};
 use hal_sim::trajectory::oscillator::Oscillator;
 use imu_ident::nav::gps_clock::ClockConfig;
@@ -55,7 +56,7 @@ fn epochs(args: &hal_sim::nav::NavArgs, inputs: &[NavInput]) -> (Vec<Epoch<f32>>
 fn main() -> anyhow::Result<()> {
     let first: u64 = arg_or("first", 66_300);
     let seeds: u64 = arg_or("seeds", 20);
-    let cfg = ClockConfig::crystal(84e6);
+    let cfg = ClockConfig::crystal(HUB_TIMER_HZ);
     let (mut lock, mut stamp, mut sigma, mut metres) = (vec![], vec![], vec![], vec![]);
     let mut after = vec![];
     for seed in first..first + seeds {

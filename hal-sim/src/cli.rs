@@ -42,7 +42,9 @@ pub enum Command {
     /// (outages.json; errors.csv with --truth; identified.json, identified-model.toml with
     /// --identify).
     Nav {
-        /// IMU CSV (t,gx,gy,gz,ax,ay,az; s, rad/s FRD, m/s^2).
+        /// IMU CSV (t,gx,gy,gz,ax,ay,az; s, rad/s FRD, m/s^2), or a serial wire (.bin: `hal-sim
+        /// wire`, or a recording of a board's IMU port; a hub's counted samples are put on GPS
+        /// time as the firmware puts them).
         #[arg(long)]
         imu: PathBuf,
         /// GNSS CSV, an RTKLIB .pos file or a u-blox .ubx log (by its extension).
@@ -444,7 +446,7 @@ pub enum Command {
     /// frame per sample and each fix's UBX NAV-TIMEGPS + NAV-PVT, in arrival order; without
     /// --imu, a u-blox .ubx log of the fixes alone.
     Wire {
-        /// IMU CSV (omit for a .ubx log of the fixes).
+        /// IMU CSV or serial wire (omit for a .ubx log of the fixes).
         #[arg(long)]
         imu: Option<PathBuf>,
         /// GNSS CSV, RTKLIB .pos or .ubx.

@@ -11,7 +11,6 @@ use crate::trajectory::oscillator::{Oscillator, OscillatorSpec};
 use anyhow::Result;
 use imu_ident::nav::counted::{encode_counted_sample, encode_edge, CountedSample};
 use imu_ident::nav::gps_clock::{ClockConfig, ClockCounts, GpsClock, PulseUse};
-use imu_ident::nav::serial::{NavInput, TimerStamps, WireCounts};
 use imu_ident::nav::ubx::{encode_tim_tp, tim_tp_at, UbxEvent, UbxFixes};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -240,20 +239,6 @@ pub fn counted_stream(
         }
     }
     Ok(out)
-}
-
-/// A wire's inputs, as the core's decoders read them, through a [`TimerStamps`] of `cfg` (what
-/// the navigation firmware does): counted samples on GPS time (the unstamped ones dropped),
-/// edges taken; with what the decoders refused, and the stamps (their clock and counts).
-pub fn stamped_inputs(
-    bytes: &[u8],
-    cfg: ClockConfig,
-) -> Result<(Vec<NavInput>, WireCounts, TimerStamps)> {
-    let (inputs, counts) = crate::nav_io::ubx::wire_inputs(bytes, None);
-    let mut stamps = TimerStamps::new(cfg)
-        .map_err(|e| anyhow::anyhow!("the hub clock's configuration: {e:?}"))?;
-    let out = inputs.into_iter().filter_map(|i| stamps.stamp(i)).collect();
-    Ok((out, counts, stamps))
 }
 
 /// How far two runs' positions are apart at the epochs of the first (`a`) from `from` [s] on

@@ -272,7 +272,7 @@ fn main() -> Result<()> {
                 eprintln!("{s}");
             }
             if let Some(elf) = qemu_elf {
-                let imu = hal_sim::nav_io::read_imu_csv(&args.imu)?;
+                let imu = hal_sim::nav_io::read_imu_any(&args.imu)?;
                 let fixes = hal_sim::nav_io::read_gnss_any(&args.gnss, args.max_q)?;
                 let fw = hal_sim::nav_qemu::compare_with_host(&elf, &args, &imu, &fixes, &run)?;
                 hal_sim::output::write_string(
@@ -457,7 +457,7 @@ fn main() -> Result<()> {
         } => {
             let fixes = hal_sim::nav_io::read_gnss_any(&gnss, max_q)?;
             let samples = match &imu {
-                Some(p) => hal_sim::nav_io::read_imu_csv(p)?,
+                Some(p) => hal_sim::nav_io::read_imu_any(p)?,
                 None => vec![],
             };
             let bytes = match (hub_ppm, samples.first()) {
@@ -470,7 +470,7 @@ fn main() -> Result<()> {
                             "--hub-ppm {ppm}: a crystal's frequency error within +-1000 ppm"
                         );
                     }
-                    let cfg = ClockConfig::crystal(84e6);
+                    let cfg = ClockConfig::crystal(hal_sim::nav_io::ubx::HUB_TIMER_HZ);
                     let spec = hal_sim::clock::oscillator_spec(&cfg, ppm * 1e-6, 1.0);
                     let mut osc = Oscillator::new(spec, first.t - 2.0, hub_seed);
                     hal_sim::clock::counted_stream(&samples, &fixes, delay, &mut osc)

@@ -396,7 +396,7 @@ pub fn write_present(
             "--present: DELAY and LATENCY must be finite, LATENCY >= 0 (got {delay}, {latency})"
         );
     }
-    let imu = crate::nav_io::read_imu_csv(&args.imu)?;
+    let imu = crate::nav_io::read_imu_any(&args.imu)?;
     let fixes = crate::nav_io::read_gnss_any(&args.gnss, args.max_q)?;
     let imu = crate::nav::setup::shifted_imu(args, &imu);
     let r = present_run(args, &imu, &fixes, truth, (delay, latency, 0.0))?;

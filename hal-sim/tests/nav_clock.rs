@@ -324,7 +324,7 @@ fn horizontal_rms(l: &crate::nav_live::Live, truth: &[hal_sim::nav_io::TruthRow]
 /// 0.24-0.63 sigma at the first epochs, at most 0.021 sigma from a minute on (all 20).
 #[test]
 fn a_counting_hubs_wire_navigates_as_on_gps_time() {
-    use hal_sim::clock::stamped_inputs;
+    use hal_sim::nav_io::ubx::stamped_inputs;
     use hal_sim::nav_qemu::{counted_wire_of, wire_of};
     use imu_ident::nav::serial::{feed, NavInput};
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));

@@ -101,7 +101,8 @@ fn qemu_firmware_on_the_serial_wire_of_the_real_drive_matches_the_host() {
 /// GPS-stamped wire's within 0.01 sigma: `nav_clock::a_counting_hubs_wire_...`.)
 #[test]
 fn qemu_firmware_on_a_counting_hubs_wire_matches_the_host() {
-    use hal_sim::clock::{oscillator_spec, stamped_inputs};
+    use hal_sim::clock::oscillator_spec;
+    use hal_sim::nav_io::ubx::{stamped_inputs, HUB_TIMER_HZ};
     use hal_sim::nav_qemu::counted_wire_of;
     use hal_sim::trajectory::oscillator::Oscillator;
     use imu_ident::nav::gps_clock::ClockConfig;
@@ -110,8 +111,8 @@ fn qemu_firmware_on_a_counting_hubs_wire_matches_the_host() {
     let args = &streamed(&drive_nhc(dir.path()));
     let imu = read_imu_csv(&args.imu).unwrap_or_else(|e| panic!("{e:#}"));
     let fixes = read_gnss_csv(&args.gnss).unwrap_or_else(|e| panic!("{e:#}"));
-    // The firmware's hub timer (`nav_support::HUB_TIMER_HZ`).
-    let cfg = ClockConfig::crystal(84e6);
+    // The firmware's hub timer (`nav_support::HUB_TIMER_HZ`, the host's the same).
+    let cfg = ClockConfig::crystal(HUB_TIMER_HZ);
     let mut osc = Oscillator::new(oscillator_spec(&cfg, 30e-6, 1.0), imu[0].t - 2.0, 65_712);
     let wire =
         counted_wire_of(args, &imu, &fixes, 0.0, &mut osc).unwrap_or_else(|e| panic!("{e:#}"));

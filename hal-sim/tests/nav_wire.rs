@@ -113,6 +113,74 @@ fn a_log_over_the_serial_wire_is_the_host_run_on_what_the_wire_carried() {
     );
 }
 
+/// A wire file (`hal-sim wire`, GPS-stamped or a counting hub's) is a log for `hal-sim nav`:
+/// `--imu W.bin --gnss W.bin` runs on the samples and fixes the core's decoders read from it
+/// (the hub's put on GPS time as the firmware puts them), the live loop's run on the same
+/// inputs bit for bit. The same log, the same answer, through either path.
+#[test]
+fn a_wire_file_is_a_log_for_nav() {
+    use hal_sim::nav_io::ubx::{stamped_inputs, HUB_TIMER_HZ};
+    use imu_ident::nav::gps_clock::ClockConfig;
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let args = drive(dir.path(), 16, false, true);
+    let (imu, fixes) = load(&args);
+    for (name, hub) in [("gps.bin", None), ("hub.bin", Some(("-25", 7u64)))] {
+        let path = dir.path().join(name);
+        let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_hal-sim"));
+        cmd.arg("wire")
+            .arg("--imu")
+            .arg(&args.imu)
+            .arg("--gnss")
+            .arg(&args.gnss)
+            .arg("--out")
+            .arg(&path);
+        if let Some((ppm, seed)) = hub {
+            cmd.args(["--hub-ppm", ppm, "--hub-seed", &seed.to_string()]);
+        }
+        let o = cmd.output().unwrap_or_else(|e| panic!("{e}"));
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let wire = std::fs::read(&path).unwrap_or_else(|e| panic!("{e}"));
+        // The hub's wire is the library's on the same oscillator.
+        if let Some((ppm, seed)) = hub {
+            let cfg = ClockConfig::crystal(HUB_TIMER_HZ);
+            let y0 = ppm.parse::<f64>().unwrap_or_default() * 1e-6;
+            let spec = hal_sim::clock::oscillator_spec(&cfg, y0, 1.0);
+            let mut osc =
+                hal_sim::trajectory::oscillator::Oscillator::new(spec, imu[0].t - 2.0, seed);
+            let lib = hal_sim::clock::counted_stream(&imu, &fixes, 0.0, &mut osc)
+                .unwrap_or_else(|e| panic!("{e:#}"));
+            assert!(lib == wire, "{name}: the CLI's wire is not the library's");
+        }
+        let (inputs, _, stamps) = stamped_inputs(&wire, ClockConfig::crystal(HUB_TIMER_HZ))
+            .unwrap_or_else(|e| panic!("{e:#}"));
+        let live = live_run(&args, &inputs);
+        let on_file = hal_sim::nav::NavArgs {
+            imu: path.clone(),
+            gnss: path.clone(),
+            single: true,
+            ..args.clone()
+        };
+        let host = hal_sim::nav::run(&on_file).unwrap_or_else(|e| panic!("{e:#}"));
+        println!(
+            "{name}: {} epochs, {} samples before the hub's clock locked",
+            host.epochs.len(),
+            stamps.unstamped()
+        );
+        assert_same_epochs(&live.epochs, &host);
+        assert!(
+            live.epochs.len() > 300,
+            "{name}: {} epochs",
+            live.epochs.len()
+        );
+        assert_eq!(stamps.unstamped() > 0, hub.is_some(), "{name}");
+    }
+    // A file with no IMU frame is an error naming it.
+    let empty = dir.path().join("none.bin");
+    std::fs::write(&empty, b"\xb5\x62 no frames here").unwrap_or_else(|e| panic!("{e}"));
+    let e = format!("{:#}", hal_sim::nav_io::read_imu_any(&empty).unwrap_err());
+    assert!(e.contains("none.bin") && e.contains("no IMU sample"), "{e}");
+}
+
 /// Where each input ends on a wire, and how long its frame or message is.
 fn item_spans(wire: &[u8]) -> Vec<(usize, usize, NavInput)> {
     let mut w = imu_ident::nav::serial::NavWire::new(None);
@@ -199,8 +267,8 @@ fn noisy_line(
         assert!(counts.imu_rejected + counts.ubx_rejected > 0, "{counts:?}");
         let inputs = match hub {
             Some(cfg) => {
-                let (stamped, _, stamps) =
-                    hal_sim::clock::stamped_inputs(&wire, cfg).unwrap_or_else(|e| panic!("{e}"));
+                let (stamped, _, stamps) = hal_sim::nav_io::ubx::stamped_inputs(&wire, cfg)
+                    .unwrap_or_else(|e| panic!("{e}"));
                 // Lost pulses and messages are bridged: every sample after the lock is stamped
                 // and no pulse is refused.
                 let c = stamps.counts();

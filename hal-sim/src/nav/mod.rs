@@ -234,7 +234,7 @@ pub struct NavRun {
 
 /// Reads the inputs and runs (f64 or f32 core).
 pub fn run(args: &NavArgs) -> Result<NavRun> {
-    let imu = nav_io::read_imu_csv(&args.imu)?;
+    let imu = nav_io::read_imu_any(&args.imu)?;
     let fixes = nav_io::read_gnss_any(&args.gnss, args.max_q)?;
     let bar = records::imu_progress(imu.len());
     if args.single {
@@ -253,7 +253,7 @@ pub fn run_identified(
     axes: identify::Axes,
     out: &std::path::Path,
 ) -> Result<(NavRun, identify::Identified)> {
-    let imu = nav_io::read_imu_csv(&args.imu)?;
+    let imu = nav_io::read_imu_any(&args.imu)?;
     let fixes = nav_io::read_gnss_any(&args.gnss, args.max_q)?;
     let (a, id) = identify_and_write(args, &imu, &fixes, axes, out)?;
     let bar = records::imu_progress(imu.len());

@@ -25,14 +25,32 @@ pub use truth_csv::{read_truth_csv, write_truth_csv, TruthRow};
 use anyhow::Result;
 use std::path::Path;
 
+/// Reads IMU samples from an IMU CSV, or from a byte stream (`.bin` or `.ubx`: the navigator's
+/// serial wire, [`ubx::read_wire_imu`]), by extension.
+pub fn read_imu_any(path: &Path) -> Result<Vec<ImuSample>> {
+    if is_stream(path) {
+        ubx::read_wire_imu(path)
+    } else {
+        read_imu_csv(path)
+    }
+}
+
+/// A byte stream by its extension: `.ubx` (a u-blox log) or `.bin` (the navigator's serial
+/// wire, which carries the receiver's messages too).
+fn is_stream(path: &Path) -> bool {
+    let ext = |x: &str| path.extension().is_some_and(|e| e.eq_ignore_ascii_case(x));
+    ext("ubx") || ext("bin")
+}
+
 /// Reads GNSS fixes from a GNSS CSV, from an RTKLIB `.pos` file (by extension `.pos`),
 /// keeping the epochs with quality `1 <= Q <= max_q` (1 fix, 2 float, ... 5 single), or from a
-/// u-blox UBX log (`.ubx`: [`ubx::read_ubx`]; what it left out is noted on stderr).
+/// u-blox UBX log or a serial wire (`.ubx`, `.bin`: [`ubx::read_ubx`]; what it left out is
+/// noted on stderr).
 pub fn read_gnss_any(path: &Path, max_q: u8) -> Result<Vec<GnssFix>> {
     let ext = |x: &str| path.extension().is_some_and(|e| e.eq_ignore_ascii_case(x));
     if ext("pos") {
         Ok(read_pos(path)?.fixes(max_q))
-    } else if ext("ubx") {
+    } else if is_stream(path) {
         let (fixes, c) = ubx::read_ubx(path, None)?;
         if c != Default::default() {
             eprintln!(

@@ -6,7 +6,10 @@
 //!   with `NAV-TIMEGPS` for the week), as `hal-sim nav --gnss FILE.ubx` takes them.
 //! - [`serial_stream`]: a log as the bytes a navigation computer receives (an IMU frame per
 //!   sample, `NAV-TIMEGPS` and `NAV-PVT` per fix, each fix on the line when the IMU stream
-//!   passes its time plus a delay), and [`wire_inputs`] reads such bytes back.
+//!   passes its time plus a delay), and [`wire_inputs`] reads such bytes back;
+//!   [`stamped_inputs`] with a hub's counted samples put on GPS time, as the firmware does.
+//! - [`read_wire_imu`]: the IMU samples of such a file (GPS-stamped frames, or counted ones
+//!   stamped by the clock), as `hal-sim nav --imu FILE.bin` takes them.
 //!
 //! A fix in `NAV-PVT` is quantised: 1e-7 deg (1.1 cm of latitude), 1 mm, 1 mm/s, and the time
 //! of week to 1 ms; one standard deviation for north and east (`hAcc`) and one for the three
@@ -14,8 +17,9 @@
 
 use super::{GnssFix, ImuSample};
 use anyhow::{bail, Context, Result};
+use imu_ident::nav::gps_clock::ClockConfig;
 use imu_ident::nav::imu_frame::{encode_imu_frame, ImuSample as WireSample};
-use imu_ident::nav::serial::{NavInput, NavWire, WireCounts};
+use imu_ident::nav::serial::{NavInput, NavWire, TimerStamps, WireCounts};
 use imu_ident::nav::ubx::{encode_nav_pvt, encode_nav_timegps, NavPvt, UbxFix, UbxFixes, WEEK_S};
 use std::path::Path;
 
@@ -179,6 +183,73 @@ pub fn as_sent(imu: &[ImuSample]) -> Vec<ImuSample> {
             ..*s
         })
         .collect()
+}
+
+/// The counter of a hub that counts its samples (`imu_ident::nav::counted`) [Hz]: the
+/// navigation firmwares' `HUB_TIMER_HZ`, which `hal-sim wire --hub-ppm` writes and
+/// [`read_wire_imu`] reads.
+pub const HUB_TIMER_HZ: f64 = 84e6;
+
+/// A wire's inputs, as the core's decoders read them, through a [`TimerStamps`] of `cfg` (what
+/// the navigation firmware does): counted samples on GPS time (the unstamped ones dropped),
+/// edges taken; with what the decoders refused, and the stamps (their clock and counts).
+pub fn stamped_inputs(
+    bytes: &[u8],
+    cfg: ClockConfig,
+) -> Result<(Vec<NavInput>, WireCounts, TimerStamps)> {
+    let (inputs, counts) = wire_inputs(bytes, None);
+    let mut stamps = TimerStamps::new(cfg)
+        .map_err(|e| anyhow::anyhow!("the hub clock's configuration: {e:?}"))?;
+    let out = inputs.into_iter().filter_map(|i| stamps.stamp(i)).collect();
+    Ok((out, counts, stamps))
+}
+
+/// The IMU samples of a serial wire file (`hal-sim wire`, or a recording of a board's IMU
+/// port): its GPS-stamped frames, and its counted ones put on GPS time by a clock of a
+/// [`HUB_TIMER_HZ`] counter as the firmware puts them (those before the clock's lock left
+/// out), in `f64` of the frames' `f32`. What the decoders and the clock left out is noted on
+/// stderr; a file with no sample is an error naming it.
+pub fn read_wire_imu(path: &Path) -> Result<Vec<ImuSample>> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let (inputs, counts, stamps) = stamped_inputs(&bytes, ClockConfig::crystal(HUB_TIMER_HZ))?;
+    let samples: Vec<ImuSample> = inputs
+        .iter()
+        .filter_map(|i| match i {
+            NavInput::Imu(s) => Some(ImuSample {
+                t: s.t,
+                gyro: s.gyro.map(f64::from),
+                accel: s.accel.map(f64::from),
+            }),
+            _ => None,
+        })
+        .collect();
+    let c = stamps.counts();
+    if samples.is_empty() {
+        bail!(
+            "{}: no IMU sample in {} bytes (IMU frames A5 5B, or a hub's counted samples A5 5C \
+             with its pulse edges A5 5D and the receiver's TIM-TP; {} frames rejected, {} \
+             counted samples before the clock locked, {} pulses used)",
+            path.display(),
+            bytes.len(),
+            counts.imu_rejected,
+            stamps.unstamped(),
+            c.used
+        );
+    }
+    if counts.imu_rejected > 0 || stamps.unstamped() > 0 {
+        eprintln!(
+            "note: {}: {} IMU samples; {} frames rejected, {} counted samples before the hub's \
+             clock locked (pulses used {}, unpaired {}, rejected {})",
+            path.display(),
+            samples.len(),
+            counts.imu_rejected,
+            stamps.unstamped(),
+            c.used,
+            c.unpaired,
+            c.rejected
+        );
+    }
+    Ok(samples)
 }
 
 /// The samples and fixes a wire carries, in its order (the core's [`NavWire`]), with what it

@@ -423,7 +423,7 @@ pub fn run_diagnosed(
     truth_path: Option<&Path>,
     out: &Path,
 ) -> Result<NavDiagnosis> {
-    let imu = nav_io::read_imu_csv(&args.imu)?;
+    let imu = nav_io::read_imu_any(&args.imu)?;
     let fixes = nav_io::read_gnss_any(&args.gnss, args.max_q)?;
     let truth = truth.zip(truth_path);
     let (identified, id) = if let Some(axes) = identify {
