@@ -8,14 +8,19 @@
 //! epochs (in the GPS run's sigmas, and in metres), then medians, 95th percentiles and worst
 //! cases.
 //!
+//! With `elf=PATH` (`imu-ident-nav-qemu`), each seed's hub wire also runs on the emulated
+//! board, against the host's `f32` run on the samples the host's `TimerStamps` stamped: the
+//! worst position difference in sigmas, and the decoding's instructions per 256-byte read.
+//!
 //! ```text
-//! cargo run --release -p hal-sim --example hub_bench -- [first=66300] [seeds=20]
+//! cargo run --release -p hal-sim --example hub_bench -- [first=66300] [seeds=20] [elf=PATH]
 //! ```
 
 use hal_sim::clock::{oscillator_spec, position_difference};
 use hal_sim::nav::setup::{live_config, settings};
 use hal_sim::nav_io::ubx::{stamped_inputs, HUB_TIMER_HZ};
-use hal_sim::nav_qemu::{counted_wire_of, wire_of};
+use hal_sim::nav_qemu::{compare_firmware, counted_wire_of, run_nav_firmware_wire, wire_of};
+use hal_sim::qemu::QemuConfig;
 use hal_sim::trajectory::oscillator::Oscillator;
 use imu_ident::nav::gps_clock::ClockConfig;
 use imu_ident::nav::live::{LiveEvent, LiveNav};
@@ -59,6 +64,8 @@ fn main() -> anyhow::Result<()> {
     let cfg = ClockConfig::crystal(HUB_TIMER_HZ);
     let (mut lock, mut stamp, mut sigma, mut metres) = (vec![], vec![], vec![], vec![]);
     let mut after = vec![];
+    let (mut qemu, mut wire_mean) = (vec![], vec![]);
+    let elf: Option<std::path::PathBuf> = bench_args::arg("elf").map(Into::into);
     for seed in first..first + seeds {
         let dir = tempfile::tempdir()?;
         let args = hal_sim::present::simulated_drive(dir.path(), 1.0 / 6.0, seed, true, false)?;
@@ -133,6 +140,30 @@ fn main() -> anyhow::Result<()> {
         let missing = missing.len();
         let (sig, m, _) = position_difference(&eg, &eh, f64::NEG_INFINITY);
         let (settled, _, _) = position_difference(&eg, &eh, start_gps + SETTLED);
+        if let Some(elf) = &elf {
+            let fw = run_nav_firmware_wire(elf, &args, &wire, &QemuConfig::default())?;
+            let stamped = hal_sim::nav_io::ubx::samples_of(&hub);
+            let carried = hal_sim::nav_io::ubx::ubx_fixes(&wire, None).0;
+            let h32 = hal_sim::nav::run_with::<f32>(&args, &stamped, &carried)?;
+            let cmp = compare_firmware(elf, &args, &fw, &h32);
+            let line = format!("stamps unstamped={skipped} used={}", stamps.counts().used);
+            let same = fw.messages.iter().any(|m| m.contains(&line));
+            let cost = cmp.icount.iter().find(|c| c.class == "wire");
+            println!(
+                "seed {seed}: firmware {} epochs of {}, worst {:.2e} sigma from the host's f32; \
+                 the host's stamp counts: {same}; wire icount mean {:?} worst {:?}",
+                cmp.epochs[0],
+                cmp.epochs[1],
+                cmp.worst_position_diff_sigma,
+                cost.map(|c| c.mean),
+                cost.map(|c| c.worst)
+            );
+            anyhow::ensure!(fw.success() && same, "seed {seed}: {:?}", fw.messages);
+            qemu.push(cmp.worst_position_diff_sigma);
+            if let Some(c) = cost {
+                wire_mean.push(c.mean as f64);
+            }
+        }
         let c = stamps.counts();
         println!(
             "seed {seed}: {:+.1} ppm; {skipped} samples before the lock; worst stamp error \
@@ -164,7 +195,15 @@ fn main() -> anyhow::Result<()> {
             "worst position difference after the start's minute [sigma]",
             &mut after,
         ),
+        ("firmware against the host's f32 [sigma]", &mut qemu),
+        (
+            "firmware decoding and stamping per 256 B, mean",
+            &mut wire_mean,
+        ),
     ] {
+        if v.is_empty() {
+            continue;
+        }
         v.sort_by(f64::total_cmp);
         println!(
             "{label}: median {:.3e} / p95 {:.3e} / worst {:.3e}",

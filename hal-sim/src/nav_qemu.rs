@@ -492,6 +492,18 @@ pub fn compare_with_host(
     host: &crate::nav::NavRun,
 ) -> Result<FirmwareComparison> {
     let fw = run_nav_firmware(elf, args, imu, fixes, &QemuConfig::default())?;
+    Ok(compare_firmware(elf, args, &fw, host))
+}
+
+/// The firmware's run `fw` of `elf` set against the host's run `host` of the same inputs:
+/// the worst position difference at the epochs both have, in the host's sigmas, and the
+/// bank's decisions.
+pub fn compare_firmware(
+    elf: &Path,
+    args: &NavArgs,
+    fw: &NavFirmwareRun,
+    host: &crate::nav::NavRun,
+) -> FirmwareComparison {
     let mut worst = 0.0f64;
     for e in &fw.epochs {
         let k = host.epochs.partition_point(|h| h.t < e.t - 1e-9);
@@ -510,7 +522,7 @@ pub fn compare_with_host(
             worst = worst.max(x.abs() / s);
         }
     }
-    Ok(FirmwareComparison {
+    FirmwareComparison {
         elf: elf.display().to_string(),
         exit_success: fw.success(),
         epochs: [fw.epochs.len(), host.epochs.len()],
@@ -520,7 +532,7 @@ pub fn compare_with_host(
             .as_ref()
             .filter(|_| args.online().is_some())
             .map(|log| compare_online(&fw.online, log)),
-        icount: fw.icount,
-        stack: fw.stack,
-    })
+        icount: fw.icount.clone(),
+        stack: fw.stack.clone(),
+    }
 }

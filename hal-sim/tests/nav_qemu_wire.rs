@@ -119,17 +119,7 @@ fn qemu_firmware_on_a_counting_hubs_wire_matches_the_host() {
     let fw = run_nav_firmware_wire(&elf, args, &wire, &QemuConfig::default())
         .unwrap_or_else(|e| panic!("{e:#}"));
     let (inputs, _, stamps) = stamped_inputs(&wire, cfg).unwrap_or_else(|e| panic!("{e:#}"));
-    let stamped: Vec<hal_sim::nav_io::ImuSample> = inputs
-        .iter()
-        .filter_map(|i| match i {
-            NavInput::Imu(s) => Some(hal_sim::nav_io::ImuSample {
-                t: s.t,
-                gyro: s.gyro.map(f64::from),
-                accel: s.accel.map(f64::from),
-            }),
-            _ => None,
-        })
-        .collect();
+    let stamped = hal_sim::nav_io::ubx::samples_of(&inputs);
     let (carried, _) = ubx_fixes(&wire, None);
     assert_eq!(carried.len(), fixes.len());
     let h32 = run_with::<f32>(args, &stamped, &carried).unwrap_or_else(|e| panic!("{e:#}"));

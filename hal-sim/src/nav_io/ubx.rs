@@ -204,15 +204,10 @@ pub fn stamped_inputs(
     Ok((out, counts, stamps))
 }
 
-/// The IMU samples of a serial wire file (`hal-sim wire`, or a recording of a board's IMU
-/// port): its GPS-stamped frames, and its counted ones put on GPS time by a clock of a
-/// [`HUB_TIMER_HZ`] counter as the firmware puts them (those before the clock's lock left
-/// out), in `f64` of the frames' `f32`. What the decoders and the clock left out is noted on
-/// stderr; a file with no sample is an error naming it.
-pub fn read_wire_imu(path: &Path) -> Result<Vec<ImuSample>> {
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    let (inputs, counts, stamps) = stamped_inputs(&bytes, ClockConfig::crystal(HUB_TIMER_HZ))?;
-    let samples: Vec<ImuSample> = inputs
+/// The samples among a wire's inputs, in `f64` of their `f32` values (what a host run on
+/// what the wire carried reads).
+pub fn samples_of(inputs: &[NavInput]) -> Vec<ImuSample> {
+    inputs
         .iter()
         .filter_map(|i| match i {
             NavInput::Imu(s) => Some(ImuSample {
@@ -222,7 +217,18 @@ pub fn read_wire_imu(path: &Path) -> Result<Vec<ImuSample>> {
             }),
             _ => None,
         })
-        .collect();
+        .collect()
+}
+
+/// The IMU samples of a serial wire file (`hal-sim wire`, or a recording of a board's IMU
+/// port): its GPS-stamped frames, and its counted ones put on GPS time by a clock of a
+/// [`HUB_TIMER_HZ`] counter as the firmware puts them (those before the clock's lock left
+/// out), in `f64` of the frames' `f32`. What the decoders and the clock left out is noted on
+/// stderr; a file with no sample is an error naming it.
+pub fn read_wire_imu(path: &Path) -> Result<Vec<ImuSample>> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let (inputs, counts, stamps) = stamped_inputs(&bytes, ClockConfig::crystal(HUB_TIMER_HZ))?;
+    let samples = samples_of(&inputs);
     let c = stamps.counts();
     if samples.is_empty() {
         bail!(
