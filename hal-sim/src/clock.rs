@@ -228,11 +228,11 @@ pub fn counted_stream(
             Item::TimTp(at) => out.extend_from_slice(&encode_tim_tp(&tim_tp_at(at))),
             Item::Edge => out.extend_from_slice(&encode_edge(osc.pulse_count())),
             Item::Sample(s) => {
-                let c = CountedSample::new(
-                    osc.count(),
-                    s.gyro.map(|x| x as f32),
-                    s.accel.map(|x| x as f32),
-                );
+                let c = CountedSample {
+                    count: osc.count(),
+                    gyro: s.gyro.map(|x| x as f32),
+                    accel: s.accel.map(|x| x as f32),
+                };
                 out.extend_from_slice(&encode_counted_sample(&c));
             }
             Item::Fix(f) => out.extend_from_slice(&ubx_fix_bytes(f)?),

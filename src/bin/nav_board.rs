@@ -72,8 +72,7 @@ mod firmware {
     use imu_ident::model::{Component, RandomWalk, WhiteNoise};
     use imu_ident::nav::gps_clock::ClockConfig;
     use imu_ident::nav::live::{LiveConfig, LiveEvent, LiveNav};
-    use imu_ident::nav::serial::TimerStamps;
-    use imu_ident::nav::serial::{feed, NavInput, SerialNav, WireCounts};
+    use imu_ident::nav::serial::{feed, NavInput, SerialNav, TimerStamps, WireCounts};
     use imu_ident::nav::{ImuErrorModel, NavInit, NavSetup, OnlineConfig, NAV_N};
     use nalgebra::Vector3;
     use static_cell::StaticCell;
@@ -341,12 +340,8 @@ mod firmware {
         let mut stamps = TimerStamps::new(ClockConfig::crystal(HUB_TIMER_HZ)).ok();
         loop {
             let mut on = |i: NavInput| {
-                let i = match stamps.as_mut() {
-                    Some(s) => match s.stamp(i) {
-                        Some(i) => i,
-                        None => return,
-                    },
-                    None => i,
+                let Some(i) = stamps.as_mut().map_or(Some(i), |s| s.stamp(i)) else {
+                    return;
                 };
                 refused = refused.saturating_add(u32::from(take(live, &i)));
                 if matches!(i, NavInput::Imu(_)) {

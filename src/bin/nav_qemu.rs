@@ -87,8 +87,7 @@ mod firmware {
     use imu_ident::nav::live::{LiveEvent, LiveFix, LiveNav};
     use imu_ident::nav::replay::{Decoder, Event, NavReplayError, Record};
     use imu_ident::nav::run::ImuStep;
-    use imu_ident::nav::serial::TimerStamps;
-    use imu_ident::nav::serial::{feed, NavInput, NavWire};
+    use imu_ident::nav::serial::{feed, NavInput, NavWire, TimerStamps};
     use imu_ident::nav::{Epoch, NavError, NavReplay, NavSetup, NAV_N};
 
     /// File read when QEMU passes no argument.

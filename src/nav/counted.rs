@@ -56,32 +56,23 @@ pub const EDGE_SYNC: [u8; 2] = [0xA5, 0x5D];
 pub const EDGE_FRAME_LEN: usize = 10;
 
 /// One IMU sample stamped with the hub's counter.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CountedSample {
     /// The counter at the sample's time of validity (a `u32` timer's, wraps and all).
     pub count: u32,
-    /// Angular rate, body frame [rad/s], as the bits of `f32`s (so the type is `Eq`).
-    pub gyro: [u32; 3],
-    /// Specific force, body frame [m/s^2], as the bits of `f32`s.
-    pub accel: [u32; 3],
+    /// Angular rate, body frame [rad/s].
+    pub gyro: [f32; 3],
+    /// Specific force, body frame [m/s^2].
+    pub accel: [f32; 3],
 }
 
 impl CountedSample {
-    /// A sample of `count` with rates `gyro` [rad/s] and specific force `accel` [m/s^2].
-    pub fn new(count: u32, gyro: [f32; 3], accel: [f32; 3]) -> Self {
-        Self {
-            count,
-            gyro: gyro.map(f32::to_bits),
-            accel: accel.map(f32::to_bits),
-        }
-    }
-
     /// The sample at GPS time `t`.
     pub fn at(&self, t: f64) -> ImuSample {
         ImuSample {
             t,
-            gyro: self.gyro.map(f32::from_bits),
-            accel: self.accel.map(f32::from_bits),
+            gyro: self.gyro,
+            accel: self.accel,
         }
     }
 }
@@ -89,8 +80,8 @@ impl CountedSample {
 /// Encodes one counted sample as a frame.
 pub fn encode_counted_sample(s: &CountedSample) -> [u8; COUNTED_FRAME_LEN] {
     let mut f = [0u8; COUNTED_FRAME_LEN];
-    let words = core::iter::once(&s.count).chain(&s.gyro).chain(&s.accel);
-    for (k, w) in words.enumerate() {
+    let values = s.gyro.iter().chain(&s.accel).map(|v| v.to_bits());
+    for (k, w) in core::iter::once(s.count).chain(values).enumerate() {
         if let Some(d) = f.get_mut(2 + 4 * k..6 + 4 * k) {
             d.copy_from_slice(&w.to_le_bytes());
         }
@@ -155,12 +146,13 @@ impl SampleFrames {
     pub fn push(&mut self, byte: u8) -> Option<SampleFrame> {
         let f = self.frames.push(byte)?;
         let w = |k: usize| word(&f, k);
+        let v = |k: usize| w(k).map(f32::from_bits);
         match f.get(..2)? {
             s if s == IMU_SYNC => sample_of(&f).map(SampleFrame::Stamped),
             s if s == COUNTED_SYNC => Some(SampleFrame::Counted(CountedSample {
                 count: w(0)?,
-                gyro: [w(1)?, w(2)?, w(3)?],
-                accel: [w(4)?, w(5)?, w(6)?],
+                gyro: [v(1)?, v(2)?, v(3)?],
+                accel: [v(4)?, v(5)?, v(6)?],
             })),
             _ => w(0).map(SampleFrame::Edge),
         }
@@ -183,7 +175,11 @@ mod tests {
 
     #[test]
     fn every_single_bit_flip_is_rejected_and_the_next_frame_is_found() {
-        let s = CountedSample::new(0xDEAD_BEEF, [1.0, -2.0, 3.0], [0.5, 0.25, -9.75]);
+        let s = CountedSample {
+            count: 0xDEAD_BEEF,
+            gyro: [1.0, -2.0, 3.0],
+            accel: [0.5, 0.25, -9.75],
+        };
         let frames = [
             (encode_counted_sample(&s).to_vec(), SampleFrame::Counted(s)),
             (
@@ -214,7 +210,11 @@ mod tests {
             gyro: [syncs; 3],
             accel: [syncs; 3],
         };
-        let s = CountedSample::new(0x5DA5_5CA5, [syncs; 3], [syncs; 3]);
+        let s = CountedSample {
+            count: 0x5DA5_5CA5,
+            gyro: [syncs; 3],
+            accel: [syncs; 3],
+        };
         let edge = 0x5BA5_5DA5;
         let mut line = Vec::new();
         for _ in 0..3 {
@@ -236,8 +236,18 @@ mod tests {
 
     #[test]
     fn a_sample_keeps_its_bits() {
-        let s = CountedSample::new(1, [f32::NAN, -0.0, 1e-30], [f32::INFINITY, 2.5, -9.8]);
-        let at = s.at(12.5);
+        let s = CountedSample {
+            count: 1,
+            gyro: [f32::NAN, -0.0, 1e-30],
+            accel: [f32::INFINITY, 2.5, -9.8],
+        };
+        let mut dec = SampleFrames::new();
+        let got = encode_counted_sample(&s).iter().find_map(|b| dec.push(*b));
+        let Some(SampleFrame::Counted(back)) = got else {
+            panic!("{got:?}")
+        };
+        assert_eq!(back.count, 1);
+        let at = back.at(12.5);
         assert_eq!(at.t, 12.5);
         assert!(at.gyro[0].is_nan() && at.gyro[1].to_bits() == (-0.0f32).to_bits());
         assert_eq!(at.accel[0], f32::INFINITY);

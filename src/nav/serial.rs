@@ -180,10 +180,6 @@ pub fn feed<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize>(
 #[derive(Debug, Clone)]
 pub struct TimerStamps {
     clock: GpsClock,
-    /// The newest count the wire gave (a sample's or an edge's).
-    newest: Option<u32>,
-    /// Counted samples dropped: no stamp (before the lock, or beyond the clock's `max_sd`).
-    unstamped: u32,
 }
 
 impl TimerStamps {
@@ -191,8 +187,6 @@ impl TimerStamps {
     pub fn new(cfg: ClockConfig) -> Result<Self, ClockError> {
         Ok(Self {
             clock: GpsClock::new(cfg)?,
-            newest: None,
-            unstamped: 0,
         })
     }
 
@@ -203,24 +197,15 @@ impl TimerStamps {
     pub fn stamp(&mut self, input: NavInput) -> Option<NavInput> {
         match input {
             NavInput::Counted(s) => {
-                self.newest = Some(s.count);
-                match self.clock.stamp(s.count) {
-                    Some(st) => Some(NavInput::Imu(s.at(st.t))),
-                    None => {
-                        self.unstamped = self.unstamped.saturating_add(1);
-                        None
-                    }
-                }
+                let st = self.clock.stamp(s.count)?;
+                Some(NavInput::Imu(s.at(st.t)))
             }
             NavInput::Edge(count) => {
-                self.newest = Some(count);
                 let _ = self.clock.pulse(count);
                 None
             }
             NavInput::Pulse(p) => {
-                if let Some(c) = self.newest {
-                    self.clock.announce(p.t, c);
-                }
+                self.clock.announce_at_newest(p.t);
                 Some(input)
             }
             NavInput::Imu(_) | NavInput::Fix(_) => Some(input),
@@ -237,9 +222,10 @@ impl TimerStamps {
         self.clock.counts()
     }
 
-    /// Counted samples dropped so far (before the lock, or beyond the clock's `max_sd`).
+    /// Counted samples dropped so far (before the lock, or beyond the clock's `max_sd`): the
+    /// clock's refused stamps, which only counted samples ask for.
     pub fn unstamped(&self) -> u32 {
-        self.unstamped
+        self.clock.counts().refused
     }
 }
 

@@ -251,6 +251,15 @@ impl GpsClock {
         }
     }
 
+    /// [`announce`](Self::announce) for a counter that is not read when the message comes
+    /// (a hub's, whose counts come only with its samples and edges): at the newest count seen.
+    /// Before any count, nothing to pair with: not announced.
+    pub fn announce_at_newest(&mut self, t: f64) {
+        if let (Some(c), true) = (self.now, t.is_finite()) {
+            self.announced = [self.announced[1], Some((t, c))];
+        }
+    }
+
     /// A pulse's edge, captured at `count`.
     pub fn pulse(&mut self, count: u32) -> PulseUse {
         let c = self.extend(count);

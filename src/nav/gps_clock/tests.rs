@@ -185,3 +185,27 @@ proptest::proptest! {
         }
     }
 }
+
+#[test]
+fn an_announcement_at_the_newest_count_pairs_once_a_count_was_seen() {
+    // A hub's wire: the counts come only with samples and edges. Before any count the
+    // announcement has nothing to be read at, so its pulse pairs with nothing; after one it is
+    // read at the newest count, which `announce` with that count reproduces bit for bit.
+    let hz = 1e6;
+    let count = |t: f64| ((t + 5.0) * hz) as u64 as u32;
+    let mut newest = GpsClock::new(ClockConfig::crystal(hz)).unwrap();
+    let mut given = newest.clone();
+    newest.announce_at_newest(1.0);
+    assert_eq!(newest.pulse(count(1.0)), PulseUse::Unpaired);
+    let _ = given.pulse(count(1.0));
+    for k in 2..6 {
+        let t = f64::from(k);
+        let sample = count(t - 0.7);
+        assert_eq!(newest.stamp(sample), given.stamp(sample), "sample {k}");
+        newest.announce_at_newest(t);
+        given.announce(t, sample);
+        assert_eq!(newest.pulse(count(t)), given.pulse(count(t)), "pulse {k}");
+        assert_eq!(newest.stamp(count(t + 0.2)), given.stamp(count(t + 0.2)));
+    }
+    assert!(newest.locked());
+}
