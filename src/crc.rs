@@ -129,15 +129,34 @@ impl<const LEN: usize, const K: usize> CrcFrames<LEN, K> {
         if self.len < self.want || self.want == 0 {
             return None;
         }
-        if self.buf.get(..self.want).is_some_and(crc_ok) {
-            self.len = 0;
-            self.want = 0;
-            return Some(self.buf);
+        self.complete()
+    }
+
+    /// The held bytes make a frame's length: checks them, and goes on while they do. A
+    /// rejection can leave a whole frame held, and bytes after it: a false sync of a longer
+    /// kind that began less than the difference of the lengths before a shorter frame (fresh
+    /// seed 66402 of `examples/hub_bench.rs`: a pulse edge after a false sample sync; clearing
+    /// the buffer with the edge lost the sample behind it). So the held bytes are checked
+    /// until they are short of the frame their sync names, and the bytes after a frame are
+    /// kept. Each pass returns or drops a byte: at most `LEN`. Out of line: once a frame, not
+    /// on every byte's path.
+    #[inline(never)]
+    fn complete(&mut self) -> Option<[u8; LEN]> {
+        for _ in 0..=LEN {
+            if self.len < self.want || self.want == 0 {
+                return None;
+            }
+            if self.buf.get(..self.want).is_some_and(crc_ok) {
+                let frame = self.buf;
+                self.len = drop_front(&mut self.buf, self.len, self.want);
+                self.align();
+                return Some(frame);
+            }
+            self.rejected = self.rejected.saturating_add(1);
+            // Slide by one and re-align on the next candidate sync.
+            self.slide();
+            self.align();
         }
-        self.rejected = self.rejected.saturating_add(1);
-        // Slide by one and re-align on the next candidate sync.
-        self.slide();
-        self.align();
         None
     }
 
@@ -166,9 +185,8 @@ impl<const LEN: usize, const K: usize> CrcFrames<LEN, K> {
     }
 }
 
-/// Drops the first of the `len` bytes held at the start of `buf`; returns the new count. A
-/// loop of checked accesses: `copy_within` with a range known only at run time keeps a panic
-/// path the link-time proof refuses (RELIABILITY.md).
+/// Drops the first of the `len` bytes held at the start of `buf`; returns the new count (the
+/// one-byte case of [`drop_front`], kept apart: it is on the searches' per-byte path).
 pub(crate) fn drop_first(buf: &mut [u8], len: usize) -> usize {
     let n = len.min(buf.len());
     for k in 1..n {
@@ -179,6 +197,22 @@ pub(crate) fn drop_first(buf: &mut [u8], len: usize) -> usize {
         }
     }
     n.saturating_sub(1)
+}
+
+/// Drops the first `n` of the `len` bytes held at the start of `buf`; returns the new count.
+/// A loop of checked accesses: `copy_within` with a range known only at run time keeps a panic
+/// path the link-time proof refuses (RELIABILITY.md).
+pub(crate) fn drop_front(buf: &mut [u8], len: usize, n: usize) -> usize {
+    let len = len.min(buf.len());
+    let n = n.min(len);
+    for k in n..len {
+        if let (Some(v), Some(j)) = (buf.get(k).copied(), k.checked_sub(n)) {
+            if let Some(d) = buf.get_mut(j) {
+                *d = v;
+            }
+        }
+    }
+    len.saturating_sub(n)
 }
 
 /// A complete frame's CRC-32 (its last four bytes, LE) matches its payload.

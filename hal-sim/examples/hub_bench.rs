@@ -115,9 +115,10 @@ fn main() -> anyhow::Result<()> {
         let (th, tg) = (times(&hub), times(&gps));
         anyhow::ensure!(
             th.len() == tg.len(),
-            "seed {seed}: {} {}",
+            "seed {seed}: {} stamped samples against {} on GPS time (wire refusals {:?})",
             th.len(),
-            tg.len()
+            tg.len(),
+            counts
         );
         let worst = th
             .iter()

@@ -235,6 +235,34 @@ mod tests {
     }
 
     #[test]
+    fn a_false_sync_before_a_shorter_frame_loses_nothing() {
+        // Bytes that are no frame, with a GPS-stamped sample's sync (the longest kind) `gap`
+        // bytes before a pulse edge: the false candidate, rejected, holds the whole edge and
+        // the start of the sample after it. Every frame is still read, once.
+        let s = CountedSample {
+            count: 7,
+            gyro: [1.0; 3],
+            accel: [2.0; 3],
+        };
+        for gap in 0..IMU_FRAME_LEN {
+            let mut line = Vec::from(IMU_SYNC);
+            line.resize(2 + gap, 0);
+            line.extend(encode_edge(1));
+            line.extend(encode_counted_sample(&s));
+            line.extend(encode_edge(2));
+            let mut dec = SampleFrames::new();
+            let got: Vec<_> = line.iter().filter_map(|b| dec.push(*b)).collect();
+            let want = [
+                SampleFrame::Edge(1),
+                SampleFrame::Counted(s),
+                SampleFrame::Edge(2),
+            ];
+            assert_eq!(got, want, "gap {gap}");
+            assert_eq!(dec.rejected(), 1, "gap {gap}");
+        }
+    }
+
+    #[test]
     fn a_sample_keeps_its_bits() {
         let s = CountedSample {
             count: 1,
