@@ -89,7 +89,7 @@ pub fn replay_records(
     let shifted = crate::nav::setup::shifted_imu(args, imu);
     let imu = &shifted[..];
     let s = start(args, imu, fixes)?;
-    let mut planner = FixPlanner::new(args, s.outages.clone());
+    let mut planner = FixPlanner::new(args, &s);
     let mut fix_k = fixes.partition_point(|f| f.t < s.setup.t0);
     let mut out = Vec::with_capacity(imu.len() + fixes.len());
     let f32x3 = |v: [f64; 3]| v.map(|x| x as f32);

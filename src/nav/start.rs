@@ -25,6 +25,10 @@
 //! assert!(!plan.plan(1.0, Some([2.0, 0.0, 0.0]), false).fuse);
 //! let p = plan.plan(2.0, Some([0.0, 6.0, 0.0]), false);
 //! assert!(p.fuse && (p.heading.unwrap() - core::f64::consts::FRAC_PI_2).abs() < 1e-12);
+//! // The fix that placed the run is the start's position, not fused again.
+//! let mut plan = FixPlanner::new(true, 5.0, 0.0);
+//! plan.placed_at(3.0);
+//! assert!(!plan.plan(3.0, Some([0.0; 3]), false).fuse && plan.plan(4.0, None, false).fuse);
 //! ```
 
 use super::run::move_by;
@@ -150,6 +154,7 @@ pub struct FixPlanner {
     last_fused: f64,
     yaw_speed: f64,
     fix_interval: f64,
+    placing: f64,
 }
 
 impl FixPlanner {
@@ -161,7 +166,20 @@ impl FixPlanner {
             last_fused: f64::NEG_INFINITY,
             yaw_speed,
             fix_interval,
+            placing: f64::NAN,
         }
+    }
+
+    /// The run was placed at the fix of time `t` [s]: its position is the start's, so that fix
+    /// is not fused again when the run comes to it (a start placed at a fix after the levelling
+    /// window's end; one before the end is not the run's), and it counts as the last fused fix
+    /// for the shortest interval. Fusing it again would take its error twice, as if independent
+    /// of the start's, which is that same error; and whether it came to be fused hung on which
+    /// side of the window's end a sample fell (nanoseconds on a hub's counted stamps moved the
+    /// first minute by 0.6 sigma; BENCHMARKS.md "The fix that places the run").
+    pub fn placed_at(&mut self, t: f64) {
+        self.placing = t;
+        self.last_fused = t;
     }
 
     /// The heading is known (given, or set from the course).
@@ -187,7 +205,9 @@ impl FixPlanner {
         }
         // 20 ms of slack: fixes logged at a nominal rate jitter by a few milliseconds.
         let due = t - self.last_fused >= self.fix_interval - 0.02;
-        let fuse = !withheld && due && (self.heading_known || speed < 0.2 * self.yaw_speed);
+        let placing = t == self.placing;
+        let fuse =
+            !withheld && !placing && due && (self.heading_known || speed < 0.2 * self.yaw_speed);
         if fuse {
             self.last_fused = t;
         }

@@ -74,7 +74,11 @@ impl<T: Real> NavLoop<T> {
         imu: &[ImuSample],
         fixes: &[GnssFix],
     ) -> Result<(Self, Vec<crate::nav_io::outages::Outage>)> {
-        let setup::Start { setup, k, outages } = setup::start(args, imu, fixes)?;
+        let start = setup::start(args, imu, fixes)?;
+        let planner = FixPlanner::new(args, &start);
+        let setup::Start {
+            setup, k, outages, ..
+        } = start;
         // The constraint and the zero-velocity update are checked first, with the options
         // named; `NavReplay::new` checks them again, then builds the navigator.
         setup
@@ -94,7 +98,7 @@ impl<T: Real> NavLoop<T> {
         });
         let lp = Self {
             run,
-            planner: FixPlanner::new(args, outages.clone()),
+            planner,
             nhc,
             zupt: args.zupt.map(records::ZuptSummary::new),
             i: k,

@@ -28,6 +28,8 @@ pub struct Start {
     pub k: usize,
     /// The outage schedule over the fixes.
     pub outages: Vec<Outage>,
+    /// Time of the fix that placed the run [s]; not fused again ([`FixPlanner::new`]).
+    pub t_placing: f64,
 }
 
 /// Levels from the static window, estimates the gyro bias there, and places the navigator at
@@ -77,7 +79,12 @@ pub fn start(args: &NavArgs, imu: &[ImuSample], fixes: &[GnssFix]) -> Result<Sta
         gyro_bias: st.gyro_bias,
         ..settings(args)
     };
-    Ok(Start { setup, k, outages })
+    Ok(Start {
+        setup,
+        k,
+        outages,
+        t_placing: start_fix.t,
+    })
 }
 
 /// The run's settings from `args`, at rest at the origin with a level attitude: what the
@@ -135,11 +142,14 @@ pub struct FixPlanner {
 }
 
 impl FixPlanner {
-    /// The planner of a run with `args` and the outage schedule `outages`.
-    pub fn new(args: &NavArgs, outages: Vec<Outage>) -> Self {
+    /// The planner of a run with `args` from `start`: its outage schedule, and the fix that
+    /// placed it, not fused again (the live loop's rule, `CorePlanner::placed_at`).
+    pub fn new(args: &NavArgs, start: &Start) -> Self {
+        let mut core = CorePlanner::new(args.yaw_deg.is_some(), args.yaw_speed, args.fix_interval);
+        core.placed_at(start.t_placing);
         Self {
-            outages,
-            core: CorePlanner::new(args.yaw_deg.is_some(), args.yaw_speed, args.fix_interval),
+            outages: start.outages.clone(),
+            core,
         }
     }
 

@@ -22,7 +22,8 @@
 //! ways are equally accurate at the newest sample (BENCHMARKS.md "Late fixes without a
 //! budget").
 //!
-//! The start is the fix nearest the end of the levelling window, before or after it; the
+//! The start is the fix nearest the end of the levelling window, before or after it (its
+//! position is the start's: that fix is recorded, not fused again, [`FixPlanner::placed_at`]); the
 //! samples after the window wait in a buffer of `B` samples until a fix after the window has
 //! come. When the buffer fills first, the nearest fix so far is taken; with none at all, the
 //! levelling starts again ([`LiveEvent::NoFix`]), as it does when the window was not at rest
@@ -477,6 +478,7 @@ impl<T: Real, const N: usize, O: NavObserver<T, N>, const B: usize> LiveNav<T, N
                 return Ok(());
             }
         };
+        self.planner.placed_at(fix.t);
         let setup = &mut self.setup;
         setup.t0 = t_start;
         setup.pos = st.pos;
