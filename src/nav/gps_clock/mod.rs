@@ -196,6 +196,9 @@ pub struct GpsClock {
     now: Option<u64>,
     /// Announced pulse times and the counts they came at (oldest first).
     announced: [Option<(f64, u64)>; 2],
+    /// A pulse time announced before any count ([`announce_at_newest`](Self::announce_at_newest)):
+    /// announced at the first count.
+    held: Option<f64>,
     last: Option<Anchor>,
     /// Pulses fused since the acquisition started: locked from 2.
     fused: u32,
@@ -212,6 +215,7 @@ impl GpsClock {
             cfg,
             now: None,
             announced: [None; 2],
+            held: None,
             last: None,
             fused: 0,
             rejects: 0,
@@ -253,10 +257,17 @@ impl GpsClock {
 
     /// [`announce`](Self::announce) for a counter that is not read when the message comes
     /// (a hub's, whose counts come only with its samples and edges): at the newest count seen.
-    /// Before any count, nothing to pair with: not announced.
+    /// Before any count, one tick before the first count to come (it was read before that
+    /// count): a hub's wire often opens with the receiver's `TIM-TP`, and read at no count it
+    /// left its pulse unpaired and the lock a second later. The receiver sends the message
+    /// after the pulse before the one it announces, so the first edge after it is its own.
     pub fn announce_at_newest(&mut self, t: f64) {
-        if let (Some(c), true) = (self.now, t.is_finite()) {
-            self.announced = [self.announced[1], Some((t, c))];
+        if !t.is_finite() {
+            return;
+        }
+        match self.now {
+            Some(c) => self.announced = [self.announced[1], Some((t, c))],
+            None => self.held = Some(t),
         }
     }
 
@@ -291,7 +302,11 @@ impl GpsClock {
         // Reinterpreting the wrapped difference as signed is the point: the nearest count.
         let d = i64::from(count.wrapping_sub(now as u32) as i32);
         let c = now.saturating_add_signed(d);
+        let first = self.now.is_none();
         self.now = Some(now.max(c));
+        if let Some(t) = self.held.take().filter(|_| first) {
+            self.announced = [self.announced[1], Some((t, c.saturating_sub(1)))];
+        }
         c
     }
 

@@ -188,24 +188,33 @@ proptest::proptest! {
 
 #[test]
 fn an_announcement_at_the_newest_count_pairs_once_a_count_was_seen() {
-    // A hub's wire: the counts come only with samples and edges. Before any count the
-    // announcement has nothing to be read at, so its pulse pairs with nothing; after one it is
-    // read at the newest count, which `announce` with that count reproduces bit for bit.
+    // A hub's wire: the counts come only with samples and edges. An announcement before any
+    // count (a wire that opens with the `TIM-TP`) is read a tick before the first count, a
+    // sample's or its own pulse's edge, and that pulse is the first one used (one second
+    // sooner to the lock than when it paired with nothing); after a count it is read at the
+    // newest count. `announce` with those counts reproduces both bit for bit.
     let hz = 1e6;
     let count = |t: f64| ((t + 5.0) * hz) as u64 as u32;
-    let mut newest = GpsClock::new(ClockConfig::crystal(hz)).unwrap();
-    let mut given = newest.clone();
-    newest.announce_at_newest(1.0);
-    assert_eq!(newest.pulse(count(1.0)), PulseUse::Unpaired);
-    let _ = given.pulse(count(1.0));
-    for k in 2..6 {
-        let t = f64::from(k);
-        let sample = count(t - 0.7);
-        assert_eq!(newest.stamp(sample), given.stamp(sample), "sample {k}");
-        newest.announce_at_newest(t);
-        given.announce(t, sample);
-        assert_eq!(newest.pulse(count(t)), given.pulse(count(t)), "pulse {k}");
-        assert_eq!(newest.stamp(count(t + 0.2)), given.stamp(count(t + 0.2)));
+    for first_sample in [None, Some(0.3)] {
+        let mut newest = GpsClock::new(ClockConfig::crystal(hz)).unwrap();
+        let mut given = newest.clone();
+        newest.announce_at_newest(1.0);
+        let first = first_sample.map_or(count(1.0), count);
+        given.announce(1.0, first - 1);
+        if let Some(t) = first_sample {
+            assert!(newest.stamp(count(t)).is_none() && given.stamp(count(t)).is_none());
+        }
+        assert_eq!(newest.pulse(count(1.0)), PulseUse::First);
+        assert_eq!(given.pulse(count(1.0)), PulseUse::First);
+        for k in 2..6 {
+            let t = f64::from(k);
+            let sample = count(t - 0.7);
+            assert_eq!(newest.stamp(sample), given.stamp(sample), "sample {k}");
+            newest.announce_at_newest(t);
+            given.announce(t, sample);
+            assert_eq!(newest.pulse(count(t)), given.pulse(count(t)), "pulse {k}");
+            assert_eq!(newest.stamp(count(t + 0.2)), given.stamp(count(t + 0.2)));
+        }
+        assert!(newest.locked() && newest.counts() == given.counts());
     }
-    assert!(newest.locked());
 }
