@@ -154,7 +154,6 @@ pub struct FixPlanner {
     last_fused: f64,
     yaw_speed: f64,
     fix_interval: f64,
-    placing: f64,
 }
 
 impl FixPlanner {
@@ -166,19 +165,17 @@ impl FixPlanner {
             last_fused: f64::NEG_INFINITY,
             yaw_speed,
             fix_interval,
-            placing: f64::NAN,
         }
     }
 
     /// The run was placed at the fix of time `t` [s]: its position is the start's, so that fix
-    /// is not fused again when the run comes to it (a start placed at a fix after the levelling
-    /// window's end; one before the end is not the run's), and it counts as the last fused fix
-    /// for the shortest interval. Fusing it again would take its error twice, as if independent
+    /// counts as the last fused one, and is not fused again when the run comes to it (a start
+    /// placed at a fix after the levelling window's end; one before the end is not the run's).
+    /// Fusing it again would take its error twice, as if independent
     /// of the start's, which is that same error; and whether it came to be fused hung on which
     /// side of the window's end a sample fell (nanoseconds on a hub's counted stamps moved the
     /// first minute by 0.6 sigma; BENCHMARKS.md "The fix that places the run").
     pub fn placed_at(&mut self, t: f64) {
-        self.placing = t;
         self.last_fused = t;
     }
 
@@ -204,10 +201,9 @@ impl FixPlanner {
             }
         }
         // 20 ms of slack: fixes logged at a nominal rate jitter by a few milliseconds.
-        let due = t - self.last_fused >= self.fix_interval - 0.02;
-        let placing = t == self.placing;
-        let fuse =
-            !withheld && !placing && due && (self.heading_known || speed < 0.2 * self.yaw_speed);
+        // A fix not after the last fused one (the fix that placed the run) is not fused again.
+        let due = t > self.last_fused && t - self.last_fused >= self.fix_interval - 0.02;
+        let fuse = !withheld && due && (self.heading_known || speed < 0.2 * self.yaw_speed);
         if fuse {
             self.last_fused = t;
         }
