@@ -302,9 +302,9 @@ impl GpsClock {
         // Reinterpreting the wrapped difference as signed is the point: the nearest count.
         let d = i64::from(count.wrapping_sub(now as u32) as i32);
         let c = now.saturating_add_signed(d);
-        let first = self.now.is_none();
         self.now = Some(now.max(c));
-        if let Some(t) = self.held.take().filter(|_| first) {
+        // Held only while no count was seen (`announce_at_newest`): this is the first.
+        if let Some(t) = self.held.take() {
             self.announced = [self.announced[1], Some((t, c.saturating_sub(1)))];
         }
         c
